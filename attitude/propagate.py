@@ -1,0 +1,420 @@
+"""Attitude propagation: ``propagate(body, q0, omega0, t, torque, method=...)``.
+
+Three methods, one set of equations (:mod:`attitude.rigid_body`):
+
+========== ================================================================
+method     what it is for
+========== ================================================================
+"rk4"      fixed-step RK4 with quaternion renormalisation; a single body
+           with a constant or sampled torque runs entirely in compiled casadi
+           code (``Function.mapaccum``), a batch runs one vectorised numpy
+           step for all bodies
+"geometric" fixed-step RKMK4 (order 4), ``|q| = 1`` to rounding error with
+           no renormalisation
+"adaptive" scipy ``solve_ivp`` (DOP853) with ``rtol``/``atol``: the accuracy
+           reference
+========== ================================================================
+
+Torque may be None (torque-free), a constant ``(3,)`` or ``batch + (3,)``,
+an array on the time grid ``(len(t),) + batch + (3,)`` held constant over
+each interval ``[t[k], t[k+1])`` (zero-order hold, as a digital controller
+applies it; the last row is not used), or a callable ``torque(t, q, omega)``
+returning ``batch + (3,)`` [N m], evaluated at every integrator stage.
+"""
+
+from __future__ import annotations
+
+import time
+import weakref
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import casadi as ca
+import matplotlib.figure
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.integrate import solve_ivp
+
+from attitude import quaternion as quat
+from attitude._validation import as_float_array, check_positive, check_time_grid, check_vector
+from attitude.integrators import (
+    casadi_rk4_step,
+    normalize_quaternion_components,
+    rk4_step,
+    rkmk4_step,
+)
+from attitude.results import ResultIO
+from attitude.rigid_body import RigidBody
+
+__all__ = ["METHODS", "Trajectory", "propagate"]
+
+METHODS = ("rk4", "geometric", "adaptive")
+
+TorqueInput = None | ArrayLike | Callable[[float, NDArray[np.float64], NDArray[np.float64]], ArrayLike]
+
+
+@dataclass
+class Trajectory(ResultIO):
+    """Attitude trajectory of one body or a batch of bodies.
+
+    Attributes
+    ----------
+    t : ndarray, shape (n,)
+        Time grid [s].
+    q : ndarray, shape batch + (n, 4)
+        Attitude quaternions ``q_BN`` (scalar first).
+    omega : ndarray, shape batch + (n, 3)
+        Body rates ``omega_BN_B`` [rad/s].
+    inertia : ndarray, shape batch + (3, 3) or (3, 3)
+        Inertia tensor(s) of the propagated body [kg m^2].
+    method : str
+        Integration method used.
+    info : dict
+        Method details (step size, substeps, solver statistics, wall time [s]).
+    """
+
+    t: NDArray[np.float64]
+    q: NDArray[np.float64]
+    omega: NDArray[np.float64]
+    inertia: NDArray[np.float64]
+    method: str
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def body(self) -> RigidBody:
+        """The propagated body."""
+        return RigidBody(self.inertia)
+
+    def _inertia_b(self) -> NDArray[np.float64]:
+        return self.inertia[..., None, :, :]
+
+    def angular_momentum_B(self) -> NDArray[np.float64]:
+        """Body-frame angular momentum ``I omega`` [N m s], shape batch + (n, 3)."""
+        return np.einsum("...ij,...j->...i", self._inertia_b(), self.omega)
+
+    def angular_momentum_N(self) -> NDArray[np.float64]:
+        """Inertial angular momentum [N m s], constant for torque-free motion."""
+        return quat.rotate(quat.normalize(self.q), self.angular_momentum_B())
+
+    def kinetic_energy(self) -> NDArray[np.float64]:
+        """Rotational kinetic energy [J], shape batch + (n,)."""
+        return 0.5 * np.sum(self.omega * self.angular_momentum_B(), axis=-1)
+
+    def invariant_drift(self) -> dict[str, float]:
+        """Worst drift of the torque-free invariants over the trajectory.
+
+        Returns
+        -------
+        dict
+            ``energy`` (max relative change of kinetic energy),
+            ``momentum`` (max ``|H_N(t) - H_N(0)| / |H_N(0)|``) and
+            ``quaternion_norm`` (max ``abs(|q| - 1)``). Meaningful for
+            torque-free motion only.
+        """
+        energy = self.kinetic_energy()
+        h_n = quat.rotate(quat.normalize(self.q), self.angular_momentum_B())
+        e0 = energy[..., :1]
+        h0 = h_n[..., :1, :]
+        return {
+            "energy": float(np.max(np.abs(energy - e0) / np.where(e0 > 0, e0, 1.0))),
+            "momentum": float(
+                np.max(np.linalg.norm(h_n - h0, axis=-1) / np.maximum(np.linalg.norm(h0, axis=-1), 1e-300))
+            ),
+            "quaternion_norm": float(np.max(np.abs(np.linalg.norm(self.q, axis=-1) - 1.0))),
+        }
+
+    def plot(self, index: tuple[int, ...] | int = ()) -> matplotlib.figure.Figure:
+        """Rates, attitude and invariants over time (one body of a batch by ``index``)."""
+        from attitude.plotting import plot_trajectory
+
+        return plot_trajectory(self, index=index)
+
+
+def _torque_kind(torque: TorqueInput, n_t: int, batch: tuple[int, ...]) -> tuple[str, Any]:
+    """Classify and validate the torque argument."""
+    if torque is None:
+        return "const", np.zeros(3)
+    if callable(torque):
+        return "callable", torque
+    arr = as_float_array(torque, "torque")
+    if arr.ndim == 0 or arr.shape[-1] != 3:
+        raise ValueError(f"torque must have shape (..., 3) in N m, got shape {arr.shape}")
+    if arr.ndim == len(batch) + 2:
+        if arr.shape[0] != n_t:
+            raise ValueError(
+                f"torque on the time grid must have shape (len(t)={n_t},) + batch + (3,), got shape {arr.shape}"
+            )
+        try:
+            np.broadcast_shapes(arr.shape[1:-1], batch)
+        except ValueError as exc:
+            raise ValueError(f"torque batch shape {arr.shape[1:-1]} does not broadcast to {batch}") from exc
+        return "grid", arr
+    if arr.ndim > len(batch) + 2:
+        raise ValueError(f"torque has too many dimensions for batch {batch}: shape {arr.shape}")
+    try:
+        np.broadcast_shapes(arr.shape[:-1], batch)
+    except ValueError as exc:
+        raise ValueError(f"torque shape {arr.shape} does not broadcast to batch {batch}") from exc
+    return "const", arr
+
+
+def _substeps(t: NDArray[np.float64], max_step: float | None) -> NDArray[np.int64]:
+    dt = np.diff(t)
+    if max_step is None:
+        return np.ones(dt.size, dtype=np.int64)
+    return np.maximum(1, np.ceil(dt / max_step * (1 - 1e-12))).astype(np.int64)
+
+
+def propagate(
+    body: RigidBody,
+    q0: ArrayLike,
+    omega0: ArrayLike,
+    t: ArrayLike,
+    torque: TorqueInput = None,
+    *,
+    method: str = "rk4",
+    max_step: float | None = None,
+    rtol: float = 1e-10,
+    atol: float = 1e-12,
+) -> Trajectory:
+    """Propagate attitude and body rate of one body or a batch of bodies.
+
+    Parameters
+    ----------
+    body : RigidBody
+        The plant; a batched body (``body.batch_shape``) pairs its inertias
+        with the batch of initial states.
+    q0 : array_like, shape batch + (4,)
+        Initial attitude ``q_BN`` (unit norm, scalar first).
+    omega0 : array_like, shape batch + (3,)
+        Initial body rate ``omega_BN_B`` [rad/s]; broadcast against ``q0``.
+    t : array_like, shape (n,)
+        Strictly increasing output times [s]; the state at ``t[0]`` is the
+        initial state.
+    torque : None, array_like or callable
+        Torque in body components [N m]; see the module docstring.
+    method : {"rk4", "geometric", "adaptive"}
+        Integrator (module docstring).
+    max_step : float, optional
+        Largest fixed step [s]; each output interval is split into equal
+        sub-steps no longer than this. Default: one step per output interval.
+        Ignored by "adaptive" (which controls its error with ``rtol``/``atol``).
+    rtol, atol : float
+        Tolerances of the adaptive method.
+
+    Returns
+    -------
+    Trajectory
+        ``q`` of shape batch + (n, 4) and ``omega`` of shape batch + (n, 3).
+
+    Raises
+    ------
+    ValueError
+        For a non-unit or non-finite ``q0``, non-finite ``omega0``, a time
+        grid that is not strictly increasing, a torque of the wrong shape, an
+        unknown method, or non-positive ``max_step``/tolerances.
+    """
+    if not isinstance(body, RigidBody):
+        raise ValueError(f"body must be a RigidBody, got {type(body).__name__}")
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+    q0 = quat.as_unit_quaternion(q0, "q0")
+    omega0 = check_vector(omega0, "omega0", 3)
+    t = check_time_grid(t, "t")
+    if max_step is not None:
+        max_step = float(check_positive(max_step, "max_step"))
+    check_positive(rtol, "rtol")
+    check_positive(atol, "atol")
+    try:
+        batch = np.broadcast_shapes(q0.shape[:-1], omega0.shape[:-1], body.batch_shape)
+    except ValueError as exc:
+        raise ValueError(
+            f"q0 batch {q0.shape[:-1]}, omega0 batch {omega0.shape[:-1]} and body batch {body.batch_shape} "
+            "must broadcast together"
+        ) from exc
+    q0 = np.broadcast_to(q0, (*batch, 4))
+    omega0 = np.broadcast_to(omega0, (*batch, 3))
+    kind, tq = _torque_kind(torque, t.size, batch)
+
+    start = time.perf_counter()
+    if method == "adaptive":
+        q, omega, info = _propagate_adaptive(body, q0, omega0, t, kind, tq, batch, rtol, atol)
+    elif method == "rk4" and not batch and kind != "callable":
+        q, omega, info = _propagate_rk4_casadi(body, q0, omega0, t, kind, tq, max_step)
+    else:
+        q, omega, info = _propagate_fixed_numpy(body, q0, omega0, t, kind, tq, batch, max_step, method)
+    info["wall_time_s"] = time.perf_counter() - start
+    inertia = np.broadcast_to(body.inertia, (*batch, 3, 3)).copy() if body.batch_shape else body.inertia
+    return Trajectory(t=t.copy(), q=q, omega=omega, inertia=inertia, method=method, info=info)
+
+
+def _call_torque(fun: Callable, t: float, q: NDArray, omega: NDArray, batch: tuple[int, ...]) -> NDArray:
+    out = as_float_array(fun(t, q, omega), "torque(t, q, omega)")
+    if out.shape[-1:] != (3,):
+        raise ValueError(f"torque(t, q, omega) must return shape batch + (3,), got {out.shape}")
+    return np.broadcast_to(out, (*batch, 3))
+
+
+# Steps per compiled casadi call for a single body. The accumulated map is
+# built once per body and reused; the last call is padded with dt = 0 steps,
+# which leave the state unchanged.
+CASADI_CHUNK = 1024
+_CASADI_CACHE: weakref.WeakKeyDictionary[RigidBody, ca.Function] = weakref.WeakKeyDictionary()
+
+
+def _casadi_rk4_chunk(body: RigidBody) -> ca.Function:
+    fun = _CASADI_CACHE.get(body)
+    if fun is None:
+        fun = casadi_rk4_step(body).mapaccum(CASADI_CHUNK)
+        _CASADI_CACHE[body] = fun
+    return fun
+
+
+def _propagate_rk4_casadi(body, q0, omega0, t, kind, tq, max_step):
+    subs = _substeps(t, max_step)
+    dt_fine = np.repeat(np.diff(t) / subs, subs)
+    n_fine = dt_fine.size
+    n_pad = -n_fine % CASADI_CHUNK
+    dt_fine = np.concatenate([dt_fine, np.zeros(n_pad)])
+    if kind == "const":
+        tau_fine = np.broadcast_to(tq, (n_fine + n_pad, 3))
+    else:
+        tau_fine = np.concatenate([np.repeat(tq[:-1], subs, axis=0), np.zeros((n_pad, 3))])
+    tau_fine = np.ascontiguousarray(tau_fine.T)
+    chunk = _casadi_rk4_chunk(body)
+    xs = np.empty((7, n_fine + n_pad))
+    x = np.concatenate([q0, omega0])
+    for lo in range(0, n_fine + n_pad, CASADI_CHUNK):
+        hi = lo + CASADI_CHUNK
+        xs[:, lo:hi] = chunk(x, tau_fine[:, lo:hi], dt_fine[None, lo:hi]).full()
+        x = xs[:, hi - 1]
+    ends = np.cumsum(subs) - 1
+    out = np.concatenate([np.concatenate([q0, omega0])[None, :], xs[:, ends].T], axis=0)
+    return out[:, :4], out[:, 4:], {"steps": int(n_fine), "substeps_max": int(subs.max()), "engine": "casadi mapaccum"}
+
+
+# Bodies advanced together per vectorised step. Component arrays of ~2k
+# doubles stay in cache and keep numpy's temporaries off the allocator's slow
+# path; measured on 2 cores: 256 -> 0.18M, 2048 -> 0.59M, 10000 -> 0.41M
+# body-simulated-seconds per CPU second (RK4, 0.1 s step).
+BATCH_CHUNK = 2048
+
+
+def _propagate_fixed_numpy(body, q0, omega0, t, kind, tq, batch, max_step, method):
+    subs = _substeps(t, max_step)
+    if kind == "callable" or not batch:
+        # A user's callable sees the whole batch at once, as documented.
+        q, w, steps = _run_fixed(body, q0, omega0, t, subs, kind, tq, batch, method)
+        return np.moveaxis(q, 0, -2), np.moveaxis(w, 0, -2), _fixed_info(steps, subs)
+    size = int(np.prod(batch))
+    q0f = q0.reshape(size, 4)
+    w0f = omega0.reshape(size, 3)
+    inertia = np.broadcast_to(body.inertia, (*batch, 3, 3)).reshape(size, 3, 3) if body.batch_shape else None
+    if kind == "const":
+        tqf = np.broadcast_to(tq, (*batch, 3)).reshape(size, 3)
+    else:
+        tqf = np.broadcast_to(tq, (t.size, *batch, 3)).reshape(t.size, size, 3)
+    q_out = np.empty((t.size, size, 4))
+    w_out = np.empty((t.size, size, 3))
+    steps = 0
+    for lo in range(0, size, BATCH_CHUNK):
+        sl = slice(lo, min(lo + BATCH_CHUNK, size))
+        chunk_body = body if inertia is None else RigidBody(inertia[sl])
+        chunk_tq = tqf[sl] if kind == "const" else tqf[:, sl]
+        n = sl.stop - sl.start
+        q_out[:, sl], w_out[:, sl], steps = _run_fixed(
+            chunk_body, q0f[sl], w0f[sl], t, subs, kind, chunk_tq, (n,), method
+        )
+    q = np.moveaxis(q_out.reshape(t.size, *batch, 4), 0, -2)
+    w = np.moveaxis(w_out.reshape(t.size, *batch, 3), 0, -2)
+    return q, w, _fixed_info(steps, subs)
+
+
+def _fixed_info(steps: int, subs: NDArray[np.int64]) -> dict[str, Any]:
+    return {"steps": steps, "substeps_max": int(subs.max()), "engine": "numpy", "batch_chunk": BATCH_CHUNK}
+
+
+def _run_fixed(body, q0, omega0, t, subs, kind, tq, batch, method):
+    """Fixed-step time loop on structure-of-arrays components; outputs are time-first."""
+    n = t.size
+    q_out = np.empty((n, *batch, 4))
+    w_out = np.empty((n, *batch, 3))
+    q_out[0] = q0
+    w_out[0] = omega0
+    qc = [np.array(q0[..., i]) for i in range(4)]
+    wc = [np.array(omega0[..., i]) for i in range(3)]
+
+    def torque_components(k: int) -> Callable:
+        if kind == "callable":
+
+            def fun(ts, qs, ws):
+                q_arr = np.stack(np.broadcast_arrays(*qs), axis=-1)
+                w_arr = np.stack(np.broadcast_arrays(*ws), axis=-1)
+                out = _call_torque(tq, ts, q_arr, w_arr, batch)
+                return [out[..., i] for i in range(3)]
+
+            return fun
+        value = np.broadcast_to(tq if kind == "const" else tq[k], (*batch, 3))
+        comps = None if not np.any(value) else [np.array(value[..., i]) for i in range(3)]
+        return lambda _t, _q, _w: comps
+
+    steps = 0
+    for k in range(n - 1):
+        tau_fun = torque_components(k)
+        h = (t[k + 1] - t[k]) / subs[k]
+        for j in range(subs[k]):
+            ts = t[k] + j * h
+            if method == "geometric":
+                qc, wc = rkmk4_step(body, tau_fun, ts, qc, wc, h)
+            else:
+
+                def derivative(tt, xc, tau_fun=tau_fun):
+                    return body.state_derivative_components(xc, tau_fun(tt, xc[:4], xc[4:]))
+
+                xc = normalize_quaternion_components(rk4_step(derivative, ts, [*qc, *wc], h))
+                qc, wc = xc[:4], xc[4:]
+            steps += 1
+        q_out[k + 1] = np.stack(np.broadcast_arrays(*qc), axis=-1)
+        w_out[k + 1] = np.stack(np.broadcast_arrays(*wc), axis=-1)
+    return q_out, w_out, steps
+
+
+def _propagate_adaptive(body, q0, omega0, t, kind, tq, batch, rtol, atol):
+    x0 = np.concatenate([q0, omega0], axis=-1).reshape(-1)
+
+    def rhs_factory(tau_value: Callable[[float, NDArray], NDArray]) -> Callable:
+        def rhs(ts: float, y: NDArray) -> NDArray:
+            x = y.reshape((*batch, 7))
+            return body.state_derivative(x, tau_value(ts, x)).reshape(-1)
+
+        return rhs
+
+    if kind == "callable":
+
+        def tau_callable(ts, x):
+            return _call_torque(tq, ts, x[..., :4], x[..., 4:], batch)
+
+        segments = [(0, t.size - 1, tau_callable)]
+    elif kind == "const":
+        segments = [(0, t.size - 1, lambda _ts, _x: np.broadcast_to(tq, (*batch, 3)))]
+    else:
+        segments = [
+            (k, k + 1, (lambda v: lambda _ts, _x: np.broadcast_to(v, (*batch, 3)))(tq[k])) for k in range(t.size - 1)
+        ]
+
+    ys = np.empty((t.size, x0.size))
+    ys[0] = x0
+    nfev = 0
+    y = x0
+    for i0, i1, tau_value in segments:
+        sol = solve_ivp(
+            rhs_factory(tau_value), (t[i0], t[i1]), y, method="DOP853", t_eval=t[i0 : i1 + 1], rtol=rtol, atol=atol
+        )
+        if not sol.success:
+            raise RuntimeError(f"adaptive propagation failed at t = {sol.t[-1]!r} s: {sol.message}")
+        nfev += sol.nfev
+        ys[i0 : i1 + 1] = sol.y.T
+        y = sol.y[:, -1]
+    x = np.moveaxis(ys.reshape((t.size, *batch, 7)), 0, -2)
+    return x[..., :4], x[..., 4:], {"nfev": int(nfev), "rtol": rtol, "atol": atol, "engine": "scipy DOP853"}

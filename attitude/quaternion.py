@@ -1,0 +1,459 @@
+"""Unit quaternions: Hamilton product, scalar first, batch-aware.
+
+Convention (see README and ``DESIGN.md``): ``q = [w, x, y, z]`` with the
+scalar first and the Hamilton product. ``q_BN`` is the attitude of the body
+frame B relative to the inertial frame N; it rotates body vectors into
+inertial ones, ``v_N = q ⊗ [0, v_B] ⊗ q*``. This is exactly
+``scipy.spatial.transform.Rotation.from_quat(q, scalar_first=True).apply(v_B)``.
+The direction cosine matrix ``C_BN`` maps N components to B components, so
+``C_BN = Rotation.from_quat(q_BN, scalar_first=True).as_matrix().T``.
+
+Every function accepts leading batch dimensions (``(..., 4)`` quaternions,
+``(..., 3)`` vectors, ``(..., 3, 3)`` matrices), broadcasts them, and never
+mutates its inputs. Quaternions passed in as attitudes must have unit norm
+to within :data:`UNIT_NORM_TOLERANCE`; functions that accept any non-zero
+quaternion say so.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from attitude._validation import as_float_array, check_vector
+from attitude.rng import as_generator
+
+__all__ = [
+    "UNIT_NORM_TOLERANCE",
+    "as_unit_quaternion",
+    "conjugate",
+    "derivative",
+    "error_angle",
+    "error_quaternion",
+    "exp",
+    "from_axis_angle",
+    "from_dcm",
+    "from_mrp",
+    "from_rotation_vector",
+    "identity",
+    "inverse",
+    "log",
+    "mrp_shadow",
+    "multiply",
+    "norm",
+    "normalize",
+    "random",
+    "rotate",
+    "rotate_inverse",
+    "shortest",
+    "slerp",
+    "to_axis_angle",
+    "to_dcm",
+    "to_mrp",
+    "to_rotation_vector",
+]
+
+#: Largest accepted deviation of ``|q|`` from 1 for an attitude quaternion.
+#: Loose enough for quaternions read from files with ~8 significant digits,
+#: tight enough that the rotation matrix is orthonormal to about 1e-6.
+UNIT_NORM_TOLERANCE = 1e-6
+
+# Below this rotation angle [rad] series expansions replace sin(x)/x etc.;
+# the truncation error of the series used is below 1e-20 there.
+_SMALL_ANGLE = 1e-5
+
+
+def as_unit_quaternion(q: ArrayLike, name: str = "q", *, tolerance: float = UNIT_NORM_TOLERANCE) -> NDArray[np.float64]:
+    """Validate an attitude quaternion and return it normalised.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Quaternion(s) ``[w, x, y, z]``.
+    name : str
+        Argument name used in error messages.
+    tolerance : float
+        Accepted deviation of ``|q|`` from 1.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        ``q / |q|`` as a new float64 array.
+
+    Raises
+    ------
+    ValueError
+        If ``q`` has the wrong shape, holds NaN/inf, or its norm differs from 1
+        by more than ``tolerance``.
+    """
+    arr = check_vector(q, name, 4)
+    n = np.linalg.norm(arr, axis=-1)
+    bad = np.abs(n - 1.0) > tolerance
+    if np.any(bad):
+        first = np.asarray(n)[bad].flat[0] if np.ndim(n) else float(n)
+        raise ValueError(
+            f"{name} must be a unit quaternion (| |q| - 1 | <= {tolerance:g}); found |q| = {first!r}"
+            + (" (a zero quaternion is not an attitude)" if first == 0 else "")
+        )
+    return arr / n[..., None]
+
+
+def _nonzero_quaternion(q: ArrayLike, name: str) -> NDArray[np.float64]:
+    arr = check_vector(q, name, 4)
+    n = np.linalg.norm(arr, axis=-1)
+    if np.any(n == 0):
+        raise ValueError(f"{name} must be non-zero; found a quaternion with norm 0")
+    return arr
+
+
+def identity(shape: tuple[int, ...] = ()) -> NDArray[np.float64]:
+    """Return identity quaternion(s) ``[1, 0, 0, 0]`` with batch ``shape``."""
+    out = np.zeros((*shape, 4))
+    out[..., 0] = 1.0
+    return out
+
+
+def multiply(p: ArrayLike, q: ArrayLike) -> NDArray[np.float64]:
+    """Hamilton product ``p ⊗ q`` of any (not necessarily unit) quaternions.
+
+    ``q_CN = multiply(q_BN, q_CB)`` composes attitudes: C relative to B,
+    then B relative to N.
+    """
+    p = check_vector(p, "p", 4)
+    q = check_vector(q, "q", 4)
+    pw, px, py, pz = np.moveaxis(p, -1, 0)
+    qw, qx, qy, qz = np.moveaxis(q, -1, 0)
+    return np.stack(
+        [
+            pw * qw - px * qx - py * qy - pz * qz,
+            pw * qx + px * qw + py * qz - pz * qy,
+            pw * qy - px * qz + py * qw + pz * qx,
+            pw * qz + px * qy - py * qx + pz * qw,
+        ],
+        axis=-1,
+    )
+
+
+def conjugate(q: ArrayLike) -> NDArray[np.float64]:
+    """Quaternion conjugate ``[w, -x, -y, -z]`` (the inverse rotation for unit ``q``)."""
+    q = check_vector(q, "q", 4)
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def norm(q: ArrayLike) -> NDArray[np.float64]:
+    """Euclidean norm ``|q|``, shape ``(...)``."""
+    return np.linalg.norm(check_vector(q, "q", 4), axis=-1)
+
+
+def inverse(q: ArrayLike) -> NDArray[np.float64]:
+    """Multiplicative inverse ``q* / |q|^2`` of a non-zero quaternion."""
+    q = _nonzero_quaternion(q, "q")
+    return conjugate(q) / np.sum(q * q, axis=-1, keepdims=True)
+
+
+def normalize(q: ArrayLike) -> NDArray[np.float64]:
+    """Return ``q / |q|`` for any non-zero quaternion (raises for zero norm)."""
+    q = _nonzero_quaternion(q, "q")
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def rotate(q: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
+    """Rotate body vectors into the inertial frame: ``v_N = q ⊗ v_B ⊗ q*``.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Unit attitude quaternion ``q_BN``.
+    v : array_like, shape (..., 3)
+        Vector(s) in body components.
+    """
+    q = as_unit_quaternion(q, "q")
+    v = check_vector(v, "v", 3)
+    w = q[..., :1]
+    u = q[..., 1:]
+    t = 2.0 * np.cross(u, v)
+    return v + w * t + np.cross(u, t)
+
+
+def rotate_inverse(q: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
+    """Express inertial vectors in body components: ``v_B = q* ⊗ v_N ⊗ q``."""
+    return rotate(conjugate(as_unit_quaternion(q, "q")), v)
+
+
+def exp(q: ArrayLike) -> NDArray[np.float64]:
+    """Quaternion exponential of a general quaternion ``[s, v]``.
+
+    ``exp([s, v]) = e^s [cos|v|, sin|v| v/|v|]``. For a pure quaternion
+    ``[0, phi/2]`` this is the unit quaternion of the rotation vector ``phi``
+    (see :func:`from_rotation_vector`).
+    """
+    q = check_vector(q, "q", 4)
+    s = q[..., 0]
+    v = q[..., 1:]
+    angle = np.linalg.norm(v, axis=-1)
+    small = angle < _SMALL_ANGLE
+    safe = np.where(small, 1.0, angle)
+    # sin(x)/x = 1 - x^2/6 + x^4/120 - ...; the x^4 term is < 1e-22 below _SMALL_ANGLE.
+    sinc = np.where(small, 1.0 - angle**2 / 6.0, np.sin(safe) / safe)
+    out = np.concatenate([np.cos(angle)[..., None], sinc[..., None] * v], axis=-1)
+    return np.exp(s)[..., None] * out
+
+
+def log(q: ArrayLike) -> NDArray[np.float64]:
+    """Quaternion logarithm of a non-zero quaternion: ``[ln|q|, theta * v/|v|]``.
+
+    ``theta = atan2(|v|, w)`` lies in ``[0, pi]``, so ``exp(log(q)) == q``. For a
+    unit quaternion the result is the pure quaternion ``[0, phi/2]`` with
+    ``phi`` the rotation vector taken the way ``q`` (not ``-q``) points.
+    """
+    q = _nonzero_quaternion(q, "q")
+    qn = np.linalg.norm(q, axis=-1)
+    w = q[..., 0]
+    v = q[..., 1:]
+    vn = np.linalg.norm(v, axis=-1)
+    theta = np.arctan2(vn, w)
+    small = vn < _SMALL_ANGLE * qn
+    safe = np.where(small, 1.0, vn)
+    # theta/|v| -> 1/w for a small vector part (w > 0 there); w/qn is cos(theta).
+    scale = np.where(small, 1.0 / np.where(small, w, 1.0), theta / safe)
+    return np.concatenate([np.log(qn)[..., None], scale[..., None] * v], axis=-1)
+
+
+def shortest(q: ArrayLike) -> NDArray[np.float64]:
+    """Return ``q`` or ``-q``, whichever has a non-negative scalar part."""
+    q = check_vector(q, "q", 4)
+    return np.where(q[..., :1] < 0, -q, q)
+
+
+def error_quaternion(q_ref: ArrayLike, q: ArrayLike) -> NDArray[np.float64]:
+    """Attitude error ``q_err = q_ref* ⊗ q`` on the shortest way (``w_err >= 0``).
+
+    ``q_err`` is the attitude of the body relative to the reference frame; its
+    vector part is about half the rotation-vector error for small errors.
+    """
+    q_ref = as_unit_quaternion(q_ref, "q_ref")
+    q = as_unit_quaternion(q, "q")
+    return shortest(multiply(conjugate(q_ref), q))
+
+
+def error_angle(q_ref: ArrayLike, q: ArrayLike) -> NDArray[np.float64]:
+    """Rotation angle [rad] from ``q_ref`` to ``q`` on the shortest way, in ``[0, pi]``.
+
+    Equal to ``2 * arccos(|w_err|)`` but computed as
+    ``2 * atan2(|v_err|, |w_err|)``, which keeps full precision for tiny errors.
+    """
+    e = multiply(conjugate(as_unit_quaternion(q_ref, "q_ref")), as_unit_quaternion(q, "q"))
+    return 2.0 * np.arctan2(np.linalg.norm(e[..., 1:], axis=-1), np.abs(e[..., 0]))
+
+
+def slerp(q0: ArrayLike, q1: ArrayLike, fraction: ArrayLike) -> NDArray[np.float64]:
+    """Spherical linear interpolation on the shortest way.
+
+    Parameters
+    ----------
+    q0, q1 : array_like, shape (..., 4)
+        Unit quaternions at ``fraction = 0`` and ``fraction = 1``.
+    fraction : array_like, shape (...)
+        Interpolation parameter (0 gives ``q0``, 1 gives ``q1`` or ``-q1``).
+    """
+    q0 = as_unit_quaternion(q0, "q0")
+    q1 = as_unit_quaternion(q1, "q1")
+    s = as_float_array(fraction, "fraction")
+    delta = shortest(multiply(conjugate(q0), q1))
+    return multiply(q0, exp(s[..., None] * log(delta)))
+
+
+def derivative(q: ArrayLike, omega: ArrayLike) -> NDArray[np.float64]:
+    """Quaternion kinematics ``q_dot = 0.5 * q ⊗ [0, omega]`` [1/s].
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Attitude ``q_BN`` (not required to be exactly unit).
+    omega : array_like, shape (..., 3)
+        Angular velocity of B relative to N in B components [rad/s].
+    """
+    q = check_vector(q, "q", 4)
+    omega = check_vector(omega, "omega", 3)
+    omega_q = np.concatenate([np.zeros((*omega.shape[:-1], 1)), omega], axis=-1)
+    return 0.5 * multiply(q, omega_q)
+
+
+def to_dcm(q: ArrayLike) -> NDArray[np.float64]:
+    """Direction cosine matrix ``C_BN`` of attitude ``q_BN``, shape ``(..., 3, 3)``.
+
+    ``C_BN @ v_N`` gives body components of an inertial vector; its transpose
+    rotates body vectors into N (it is scipy's ``Rotation.as_matrix()``).
+    """
+    q = as_unit_quaternion(q, "q")
+    w, x, y, z = np.moveaxis(q, -1, 0)
+    c_nb = np.stack(
+        [
+            np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], axis=-1),
+            np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], axis=-1),
+            np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1),
+        ],
+        axis=-2,
+    )
+    return np.swapaxes(c_nb, -1, -2)
+
+
+#: Largest accepted ``|C C^T - 1|`` entry for a direction cosine matrix.
+DCM_ORTHONORMAL_TOLERANCE = 1e-6
+
+
+def from_dcm(dcm: ArrayLike) -> NDArray[np.float64]:
+    """Attitude ``q_BN`` (scalar part >= 0) of a direction cosine matrix ``C_BN``.
+
+    Uses Shepperd's method (largest of the four squared components) so that no
+    attitude loses precision.
+
+    Raises
+    ------
+    ValueError
+        If ``dcm`` is not ``(..., 3, 3)``, not orthonormal to
+        :data:`DCM_ORTHONORMAL_TOLERANCE`, or a reflection (``det < 0``).
+    """
+    c_bn = as_float_array(dcm, "dcm")
+    if c_bn.ndim < 2 or c_bn.shape[-2:] != (3, 3):
+        raise ValueError(f"dcm must have shape (..., 3, 3), got shape {c_bn.shape}")
+    gram_error = np.abs(c_bn @ np.swapaxes(c_bn, -1, -2) - np.eye(3)).max(axis=(-1, -2))
+    if np.any(gram_error > DCM_ORTHONORMAL_TOLERANCE):
+        raise ValueError(
+            f"dcm must be orthonormal (|C C^T - I| <= {DCM_ORTHONORMAL_TOLERANCE:g}); "
+            f"found a deviation of {np.max(gram_error):.3g}"
+        )
+    if np.any(np.linalg.det(c_bn) < 0):
+        raise ValueError("dcm must be a proper rotation (det = +1); found a reflection (det = -1)")
+    m = np.swapaxes(c_bn, -1, -2)  # C_NB, the matrix that rotates body vectors
+    trace = m[..., 0, 0] + m[..., 1, 1] + m[..., 2, 2]
+    diag = np.stack([trace, m[..., 0, 0], m[..., 1, 1], m[..., 2, 2]], axis=-1)
+    choice = np.argmax(diag, axis=-1)
+    cand = np.empty((*m.shape[:-2], 4, 4))
+    # Row k: the quaternion computed with component k as the pivot (times 4 q_k).
+    cand[..., 0, :] = np.stack(
+        [1 + trace, m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0], m[..., 1, 0] - m[..., 0, 1]], axis=-1
+    )
+    cand[..., 1, :] = np.stack(
+        [
+            m[..., 2, 1] - m[..., 1, 2],
+            1 + 2 * m[..., 0, 0] - trace,
+            m[..., 0, 1] + m[..., 1, 0],
+            m[..., 0, 2] + m[..., 2, 0],
+        ],
+        axis=-1,
+    )
+    cand[..., 2, :] = np.stack(
+        [
+            m[..., 0, 2] - m[..., 2, 0],
+            m[..., 0, 1] + m[..., 1, 0],
+            1 + 2 * m[..., 1, 1] - trace,
+            m[..., 1, 2] + m[..., 2, 1],
+        ],
+        axis=-1,
+    )
+    cand[..., 3, :] = np.stack(
+        [
+            m[..., 1, 0] - m[..., 0, 1],
+            m[..., 0, 2] + m[..., 2, 0],
+            m[..., 1, 2] + m[..., 2, 1],
+            1 + 2 * m[..., 2, 2] - trace,
+        ],
+        axis=-1,
+    )
+    q = np.take_along_axis(cand, choice[..., None, None], axis=-2)[..., 0, :]
+    return shortest(q / np.linalg.norm(q, axis=-1, keepdims=True))
+
+
+def to_rotation_vector(q: ArrayLike) -> NDArray[np.float64]:
+    """Rotation vector ``phi`` [rad] of ``q`` on the shortest way (``|phi| <= pi``)."""
+    q = shortest(as_unit_quaternion(q, "q"))
+    return 2.0 * log(q)[..., 1:]
+
+
+def from_rotation_vector(rotvec: ArrayLike) -> NDArray[np.float64]:
+    """Unit quaternion of the rotation vector ``rotvec`` [rad]: ``exp([0, rotvec/2])``."""
+    rotvec = check_vector(rotvec, "rotvec", 3)
+    pure = np.concatenate([np.zeros((*rotvec.shape[:-1], 1)), 0.5 * rotvec], axis=-1)
+    return exp(pure)
+
+
+def to_axis_angle(q: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Unit axis and angle [rad] of ``q`` on the shortest way, angle in ``[0, pi]``.
+
+    For a zero rotation the axis is undefined; ``[1, 0, 0]`` is returned.
+    """
+    phi = to_rotation_vector(q)
+    angle = np.linalg.norm(phi, axis=-1)
+    safe = np.where(angle > 0, angle, 1.0)
+    axis = np.where((angle > 0)[..., None], phi / safe[..., None], np.array([1.0, 0.0, 0.0]))
+    return axis, angle
+
+
+def from_axis_angle(axis: ArrayLike, angle: ArrayLike) -> NDArray[np.float64]:
+    """Unit quaternion rotating by ``angle`` [rad] about ``axis`` (normalised here).
+
+    Raises
+    ------
+    ValueError
+        If ``axis`` has zero length.
+    """
+    axis = check_vector(axis, "axis", 3)
+    angle = as_float_array(angle, "angle")
+    n = np.linalg.norm(axis, axis=-1)
+    if np.any(n == 0):
+        raise ValueError("axis must be a non-zero vector; found a zero-length axis")
+    half = 0.5 * angle
+    return np.concatenate(
+        [
+            np.broadcast_to(np.cos(half), np.broadcast_shapes(half.shape, n.shape))[..., None],
+            (np.sin(half) / n)[..., None] * axis,
+        ],
+        axis=-1,
+    )
+
+
+def to_mrp(q: ArrayLike) -> NDArray[np.float64]:
+    """Modified Rodrigues parameters ``sigma = v / (1 + w)`` with ``|sigma| <= 1``.
+
+    The shadow set is chosen automatically: using ``q`` or ``-q`` with
+    ``w >= 0`` gives the MRP of the short rotation (``|sigma| <= 1``).
+    """
+    q = shortest(as_unit_quaternion(q, "q"))
+    return q[..., 1:] / (1.0 + q[..., :1])
+
+
+def mrp_shadow(sigma: ArrayLike) -> NDArray[np.float64]:
+    """Shadow MRP set ``-sigma / |sigma|^2`` (same attitude; raises for ``sigma = 0``)."""
+    sigma = check_vector(sigma, "sigma", 3)
+    s2 = np.sum(sigma * sigma, axis=-1, keepdims=True)
+    if np.any(s2 == 0):
+        raise ValueError("sigma must be non-zero for its shadow set (the shadow of 0 is at infinity)")
+    return -sigma / s2
+
+
+def from_mrp(sigma: ArrayLike) -> NDArray[np.float64]:
+    """Unit quaternion (``w >= 0``) of modified Rodrigues parameters ``sigma``."""
+    sigma = check_vector(sigma, "sigma", 3)
+    s2 = np.sum(sigma * sigma, axis=-1, keepdims=True)
+    q = np.concatenate([1.0 - s2, 2.0 * sigma], axis=-1) / (1.0 + s2)
+    return shortest(q)
+
+
+def random(shape: int | tuple[int, ...] = (), rng: object = None) -> NDArray[np.float64]:
+    """Unit quaternions uniformly distributed on SO(3).
+
+    Normalised 4-D Gaussian samples are uniform on the 3-sphere, which is the
+    Haar measure on SO(3).
+
+    Parameters
+    ----------
+    shape : int or tuple of int
+        Batch shape.
+    rng : numpy.random.Generator, int or None
+        Random source or seed.
+    """
+    gen = as_generator(rng)
+    shape = (shape,) if isinstance(shape, int) else tuple(shape)
+    g = gen.standard_normal((*shape, 4))
+    return g / np.linalg.norm(g, axis=-1, keepdims=True)

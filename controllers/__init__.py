@@ -1,0 +1,1 @@
+"""Attitude controllers (PD, LQR, optimal slews, tracking); imports ``attitude`` only."""

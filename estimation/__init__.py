@@ -1,0 +1,1 @@
+"""Attitude and rate estimators (EKF, MEKF) and consistency tests; imports ``attitude`` only."""
