@@ -1,0 +1,316 @@
+"""Reaction wheels: geometry, torque allocation, saturation and wheel dynamics.
+
+Model (Schaub and Junkins, *Analytical Mechanics of Space Systems*, ch. 4;
+Wie, *Space Vehicle Dynamics and Control*, ch. 7). Wheel ``i`` spins about
+the body-fixed unit axis ``a_i`` with spin inertia ``J_i``. Its spin-axis
+angular momentum (absolute, i.e. including the body rate) is the state
+``h_i = J_i (Omega_i + a_i . omega)`` with ``Omega_i`` the wheel speed relative
+to the body. With ``A = [a_1 ... a_n]`` (3 x n) and motor torques ``u``:
+
+.. math::
+
+    \\dot h_i = u_i - f_i(\\Omega_i), \\qquad
+    I_s \\dot\\omega = \\tau_{ext} - A \\dot h - \\omega \\times (I_s \\omega + A h)
+
+``I_s`` is the spacecraft inertia *without* the wheels' spin-axis inertia
+(``I_s = I_total - sum J_i a_i a_i^T``), because that part is carried by
+``h``. Friction ``f`` (viscous and Coulomb) is internal: it slows the wheel
+and pushes the body, leaving the total angular momentum
+``H_N = C_NB (I_s omega + A h)`` unchanged. The body equation is the one
+definition in :class:`attitude.rigid_body.RigidBody` with torque
+``tau_ext - A h_dot`` and internal momentum ``A h``.
+
+Everything here is written on component lists with the neutral functions of
+:mod:`attitude.backend`, so it evaluates on numpy arrays and casadi symbols.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from attitude import backend as bk
+from attitude._validation import as_float_array, check_positive, describe
+from attitude.rigid_body import Components, RigidBody
+
+__all__ = ["RANK_TOLERANCE", "ReactionWheels"]
+
+#: Smallest accepted singular value of the wheel axis matrix (relative to the
+#: largest): below it the wheels cannot produce torque about some axis.
+RANK_TOLERANCE = 1e-6
+
+
+def _per_wheel(value: ArrayLike, n: int, name: str, *, allow_zero: bool = False) -> NDArray[np.float64]:
+    arr = check_positive(value, name, allow_zero=allow_zero)
+    if arr.ndim > 1 or (arr.ndim == 1 and arr.size not in (1, n)):
+        raise ValueError(f"{name} must be a scalar or one value per wheel ({n}), got shape {arr.shape}")
+    return np.broadcast_to(arr, (n,)).astype(np.float64)
+
+
+class ReactionWheels:
+    """A set of reaction wheels on arbitrary body axes.
+
+    Parameters
+    ----------
+    axes_B : array_like, shape (n, 3)
+        Spin axes in body components (normalised here). They must span 3-D
+        space (rank 3), otherwise some torque direction is uncontrollable.
+    spin_inertia : float or array_like (n,)
+        Wheel spin-axis inertia ``J`` [kg m^2].
+    torque_max : float or array_like (n,)
+        Largest motor torque magnitude [N m].
+    momentum_max : float or array_like (n,)
+        Largest wheel momentum relative to the body, ``J |Omega|`` [N m s]
+        (the speed limit ``Omega_max = momentum_max / J``). At the limit the
+        motor torque that would spin the wheel faster is cut, as a motor
+        driver does at its back-EMF limit.
+    viscous_friction : float or array_like (n,)
+        Viscous friction coefficient [N m s/rad] (torque ``c Omega``).
+    coulomb_friction : float or array_like (n,)
+        Coulomb friction torque magnitude [N m].
+    coulomb_smoothing_speed : float
+        Speed [rad/s] over which the Coulomb torque is smoothed as
+        ``f_c tanh(Omega / speed)``; a hard sign function would make the
+        right-hand side discontinuous at zero speed and stall fixed-step
+        integrators.
+    null_space_gain : float
+        Gain [1/s] of null-space momentum management (wheels beyond three):
+        the allocation adds ``-k N (h_rel - h_bias)`` with ``N`` the null-space
+        projector, which drives the wheel momenta toward ``h_bias`` without
+        any body torque. Zero disables it.
+    bias_momentum : float or array_like (n,)
+        Target wheel momenta [N m s] for the null-space management (only its
+        null-space component matters).
+
+    Raises
+    ------
+    ValueError
+        Negative or non-finite limits or friction, axes of rank below 3,
+        zero-length axes, or mismatched per-wheel lengths.
+    """
+
+    def __init__(
+        self,
+        axes_B: ArrayLike,
+        spin_inertia: ArrayLike,
+        torque_max: ArrayLike,
+        momentum_max: ArrayLike,
+        *,
+        viscous_friction: ArrayLike = 0.0,
+        coulomb_friction: ArrayLike = 0.0,
+        coulomb_smoothing_speed: float = 1.0,
+        null_space_gain: float = 0.0,
+        bias_momentum: ArrayLike = 0.0,
+    ) -> None:
+        axes = as_float_array(axes_B, "axes_B")
+        if axes.ndim != 2 or axes.shape[1] != 3 or axes.shape[0] < 1:
+            raise ValueError(f"axes_B must have shape (n_wheels, 3), got shape {axes.shape}")
+        lengths = np.linalg.norm(axes, axis=1)
+        if np.any(lengths == 0):
+            raise ValueError(f"axes_B must hold non-zero axes; wheel {int(np.argmin(lengths))} has a zero axis")
+        axes = axes / lengths[:, None]
+        n = axes.shape[0]
+        singular = np.linalg.svd(axes.T, compute_uv=False)
+        if n < 3 or singular[-1] < RANK_TOLERANCE * singular[0]:
+            raise ValueError(
+                "axes_B must span three dimensions (rank 3) so that every torque direction is reachable; "
+                f"got {n} axes with singular values {describe(singular)}"
+            )
+        self.axes_B = axes
+        self.n_wheels = n
+        self.spin_inertia = _per_wheel(spin_inertia, n, "spin_inertia")
+        self.torque_max = _per_wheel(torque_max, n, "torque_max")
+        self.momentum_max = _per_wheel(momentum_max, n, "momentum_max")
+        self.viscous_friction = _per_wheel(viscous_friction, n, "viscous_friction", allow_zero=True)
+        self.coulomb_friction = _per_wheel(coulomb_friction, n, "coulomb_friction", allow_zero=True)
+        self.coulomb_smoothing_speed = float(check_positive(coulomb_smoothing_speed, "coulomb_smoothing_speed"))
+        self.null_space_gain = float(check_positive(null_space_gain, "null_space_gain", allow_zero=True))
+        self.bias_momentum = np.broadcast_to(as_float_array(bias_momentum, "bias_momentum"), (n,)).copy()
+        self.distribution = axes.T.copy()  # A, 3 x n: body torque = -A u
+        self.allocation = np.linalg.pinv(self.distribution)  # A^+, n x 3, minimum-norm
+        self.null_projector = np.eye(n) - self.allocation @ self.distribution
+
+    # -- construction helpers -------------------------------------------------
+
+    @classmethod
+    def orthogonal(cls, spin_inertia: ArrayLike, torque_max: ArrayLike, momentum_max: ArrayLike, **kw: Any):
+        """Three wheels on the body x, y and z axes."""
+        return cls(np.eye(3), spin_inertia, torque_max, momentum_max, **kw)
+
+    @classmethod
+    def pyramid(
+        cls,
+        spin_inertia: ArrayLike,
+        torque_max: ArrayLike,
+        momentum_max: ArrayLike,
+        *,
+        elevation_deg: float = 35.26438968275466,
+        **kw: Any,
+    ):
+        """Four wheels in a pyramid about the body z axis.
+
+        Wheel ``i`` has axis ``[cos(b) cos(az_i), cos(b) sin(az_i), sin(b)]``
+        with azimuths 45, 135, 225, 315 deg and elevation ``b``; the default
+        ``b = atan(1/sqrt(2))`` = 35.26 deg gives the same torque capacity
+        about all three body axes.
+        """
+        b = np.radians(float(as_float_array(elevation_deg, "elevation_deg")))
+        if not 0.0 < b < np.pi / 2:
+            raise ValueError(f"elevation_deg must lie strictly between 0 and 90 degrees, got {elevation_deg}")
+        az = np.radians([45.0, 135.0, 225.0, 315.0])
+        axes = np.column_stack([np.cos(b) * np.cos(az), np.cos(b) * np.sin(az), np.full(4, np.sin(b))])
+        return cls(axes, spin_inertia, torque_max, momentum_max, **kw)
+
+    def __repr__(self) -> str:
+        return (
+            f"ReactionWheels(n_wheels={self.n_wheels}, torque_max={self.torque_max}, momentum_max={self.momentum_max})"
+        )
+
+    # -- plant coupling ---------------------------------------------------------
+
+    def hub_body(self, body: RigidBody) -> RigidBody:
+        """The body without the wheels' spin-axis inertia: ``I_s = I - sum J a a^T``.
+
+        ``body`` is the whole spacecraft (wheels included) as a user measures
+        or computes it.
+        """
+        inertia = body.inertia - np.einsum("i,ij,ik->jk", self.spin_inertia, self.axes_B, self.axes_B)
+        return RigidBody(inertia)
+
+    def wheel_speed(self, h: Any, omega: Any) -> Any:
+        """Wheel speeds relative to the body ``Omega = h/J - a . omega`` [rad/s] (numpy, (..., n))."""
+        h = np.asarray(h, dtype=float)
+        omega = np.asarray(omega, dtype=float)
+        return h / self.spin_inertia - omega @ self.axes_B.T
+
+    def wheel_speed_components(self, h: Components, omega: Components) -> Components:
+        """Wheel speeds on component lists (any backend)."""
+        return [
+            h[i] / self.spin_inertia[i] - (a[0] * omega[0] + a[1] * omega[1] + a[2] * omega[2])
+            for i, a in enumerate(self.axes_B)
+        ]
+
+    def friction_components(self, speed: Components) -> Components:
+        """Friction torque on each wheel [N m] (opposes its speed)."""
+        out = []
+        for i, s in enumerate(speed):
+            f = self.viscous_friction[i] * s
+            if self.coulomb_friction[i] > 0:
+                f = f + self.coulomb_friction[i] * bk.tanh(s / self.coulomb_smoothing_speed)
+            out.append(f)
+        return out
+
+    def state_derivative_components(
+        self, body: RigidBody, x: Components, motor_torque: Components, external_torque: Components | None = None
+    ) -> Components:
+        """Derivative of ``x = [q (4), omega (3), h (n)]`` with motor torques held.
+
+        Parameters
+        ----------
+        body : RigidBody
+            The hub body (see :meth:`hub_body`).
+        x : list
+            State components: quaternion, body rate [rad/s], wheel momenta [N m s].
+        motor_torque : list of n
+            Motor torques on the wheels [N m] (already limited).
+        external_torque : list of 3, optional
+            External torque on the spacecraft in body components [N m].
+        """
+        from attitude.rigid_body import quaternion_rate
+
+        q, omega, h = x[:4], x[4:7], x[7:]
+        speed = self.wheel_speed_components(h, omega)
+        friction = self.friction_components(speed)
+        h_dot = [u - f for u, f in zip(motor_torque, friction)]
+        reaction = self._body_components(h_dot, scale=-1.0)
+        tau = reaction if external_torque is None else [e + r for e, r in zip(external_torque, reaction)]
+        internal = self._body_components(h, scale=1.0)
+        return quaternion_rate(q, omega) + body.omega_dot_components(omega, tau, internal) + h_dot
+
+    def _body_components(self, per_wheel: Components, scale: float) -> Components:
+        """``scale * A @ per_wheel`` on components."""
+        out = []
+        for k in range(3):
+            acc = None
+            for i in range(self.n_wheels):
+                c = scale * self.distribution[k, i]
+                if c == 0.0:
+                    continue
+                term = c * per_wheel[i]
+                acc = term if acc is None else acc + term
+            out.append(acc if acc is not None else 0.0 * per_wheel[0])
+        return out
+
+    # -- allocation ---------------------------------------------------------------
+
+    def allocate_components(self, torque_command: Components, h: Components, omega: Components) -> Components:
+        """Motor torques for a commanded body torque, with saturation.
+
+        The minimum-norm solution ``u = -A^+ tau_c`` (plus null-space momentum
+        management) is scaled by one common factor so that no wheel exceeds
+        its torque limit: the body torque keeps its direction and loses only
+        magnitude. A wheel at its speed limit then refuses torque that would
+        spin it faster.
+        """
+        n = self.n_wheels
+        u = []
+        for i in range(n):
+            acc = 0.0 * torque_command[0]
+            for k in range(3):
+                acc = acc - self.allocation[i, k] * torque_command[k]
+            u.append(acc)
+        if self.null_space_gain > 0 and n > 3:
+            speed = self.wheel_speed_components(h, omega)
+            rel = [self.spin_inertia[i] * speed[i] - self.bias_momentum[i] for i in range(n)]
+            for i in range(n):
+                corr = 0.0 * rel[0]
+                for j in range(n):
+                    corr = corr + self.null_projector[i, j] * rel[j]
+                u[i] = u[i] - self.null_space_gain * corr
+        # Common scale so that max_i |u_i| / u_max_i <= 1 (direction preserved).
+        ratio = None
+        for i in range(n):
+            r = bk.fabs(u[i]) / self.torque_max[i]
+            ratio = r if ratio is None else bk.fmax(ratio, r)
+        scale = 1.0 / bk.fmax(ratio, 1.0)
+        u = [ui * scale for ui in u]
+        speed = self.wheel_speed_components(h, omega)
+        out = []
+        for i in range(n):
+            limit = self.momentum_max[i] / self.spin_inertia[i]
+            over = bk.if_else(speed[i] >= limit, bk.fmin(u[i], 0.0), u[i])
+            out.append(bk.if_else(speed[i] <= -limit, bk.fmax(over, 0.0), over))
+        return out
+
+    def allocate(self, torque_command: ArrayLike, h: ArrayLike, omega: ArrayLike) -> NDArray[np.float64]:
+        """Numpy front end of :meth:`allocate_components`: motor torques (..., n) [N m]."""
+        tau = as_float_array(torque_command, "torque_command")
+        h = as_float_array(h, "h")
+        omega = as_float_array(omega, "omega")
+        if tau.shape[-1:] != (3,) or h.shape[-1:] != (self.n_wheels,) or omega.shape[-1:] != (3,):
+            raise ValueError(
+                f"torque_command (..., 3), h (..., {self.n_wheels}) and omega (..., 3) expected; "
+                f"got {tau.shape}, {h.shape}, {omega.shape}"
+            )
+        u = self.allocate_components(
+            [tau[..., k] for k in range(3)],
+            [h[..., i] for i in range(self.n_wheels)],
+            [omega[..., k] for k in range(3)],
+        )
+        return np.stack(np.broadcast_arrays(*u), axis=-1)
+
+    def body_torque(self, motor_torque: ArrayLike) -> NDArray[np.float64]:
+        """Reaction torque on the body ``-A u`` [N m] for motor torques (..., n)."""
+        u = as_float_array(motor_torque, "motor_torque")
+        return -u @ self.distribution.T
+
+    def torque_envelope(self) -> NDArray[np.float64]:
+        """Largest body torque per body axis [N m] reachable within the wheel torque limits.
+
+        For axis ``e_k`` this is ``1 / max_i |(A^+ e_k)_i| / u_max_i``: the
+        direction-preserving allocation saturates exactly there.
+        """
+        ratios = np.abs(self.allocation) / self.torque_max[:, None]
+        return 1.0 / ratios.max(axis=0)
