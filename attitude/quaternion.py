@@ -210,13 +210,16 @@ def log(q: ArrayLike) -> NDArray[np.float64]:
     qn = np.linalg.norm(q, axis=-1)
     w = q[..., 0]
     v = q[..., 1:]
-    vn = np.linalg.norm(v, axis=-1)
+    # hypot does not underflow: the direction v/|v| matters even for a tiny v when w < 0.
+    vn = np.hypot(np.hypot(v[..., 0], v[..., 1]), v[..., 2])
     theta = np.arctan2(vn, w)
-    small = vn < _SMALL_ANGLE * qn
-    safe = np.where(small, 1.0, vn)
-    # theta/|v| -> 1/w for a small vector part (w > 0 there); w/qn is cos(theta).
-    scale = np.where(small, 1.0 / np.where(small, w, 1.0), theta / safe)
-    return np.concatenate([np.log(qn)[..., None], scale[..., None] * v], axis=-1)
+    # atan2 keeps full relative precision for any |v| > 0, so theta/|v| needs no series
+    # (and theta -> pi, not 0, when w < 0). For v = 0 and w < 0 (q = -|q|) the axis is
+    # arbitrary; x is used, as in to_axis_angle.
+    zero = vn == 0
+    safe = np.where(zero, 1.0, vn)
+    vec = np.where(zero[..., None], theta[..., None] * np.array([1.0, 0.0, 0.0]), (theta / safe)[..., None] * v)
+    return np.concatenate([np.log(qn)[..., None], vec], axis=-1)
 
 
 def shortest(q: ArrayLike) -> NDArray[np.float64]:
