@@ -19,7 +19,10 @@ Torque may be None (torque-free), a constant ``(3,)`` or ``batch + (3,)``,
 an array on the time grid ``(len(t),) + batch + (3,)`` held constant over
 each interval ``[t[k], t[k+1])`` (zero-order hold, as a digital controller
 applies it; the last row is not used), or a callable ``torque(t, q, omega)``
-returning ``batch + (3,)`` [N m], evaluated at every integrator stage.
+returning ``batch + (3,)`` [N m], evaluated at every integrator stage. The
+callable receives each stage's attitude normalised to unit length (a
+Runge-Kutta stage is off the unit sphere by the truncation error), so it may
+pass ``q`` straight to :mod:`attitude.quaternion`.
 """
 
 from __future__ import annotations
@@ -353,6 +356,7 @@ def _run_fixed(body, q0, omega0, t, subs, kind, tq, batch, method):
 
             def fun(ts, qs, ws):
                 q_arr = np.stack(np.broadcast_arrays(*qs), axis=-1)
+                q_arr = q_arr / np.linalg.norm(q_arr, axis=-1, keepdims=True)
                 w_arr = np.stack(np.broadcast_arrays(*ws), axis=-1)
                 out = _call_torque(tq, ts, q_arr, w_arr, batch)
                 return [out[..., i] for i in range(3)]
@@ -396,7 +400,8 @@ def _propagate_adaptive(body, q0, omega0, t, kind, tq, batch, rtol, atol):
     if kind == "callable":
 
         def tau_callable(ts, x):
-            return _call_torque(tq, ts, x[..., :4], x[..., 4:], batch)
+            q = x[..., :4] / np.linalg.norm(x[..., :4], axis=-1, keepdims=True)
+            return _call_torque(tq, ts, q, x[..., 4:], batch)
 
         segments = [(0, t.size - 1, tau_callable)]
     elif kind == "const":

@@ -14,9 +14,9 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from benchmarks import bench_propagation  # noqa: E402
+from benchmarks import bench_closed_loop, bench_propagation  # noqa: E402
 
-SUITES = {"propagation": bench_propagation.run}
+SUITES = {"propagation": bench_propagation.run, "closed_loop": bench_closed_loop.run}
 
 
 def main() -> None:
