@@ -7,15 +7,28 @@ pyplot global state.
 
 from __future__ import annotations
 
+import textwrap
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from numpy.typing import ArrayLike, NDArray
 
 if TYPE_CHECKING:
     from attitude.propagate import Trajectory
+    from attitude.rigid_body import RigidBody
 
-__all__ = ["AXIS_COLORS", "plot_trajectory"]
+__all__ = [
+    "AXIS_COLORS",
+    "RATE_UNITS",
+    "TIME_UNITS",
+    "plot_flip",
+    "plot_polhodes",
+    "plot_rates_comparison",
+    "plot_trajectory",
+]
 
 #: One colour per body axis, used consistently across figures.
 AXIS_COLORS = ("tab:blue", "tab:orange", "tab:green")
@@ -68,4 +81,466 @@ def plot_trajectory(traj: Trajectory, index: tuple[int, ...] | int = ()) -> Figu
     for ax in axes:
         ax.grid(True, alpha=0.3)
     fig.suptitle(f"Attitude propagation ({traj.method})")
+    return fig
+
+
+# ---------------------------------------------------------------------------
+# Torque-free motion: simulation against closed form, polhodes, the flip
+# ---------------------------------------------------------------------------
+
+#: Display units of time: name -> seconds per unit.
+TIME_UNITS = {"s": 1.0, "min": 60.0, "h": 3600.0, "day": 86400.0}
+
+#: Display units of angular rate: name -> factor from rad/s.
+RATE_UNITS = {
+    "rad/s": 1.0,
+    "mrad/s": 1e3,
+    "deg/s": 180.0 / np.pi,
+    "deg/h": 3600.0 * 180.0 / np.pi,
+    "rpm": 60.0 / (2.0 * np.pi),
+    "arcsec/day": 86400.0 * 3600.0 * 180.0 / np.pi,
+}
+
+
+_TIME_LABELS = {"day": "days"}
+
+
+def _time_unit(unit: str) -> float:
+    if unit not in TIME_UNITS:
+        raise ValueError(f"time_unit must be one of {tuple(TIME_UNITS)}, got {unit!r}")
+    return TIME_UNITS[unit]
+
+
+def _time_label(unit: str) -> str:
+    return f"time [{_TIME_LABELS.get(unit, unit)}]"
+
+
+def _rate_unit(unit: str | tuple[str, float]) -> tuple[str, float]:
+    """``(label, factor from rad/s)`` for a named unit or a ``(label, factor)`` pair."""
+    if isinstance(unit, tuple):
+        if len(unit) != 2 or not np.isfinite(unit[1]) or unit[1] <= 0:
+            raise ValueError(f"rate_unit must be a name or a (label, positive factor) pair, got {unit!r}")
+        return str(unit[0]), float(unit[1])
+    if unit not in RATE_UNITS:
+        raise ValueError(f"rate_unit must be one of {tuple(RATE_UNITS)} or a (label, factor) pair, got {unit!r}")
+    return unit, RATE_UNITS[unit]
+
+
+def _component_labels(labels: Sequence[str] | None, n: int, frame: str = "xyz") -> list[str]:
+    if labels is None:
+        names = frame if n <= len(frame) else [str(i + 1) for i in range(n)]
+        return [rf"$\omega_{{{names[i]}}}$" for i in range(n)]
+    if len(labels) != n:
+        raise ValueError(f"labels must name the {n} rate components, got {len(labels)} labels")
+    return list(labels)
+
+
+def _marker_step(n: int, per_panel: int = 30) -> int:
+    return max(1, n // per_panel)
+
+
+def plot_rates_comparison(
+    t: ArrayLike,
+    omega_sim: ArrayLike,
+    omega_exact: ArrayLike,
+    title: str,
+    *,
+    panel_titles: Sequence[str] | None = None,
+    labels: Sequence[str] | None = None,
+    time_unit: str = "s",
+    rate_unit: str | tuple[str, float] = "deg/s",
+    sim_label: str = "simulation",
+    exact_label: str = "closed form",
+) -> Figure:
+    """Simulated body rates against a closed-form solution, with the error.
+
+    One column per case: the rate components on top (simulation as lines,
+    closed form as open markers of the same colour) and the absolute
+    difference below on a log scale (where it is exactly zero the curve has
+    a gap, and a note says so).
+
+    Parameters
+    ----------
+    t : array_like, shape (n,)
+        Time [s].
+    omega_sim, omega_exact : array_like, shape (n, c) or (p, n, c)
+        Simulated and closed-form rate components [rad/s]; a leading
+        dimension ``p`` draws ``p`` cases side by side (the batch layout of
+        :class:`attitude.propagate.Trajectory`).
+    title : str
+        Figure title.
+    panel_titles : sequence of str, optional
+        One title per case.
+    labels : sequence of str, optional
+        Names of the ``c`` components (default ``omega_x``, ``omega_y``,
+        ``omega_z``).
+    time_unit : {"s", "min", "h", "day"}
+        Unit of the time axis.
+    rate_unit : str or (str, float)
+        A name in :data:`RATE_UNITS` or a ``(label, factor from rad/s)`` pair.
+    sim_label, exact_label : str
+        Legend names of the two sources.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    t = np.asarray(t, dtype=float)
+    sim = np.asarray(omega_sim, dtype=float)
+    exact = np.asarray(omega_exact, dtype=float)
+    if sim.shape != exact.shape:
+        raise ValueError(f"omega_sim and omega_exact must have the same shape, got {sim.shape} and {exact.shape}")
+    if sim.ndim == 2:
+        sim, exact = sim[None], exact[None]
+    if sim.ndim != 3 or sim.shape[1] != t.size:
+        raise ValueError(f"omega_sim must have shape (len(t)={t.size}, c) or (p, len(t), c), got {sim.shape}")
+    n_cases, _, n_comp = sim.shape
+    if panel_titles is not None and len(panel_titles) != n_cases:
+        raise ValueError(f"panel_titles must have {n_cases} entries, got {len(panel_titles)}")
+    names = _component_labels(labels, n_comp)
+    ts = t / _time_unit(time_unit)
+    unit_label, factor = _rate_unit(rate_unit)
+    step = _marker_step(t.size)
+
+    width = max(9.5, 4.2 * n_cases + 1.8)
+    fig = Figure(figsize=(width, 6.6), layout="constrained")
+    axes = fig.subplots(2, n_cases, sharex="col", squeeze=False, height_ratios=(2, 1))
+    for j in range(n_cases):
+        ax_w, ax_e = axes[0, j], axes[1, j]
+        for i in range(n_comp):
+            color = AXIS_COLORS[i % len(AXIS_COLORS)]
+            ax_w.plot(ts, sim[j, :, i] * factor, color=color, lw=1.6)
+            ax_w.plot(ts[::step], exact[j, ::step, i] * factor, "o", color=color, mfc="none", ms=5, mew=1.1, alpha=0.9)
+            err = np.abs(sim[j, :, i] - exact[j, :, i]) * factor
+            ax_e.plot(ts, np.where(err > 0, err, np.nan), color=color, lw=1.2)
+        err_all = np.abs(sim[j] - exact[j])
+        if not np.any(err_all > 0):
+            ax_e.text(0.5, 0.5, "identical: error exactly 0", transform=ax_e.transAxes, ha="center", va="center")
+            ax_e.set_yticks([])
+        else:
+            ax_e.set_yscale("log")
+            if np.any(err_all == 0):
+                ax_e.text(0.01, 0.03, "gaps: error exactly 0", transform=ax_e.transAxes, fontsize="small")
+        if panel_titles is not None:
+            ax_w.set_title(panel_titles[j])
+        ax_e.set_xlabel(_time_label(time_unit))
+        for ax in (ax_w, ax_e):
+            ax.grid(True, alpha=0.3)
+            ax.margins(x=0)
+    axes[0, 0].set_ylabel(f"rate [{unit_label}]")
+    axes[1, 0].set_ylabel(f"|{sim_label} - {exact_label}|\n[{unit_label}]")
+    handles = [Line2D([], [], color=AXIS_COLORS[i % len(AXIS_COLORS)], lw=2, label=names[i]) for i in range(n_comp)]
+    handles += [
+        Line2D([], [], color="0.3", lw=1.6, label=sim_label),
+        Line2D([], [], color="0.3", ls="none", marker="o", mfc="none", label=exact_label),
+    ]
+    fig.legend(handles=handles, loc="outside lower center", ncols=len(handles), frameon=False)
+    fig.suptitle(textwrap.fill(title, width=int(10 * width)), fontsize="large")
+    return fig
+
+
+def _polhode_energy_ellipsoid(moments: NDArray[np.float64], energy: float, n: int = 40) -> tuple[NDArray, ...]:
+    u = np.linspace(0.0, 2.0 * np.pi, 2 * n)
+    v = np.linspace(0.0, np.pi, n)
+    semi = np.sqrt(2.0 * energy / moments)
+    x = semi[0] * np.outer(np.cos(u), np.sin(v))
+    y = semi[1] * np.outer(np.sin(u), np.sin(v))
+    z = semi[2] * np.outer(np.ones_like(u), np.cos(v))
+    return x, y, z
+
+
+def _separatrix(moments: NDArray[np.float64], energy: float, n: int = 400) -> list[NDArray[np.float64]]:
+    """The two separatrix ellipses ``H^2 = 2 T I2`` on the energy ellipsoid, principal components."""
+    i1, i2, i3 = moments
+    # The separatrix lies in the planes sqrt(I1 (I2-I1)) w1 = +-sqrt(I3 (I3-I2)) w3 through the middle axis.
+    c = np.sqrt(i1 * (i2 - i1) / (i3 * (i3 - i2)))
+    th = np.linspace(0.0, 2.0 * np.pi, n)
+    w1 = np.sqrt(2.0 * energy / (i1 + i3 * c * c)) * np.cos(th)
+    w2 = np.sqrt(2.0 * energy / i2) * np.sin(th)
+    return [np.stack([w1, w2, sign * c * w1], axis=-1) for sign in (1.0, -1.0)]
+
+
+def plot_polhodes(
+    body: RigidBody | ArrayLike,
+    rate: float = 1.0,
+    *,
+    n_curves: int = 4,
+    near_middle: float = 0.03,
+    overlays: Mapping[str, ArrayLike] | None = None,
+    rate_unit: str | tuple[str, float] = "rad/s",
+    title: str | None = None,
+) -> Figure:
+    """Polhodes on the kinetic-energy ellipsoid in principal rate space.
+
+    Torque-free, the body rate ``omega`` (principal components) stays on the
+    energy ellipsoid ``I1 w1^2 + I2 w2^2 + I3 w3^2 = 2T`` and on the momentum
+    ellipsoid ``|I omega|^2 = H^2``; their intersection is the polhode. With
+    ``D = H^2 / (2T)`` in ``(I1, I3)``: ``D < I2`` gives closed loops around
+    the minor axis, ``D > I2`` loops around the major axis, and ``D = I2``
+    the separatrix, two ellipses crossing at the (unstable) middle axis.
+
+    The polhodes are drawn from the exact elliptic solution
+    (:func:`attitude.analytic.torque_free_motion`) over one period, for
+    ``n_curves`` values of ``D`` spread over each family, plus one curve on
+    each side of the separatrix (``D = I2 -+ near_middle`` of the gap to the
+    outer moment), the separatrix itself (in closed form: its planes through
+    the middle axis) and the mirror image ``-omega`` of each curve.
+
+    Parameters
+    ----------
+    body : RigidBody or array_like
+        The body (or its inertia [kg m^2]); three distinct principal moments.
+    rate : float
+        Sets the energy: ``T = I2 rate^2 / 2``, the energy of a spin of
+        ``rate`` [rad/s] about the middle axis.
+    n_curves : int
+        Polhodes per stable family.
+    near_middle : float
+        Fractional distance of the two near-separatrix polhodes, in ``(0, 1)``.
+    overlays : mapping of str to array_like (n, 3), optional
+        Rate histories in principal components [rad/s] (for example
+        simulations) drawn as dots. Each is scaled by ``sqrt(T / T_own)`` to the
+        plotted energy: Euler's equations are homogeneous in ``omega``, so a
+        scaled polhode is a polhode (the motion is only slower or faster).
+    rate_unit : str or (str, float)
+        Display unit of the rate axes (:data:`RATE_UNITS` name or pair).
+    title : str, optional
+        Figure title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Two 3-D views of the same picture: oblique, and looking down the
+        middle axis (where the separatrix appears as an X).
+    """
+    from attitude.analytic import torque_free_motion
+    from attitude.rigid_body import RigidBody
+
+    body = body if isinstance(body, RigidBody) else RigidBody(body)
+    moments = body.principal_axes().moments
+    i1, i2, i3 = (float(x) for x in moments)
+    if not (i1 < i2 < i3) or min(i2 - i1, i3 - i2) <= 1e-9 * i3:
+        raise ValueError(f"body must have three distinct principal moments, got {moments} kg m^2")
+    if not (np.isfinite(rate) and rate > 0):
+        raise ValueError(f"rate must be a positive rate [rad/s], got {rate!r}")
+    if not 0.0 < near_middle < 1.0:
+        raise ValueError(f"near_middle must be in (0, 1), got {near_middle!r}")
+    unit_label, factor = _rate_unit(rate_unit)
+    energy = 0.5 * i2 * rate**2
+    diagonal = RigidBody(moments)
+
+    def polhode(d: float) -> NDArray[np.float64]:
+        # The point of the polhode with w2 = 0 (every polhode crosses w2 = 0), then one period of the exact motion.
+        w1 = np.sqrt(2.0 * energy * (i3 - d) / (i1 * (i3 - i1)))
+        w3 = np.sqrt(2.0 * energy * (d - i1) / (i3 * (i3 - i1)))
+        motion = torque_free_motion(diagonal, [w1, 0.0, w3])
+        return motion.omega_principal(np.linspace(0.0, motion.period, 800))
+
+    fractions = np.linspace(0.15, 0.8, n_curves)
+    families = [
+        ("around the minor axis (stable)", "tab:blue", [i1 + f * (i2 - i1) for f in fractions]),
+        ("around the major axis (stable)", "tab:green", [i3 - f * (i3 - i2) for f in fractions]),
+        (
+            "near the middle axis",
+            "tab:orange",
+            [i2 - near_middle * (i2 - i1), i2 + near_middle * (i3 - i2)],
+        ),
+    ]
+    curves = [(label, color, [polhode(d) for d in ds]) for label, color, ds in families]
+    separatrix = _separatrix(moments, energy)
+    scaled_overlays = []
+    for name, values in (overlays or {}).items():
+        w = np.asarray(values, dtype=float)
+        if w.ndim != 2 or w.shape[-1] != 3:
+            raise ValueError(f"overlays[{name!r}] must have shape (n, 3), got {w.shape}")
+        own = 0.5 * float(np.sum(moments * w[0] ** 2))
+        scaled_overlays.append((name, w * np.sqrt(energy / own)))
+
+    fig = Figure(figsize=(13, 6.2), layout="constrained")
+    semi = np.sqrt(2.0 * energy / moments) * factor
+    surface = [s * factor for s in _polhode_energy_ellipsoid(moments, energy)]
+    overlay_colors = ("tab:purple", "black", "tab:brown", "tab:pink")
+    ax3 = fig.add_subplot(1, 2, 1, projection="3d")
+    ax2 = fig.add_subplot(1, 2, 2)
+    # The 3-D view draws all three components, the projection along the middle axis drops omega_2 (the picture is
+    # symmetric under omega_2 -> -omega_2, so nothing is hidden by the projection).
+    views = ((ax3, [0, 1, 2]), (ax2, [0, 2]))
+    ax3.plot_surface(*surface, color="0.85", alpha=0.18, linewidth=0, shade=False)
+    ax3.plot_wireframe(*surface, rstride=4, cstride=4, color="0.6", linewidth=0.3, alpha=0.5)
+    th = np.linspace(0.0, 2.0 * np.pi, 200)
+    ax2.fill(semi[0] * np.cos(th), semi[2] * np.sin(th), color="0.93", zorder=0)
+    ax2.plot(semi[0] * np.cos(th), semi[2] * np.sin(th), color="0.5", lw=0.8, label="outline of the energy ellipsoid")
+    for ax, comps in views:
+        for label, color, ws in curves:
+            for n, w in enumerate(ws):
+                for sign in (1.0, -1.0):
+                    name = label if n == 0 and sign > 0 and ax is ax3 else None
+                    ax.plot(*(sign * w[:, comps] * factor).T, color=color, lw=1.3, label=name)
+        for n, w in enumerate(separatrix):
+            name = r"separatrix ($H^2 = 2 T I_2$)" if n == 0 and ax is ax3 else None
+            ax.plot(*(w[:, comps] * factor).T, color="tab:red", lw=2.2, label=name)
+        for n, (name, w) in enumerate(scaled_overlays):
+            every = max(1, w.shape[0] // 400)
+            ax.plot(
+                *(w[::every, comps] * factor).T,
+                ".",
+                color=overlay_colors[n % 4],
+                ms=4,
+                label=name if ax is ax3 else None,
+                zorder=5,
+            )
+        for i in range(3):  # the six principal-axis spins: minor and major stable, middle unstable
+            point = np.zeros(3)
+            point[i] = semi[i]
+            ax.plot(
+                *np.stack([point, -point])[:, comps].T,
+                "X" if i == 1 else "o",
+                color="black",
+                ms=8,
+                mfc="white" if i == 1 else "black",
+                zorder=6,
+            )
+    ax3.view_init(elev=22, azim=-58)
+    ax3.set_box_aspect(tuple(semi), zoom=0.95)
+    ax3.set_xlabel(rf"$\omega_1$ (minor) [{unit_label}]")
+    ax3.set_ylabel(rf"$\omega_2$ (middle) [{unit_label}]")
+    ax3.set_zlabel(rf"$\omega_3$ (major) [{unit_label}]")
+    ax3.set_title("3-D view")
+    ax2.set_aspect("equal")
+    ax2.grid(True, alpha=0.3)
+    ax2.set_xlabel(rf"$\omega_1$ (minor) [{unit_label}]")
+    ax2.set_ylabel(rf"$\omega_3$ (major) [{unit_label}]")
+    ax2.set_title(r"seen along the middle axis $\omega_2$: the separatrix is an X")
+    handles = ax3.get_legend_handles_labels()[0] + ax2.get_legend_handles_labels()[0]
+    handles += [
+        Line2D([], [], ls="none", marker="o", color="black", label="stable spin axes (minor, major)"),
+        Line2D([], [], ls="none", marker="X", color="black", mfc="white", label="unstable spin axis (middle)"),
+    ]
+    fig.legend(handles=handles, loc="outside lower center", ncols=3, frameon=False)
+    fig.suptitle(
+        title or (f"Polhodes on the kinetic-energy ellipsoid, principal moments {i1:.3g}, {i2:.3g}, {i3:.3g} kg m$^2$"),
+        fontsize="large",
+    )
+    return fig
+
+
+def plot_flip(
+    t: ArrayLike,
+    omega: ArrayLike,
+    growth_rate: float,
+    *,
+    flip_period: float | None = None,
+    flip_times: ArrayLike | None = None,
+    omega_exact: ArrayLike | None = None,
+    middle: int = 1,
+    linear_limit: float = 0.05,
+    labels: Sequence[str] | None = None,
+    time_unit: str = "s",
+    rate_unit: str | tuple[str, float] = "deg/s",
+    title: str | None = None,
+) -> Figure:
+    """The middle-axis (tennis-racket, Dzhanibekov) flip.
+
+    Top: the rate components over time, with the predicted flips (sign
+    reversals of the middle-axis rate) marked. Bottom: the transverse rate
+    ``sqrt(|omega|^2 - omega_middle^2)`` on a log scale up to the first flip,
+    against ``exp(k t)`` with the predicted growth rate ``k``. The reference
+    line has the predicted slope; only its height is fitted (least squares on
+    the logarithm over the linear window: after ``4 / k``, when the decaying
+    mode ``exp(-k t)`` has died out, and while the transverse rate is below
+    ``linear_limit`` times the spin), so its slope is a test, not a fit.
+
+    Parameters
+    ----------
+    t : array_like, shape (n,)
+        Time [s].
+    omega : array_like, shape (n, 3)
+        Rates in principal components [rad/s].
+    growth_rate : float
+        Predicted growth rate ``k`` [1/s]
+        (:func:`attitude.analytic.intermediate_axis_growth_rate`).
+    flip_period : float, optional
+        Predicted time between flips [s], quoted in the legend.
+    flip_times : array_like, optional
+        Predicted flip instants [s], drawn as vertical lines.
+    omega_exact : array_like, shape (n, 3), optional
+        Closed-form rates [rad/s], drawn as open markers.
+    middle : int
+        Index of the middle-axis component.
+    linear_limit : float
+        Upper end of the linear window, as a fraction of ``|omega|``.
+    labels : sequence of str, optional
+        Names of the components (default ``omega_1..3``).
+    time_unit : {"s", "min", "h", "day"}
+        Unit of the time axis.
+    rate_unit : str or (str, float)
+        Unit of the rate axes.
+    title : str, optional
+        Figure title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    t = np.asarray(t, dtype=float)
+    w = np.asarray(omega, dtype=float)
+    if w.shape != (t.size, 3):
+        raise ValueError(f"omega must have shape (len(t)={t.size}, 3), got {w.shape}")
+    if middle not in (0, 1, 2):
+        raise ValueError(f"middle must be 0, 1 or 2, got {middle!r}")
+    if not (np.isfinite(growth_rate) and growth_rate > 0):
+        raise ValueError(f"growth_rate must be a positive rate [1/s], got {growth_rate!r}")
+    names = _component_labels(labels, 3, frame="123")
+    scale_t = _time_unit(time_unit)
+    ts = t / scale_t
+    unit_label, factor = _rate_unit(rate_unit)
+
+    fig = Figure(figsize=(11, 7.5), layout="constrained")
+    ax_w, ax_g = fig.subplots(2, 1, height_ratios=(1.3, 1))
+    for i in range(3):
+        ax_w.plot(ts, w[:, i] * factor, color=AXIS_COLORS[i], lw=1.5, label=f"{names[i]} simulation")
+    if omega_exact is not None:
+        we = np.asarray(omega_exact, dtype=float)
+        if we.shape != w.shape:
+            raise ValueError(f"omega_exact must have the shape of omega {w.shape}, got {we.shape}")
+        step = _marker_step(t.size, 120)
+        for i in range(3):
+            ax_w.plot(ts[::step], we[::step, i] * factor, "o", color=AXIS_COLORS[i], mfc="none", ms=4, mew=0.9)
+        ax_w.plot([], [], "o", color="0.3", mfc="none", label="closed form (elliptic)")
+    flips = np.array([]) if flip_times is None else np.asarray(flip_times, dtype=float)
+    for n, tf in enumerate(flips):
+        label = None
+        if n == 0:
+            every = "" if flip_period is None else f" (every {flip_period / scale_t:.4g} {time_unit})"
+            label = "predicted flip" + every
+        ax_w.axvline(tf / scale_t, color="tab:red", ls="--", lw=1.0, label=label)
+    ax_w.axhline(0.0, color="0.5", lw=0.6)
+    ax_w.set_ylabel(f"principal rate [{unit_label}]")
+    ax_w.set_xlabel(_time_label(time_unit))
+    ax_w.set_title("rates: the middle-axis rate reverses sign again and again")
+    ax_w.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+
+    spin = np.linalg.norm(w, axis=-1)
+    transverse = np.sqrt(np.maximum(spin**2 - w[:, middle] ** 2, 0.0))
+    end = flips[0] if flips.size and flips[0] > t[0] else t[-1]
+    early = t <= end
+    linear = early & (t >= t[0] + 4.0 / growth_rate) & (transverse < linear_limit * spin) & (transverse > 0)
+    ax_g.semilogy(ts[early], transverse[early] * factor, color="tab:purple", lw=1.8, label="simulation")
+    if np.count_nonzero(linear) >= 2:
+        offset = np.mean(np.log(transverse[linear]) - growth_rate * t[linear])
+        ref = np.exp(offset + growth_rate * t[early])
+        ax_g.semilogy(
+            ts[early], ref * factor, "k--", lw=1.2, label=rf"$\propto e^{{kt}}$, predicted $k$ = {growth_rate:.4g} 1/s"
+        )
+        t_lin = t[linear]
+        ax_g.axvspan(t_lin[0] / scale_t, t_lin[-1] / scale_t, color="0.9", zorder=0, label="linear window")
+        ax_g.set_ylim(transverse[early][transverse[early] > 0].min() * factor / 3, spin.max() * factor * 3)
+    ax_g.set_ylabel(f"transverse rate [{unit_label}]")
+    ax_g.set_xlabel(_time_label(time_unit))
+    ax_g.set_title("early growth of the transverse rate (log scale) up to the first flip")
+    ax_g.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+    for ax in (ax_w, ax_g):
+        ax.grid(True, alpha=0.3)
+        ax.margins(x=0)
+    fig.suptitle(textwrap.fill(title or "Middle-axis instability (tennis-racket effect)", 120), fontsize="large")
     return fig
