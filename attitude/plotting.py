@@ -19,6 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 if TYPE_CHECKING:
     from attitude.propagate import Trajectory
     from attitude.rigid_body import RigidBody
+    from attitude.simulation import SimulationResult
 
 __all__ = [
     "AXIS_COLORS",
@@ -27,6 +28,7 @@ __all__ = [
     "plot_flip",
     "plot_polhodes",
     "plot_rates_comparison",
+    "plot_simulation",
     "plot_trajectory",
 ]
 
@@ -543,4 +545,60 @@ def plot_flip(
         ax.grid(True, alpha=0.3)
         ax.margins(x=0)
     fig.suptitle(textwrap.fill(title or "Middle-axis instability (tennis-racket effect)", 120), fontsize="large")
+    return fig
+
+
+def plot_simulation(result: SimulationResult) -> Figure:
+    """The standard review figure of a closed-loop run.
+
+    Four panels: attitude error to the controller's reference [deg] on a
+    log scale, body rates [deg/s], commanded and applied body torques [mN m],
+    and wheel speeds [rpm] with their limits when wheels are present.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        Output of :func:`attitude.simulation.simulate`.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    t = result.t
+    has_wheels = result.wheel_speed.shape[-1] > 0
+    fig = Figure(figsize=(10, 10 if has_wheels else 8), layout="constrained")
+    axes = fig.subplots(4 if has_wheels else 3, 1, sharex=True)
+    err_deg = np.degrees(result.error_angle)
+    floor = 1e-6
+    axes[0].semilogy(t, np.maximum(err_deg, floor), color="black")
+    axes[0].set_ylabel("attitude error [deg]")
+    axes[0].set_title("error angle to the reference (shortest way)", fontsize=10)
+    for i, name in enumerate("xyz"):
+        axes[1].plot(t, np.degrees(result.omega[:, i]), color=AXIS_COLORS[i], label=rf"$\omega_{name}$")
+    axes[1].set_ylabel("body rate [deg/s]")
+    axes[1].legend(loc="upper right", ncols=3)
+    for i, name in enumerate("xyz"):
+        axes[2].plot(t, 1e3 * result.torque_applied[:, i], color=AXIS_COLORS[i], label=rf"applied $\tau_{name}$")
+        axes[2].plot(
+            t, 1e3 * result.torque_command[:, i], color=AXIS_COLORS[i], ls=":", label=rf"commanded $\tau_{name}$"
+        )
+    axes[2].set_ylabel("body torque [mN m]")
+    axes[2].legend(loc="upper right", ncols=3, fontsize=8)
+    if has_wheels:
+        rpm = result.wheel_speed * 60.0 / (2.0 * np.pi)
+        for i in range(rpm.shape[1]):
+            axes[3].plot(t, rpm[:, i], label=f"wheel {i + 1}")
+        limits = result.info.get("wheel_speed_limit_rpm")
+        if limits is not None:
+            for lim in np.atleast_1d(limits):
+                axes[3].axhline(lim, color="red", ls="--", lw=0.8)
+                axes[3].axhline(-lim, color="red", ls="--", lw=0.8)
+        axes[3].set_ylabel("wheel speed [rpm]")
+        axes[3].legend(loc="upper right", ncols=4, fontsize=8)
+    axes[-1].set_xlabel("time [s]")
+    for ax in axes:
+        ax.grid(True, alpha=0.3)
+    fig.suptitle(
+        f"Closed-loop simulation ({result.info.get('engine', '?')} engine, dt = {result.info.get('dt', '?')} s)"
+    )
     return fig

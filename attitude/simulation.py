@@ -300,6 +300,10 @@ def simulate(
     result = runner(
         model, controller, sensors, estimator, disturbance, q0, omega0, h_wheels0, dt, n_ticks, substeps, every, rng
     )
+    if wheels is not None:
+        result.info["wheel_speed_limit_rpm"] = (
+            wheels.momentum_max / wheels.spin_inertia * 60.0 / (2.0 * np.pi)
+        ).tolist()
     result.info.update(
         {"dt": dt, "substeps": substeps, "engine": "compiled" if use_compiled else "python"},
         wall_time_s=time.perf_counter() - start,

@@ -153,3 +153,12 @@ class TestBadInput:
         args |= kwargs
         with pytest.raises(ValueError, match=match):
             simulate(BODY, args.pop("q0"), args.pop("omega0"), args.pop("duration"), **args)
+
+
+def test_review_figure_has_the_standard_panels():
+    result = simulate(BODY, quat.identity(), np.zeros(3), 20.0, controller=pd(), wheels=WHEELS)
+    fig = result.plot()
+    labels = [ax.get_ylabel() for ax in fig.axes]
+    assert labels == ["attitude error [deg]", "body rate [deg/s]", "body torque [mN m]", "wheel speed [rpm]"]
+    # The wheel speed limits (0.8 N m s / 0.005 kg m^2 = 160 rad/s = 1528 rpm) are drawn.
+    assert result.info["wheel_speed_limit_rpm"][0] == pytest.approx(160.0 * 60 / (2 * np.pi))
