@@ -1,0 +1,399 @@
+"""Linear models of the rigid-body plant for controller design (python-control).
+
+The plant is built as a python-control nonlinear system
+(:func:`plant_nlsys`, a ``control.NonlinearIOSystem`` with named signals) and
+linearised at an operating point (:func:`linearize`), either by
+python-control's own finite differences or exactly, by casadi automatic
+differentiation of the same equations.
+
+State, inputs and outputs
+-------------------------
+The attitude is measured relative to a reference frame R: the error
+quaternion ``q_e = q_RN* ⊗ q_BN = q_BR`` (the attitude of the body relative to
+R, the convention of :func:`attitude.quaternion.error_quaternion`). The
+six states are
+
+============  ===========================================================
+``qe1..qe3``  vector part of ``q_e`` [-] (about half the error angle)
+``w1..w3``    body rate ``omega_BN_B`` [rad/s] (absolute, body components)
+============  ===========================================================
+
+with the scalar part recovered on the shortest-way branch,
+``q_e0 = sqrt(1 - |q_ev|^2) >= 0``. Inputs are the body torque
+``tau1..tau3`` [N m]; outputs are the six states (``C = I``, ``D = 0``).
+
+The equations are the one definition of :mod:`attitude.rigid_body`
+(``quaternion_rate`` and :meth:`RigidBody.omega_dot_components`): with R
+rotating at the constant rate ``omega_ref`` (R components),
+
+.. math::
+
+    \\dot q_e = \\tfrac12\\, q_e \\otimes [0, \\omega]
+               - \\tfrac12\\, [0, \\omega_{ref}] \\otimes q_e, \\qquad
+    I \\dot\\omega = \\tau - \\omega \\times I \\omega .
+
+(From ``q_e = q_RN* ⊗ q_BN`` with ``q_RN' = 0.5 q_RN ⊗ [0, omega_ref]``.)
+
+Operating points
+----------------
+* **Rest** (``omega_ref = None`` or zero): ``q_e = 1``, ``omega = 0``. The
+  model does not depend on the reference attitude ``q_RN`` (the dynamics are
+  invariant under a constant rotation of the inertial frame), so one linear
+  model serves every reference attitude:
+  ``A = [[0, I/2], [0, 0]]``, ``B = [[0], [I^-1]]``.
+* **Steady spin** (``omega_ref`` along a principal axis, body components; the
+  body frame coincides with R at the operating point, so ``omega_ref`` is
+  both ``omega_RN_R`` and the operating body rate): ``q_e = 1``,
+  ``omega = omega_ref``. Then
+
+  .. math::
+
+      A = \\begin{bmatrix} -[\\omega_{ref}\\times] & \\tfrac12 I_3 \\\\
+                           0 & I^{-1}([I\\omega_{ref}\\times] - [\\omega_{ref}\\times] I)
+          \\end{bmatrix}
+
+  is block upper-triangular. The **rate block** ``A[3:, 3:]`` carries the
+  torque-free physics (nutation ``+-i sqrt((I3-I1)(I3-I2)/(I1 I2)) w3`` and 0
+  for a spin about the major or minor axis, the real pair ``+-k`` of
+  :func:`attitude.analytic.intermediate_axis_growth_rate` about the middle
+  axis); the **attitude block** ``A[:3, :3] = -[omega_ref x]`` adds ``0`` and
+  ``+-i |omega_ref|``: a tilt of the body relative to R is carried round once
+  per revolution of R. :func:`rate_block_eigenvalues` returns the first set.
+
+A linear state deviation is ``[q_ev, omega - omega_ref]``; a controller
+designed on the model feeds back exactly that (:mod:`controllers.lqr`).
+
+Why six states, not seven
+-------------------------
+On the unit sphere ``q_e0`` is a function of ``q_ev``; carrying all four
+quaternion components adds a direction (the norm) that the dynamics cannot
+move. Precisely: ``|q|^2`` is a first integral of ``q' = 0.5 q ⊗ [0, omega]``
+for every ``omega`` and torque, so at a rest operating point ``q*`` the
+7-state Jacobian ``(A7, B7)`` (of ``x = [q, omega]``) has the left eigenvector
+``w = [q*, 0]`` with ``w^T A7 = 0`` and ``w^T B7 = 0``. By the
+Popov-Belevitch-Hautus test the mode at eigenvalue 0 is uncontrollable (the
+controllability matrix has rank 6) and, being on the imaginary axis, not
+stabilisable: the continuous Riccati equation has no stabilising solution.
+``control.lqr`` then either fails ("Failed to find a finite solution") or,
+when ``Q`` does not weight that direction, silently returns a gain that leaves
+a closed-loop pole at exactly 0 (``tests/test_linearize.py`` shows both). The
+6-state chart is valid for error angles below 180 degrees (at 180 degrees
+``q_e0 = 0`` and the square root is not differentiable).
+
+Finite differences versus the exact Jacobian
+---------------------------------------------
+``control.linearize`` uses one-sided differences with step ``eps = 1e-6``:
+column ``i`` of ``A`` carries the truncation error ``eps/2 d^2f/dx_i^2``,
+about 1e-7 relative for this plant (Euler's equations are quadratic in
+``omega`` and ``q_e0`` is curved in ``q_ev``). ``method="exact"`` takes
+``casadi.jacobian`` of the same component equations evaluated on ``SX``
+symbols, which is exact to rounding; a test shows the two differ by exactly
+the predicted truncation term.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import casadi as ca
+import control
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from attitude import backend as bk
+from attitude._validation import check_vector, describe
+from attitude.integrators import quaternion_multiply_components
+from attitude.rigid_body import Components, RigidBody, quaternion_rate
+
+__all__ = [
+    "INPUT_NAMES",
+    "OUTPUT_NAMES",
+    "SPIN_AXIS_TOLERANCE",
+    "STATE_NAMES",
+    "error_state_derivative_components",
+    "linearize",
+    "plant_nlsys",
+    "principal_spin",
+    "rate_block_eigenvalues",
+]
+
+#: State names: error-quaternion vector part [-] and body rate [rad/s].
+STATE_NAMES = ("qe1", "qe2", "qe3", "w1", "w2", "w3")
+#: Input names: body torque [N m].
+INPUT_NAMES = ("tau1", "tau2", "tau3")
+#: Output names: the states themselves (``C = I``).
+OUTPUT_NAMES = STATE_NAMES
+
+#: Largest accepted ``|omega x I omega| / (max|I| |omega|^2)`` for a steady
+#: spin. A principal axis computed by ``numpy.linalg.eigh`` is accurate to
+#: ~1e-15; 1e-9 accepts such axes (and typed-in ones with ~9 digits) while
+#: rejecting a spin that is visibly off-axis, about which there is no
+#: equilibrium to linearise.
+SPIN_AXIS_TOLERANCE = 1e-9
+
+_METHODS = ("exact", "finite-difference")
+_SPIN_AXES = {"minor": 1, "intermediate": 2, "middle": 2, "major": 3}
+
+
+def _single_body(body: Any) -> RigidBody:
+    if not isinstance(body, RigidBody):
+        raise ValueError(f"body must be a RigidBody, got {type(body).__name__}")
+    if body.batch_shape:
+        raise ValueError(f"body must be a single RigidBody, not a batch of shape {body.batch_shape}")
+    return body
+
+
+def _omega_ref(body: RigidBody, omega_ref: ArrayLike | None) -> NDArray[np.float64]:
+    """Validate a steady-spin rate (body components) [rad/s]; None means rest."""
+    if omega_ref is None:
+        return np.zeros(3)
+    w = check_vector(omega_ref, "omega_ref", 3)
+    if w.shape != (3,):
+        raise ValueError(f"omega_ref must have shape (3,) [rad/s], got shape {w.shape}")
+    inertia = body.inertia
+    gyro = np.cross(w, inertia @ w)
+    scale = np.max(np.abs(inertia)) * float(w @ w)
+    if np.linalg.norm(gyro) > SPIN_AXIS_TOLERANCE * scale:
+        raise ValueError(
+            "omega_ref must lie along a principal axis of the body (a steady spin, omega x I omega = 0 to "
+            f"{SPIN_AXIS_TOLERANCE:g} relative); omega_ref = {describe(w)} rad/s gives "
+            f"|omega x I omega| = {np.linalg.norm(gyro):.3g} N m (relative {np.linalg.norm(gyro) / scale:.3g}); "
+            "use principal_spin(body, axis, rate)"
+        )
+    return w
+
+
+def principal_spin(body: RigidBody, axis: int | str, rate: float) -> NDArray[np.float64]:
+    """Body rate of a steady spin about a principal axis.
+
+    Parameters
+    ----------
+    body : RigidBody
+        A single rigid body (diagonal or full inertia tensor) [kg m^2].
+    axis : {1, 2, 3, "minor", "middle", "intermediate", "major"}
+        Principal axis, numbered as :meth:`RigidBody.principal_axes` sorts the
+        moments (``I1 <= I2 <= I3``: 1 minor, 2 middle, 3 major).
+    rate : float
+        Spin rate [rad/s] (its sign chooses the direction).
+
+    Returns
+    -------
+    ndarray, shape (3,)
+        ``omega_ref`` in body components [rad/s]: ``rate`` times the unit
+        principal axis, signed so that its largest body component is positive.
+
+    Raises
+    ------
+    ValueError
+        If ``axis`` is not one of the names above or ``rate`` is not finite.
+    """
+    body = _single_body(body)
+    key = axis.lower() if isinstance(axis, str) else axis
+    index = _SPIN_AXES.get(key) if isinstance(key, str) else key
+    if isinstance(index, bool) or index not in (1, 2, 3):
+        raise ValueError(f"axis must be 1, 2, 3 or one of {sorted(_SPIN_AXES)}, got {axis!r}")
+    rate_arr = check_vector(np.atleast_1d(rate), "rate", 1)
+    if rate_arr.shape != (1,):
+        raise ValueError(f"rate must be a scalar [rad/s], got shape {np.shape(rate)}")
+    direction = body.principal_axes().axes_B[:, index - 1]
+    direction = direction * np.sign(direction[np.argmax(np.abs(direction))])
+    return float(rate_arr[0]) * direction
+
+
+def error_state_derivative_components(
+    body: RigidBody, x: Components, torque: Components, omega_ref: ArrayLike | None = None
+) -> Components:
+    """Time derivative of the 6-state error model on components (numpy or casadi).
+
+    Parameters
+    ----------
+    body : RigidBody
+        A single rigid body [kg m^2].
+    x : list of 6 numpy arrays or casadi scalars
+        ``[qe1, qe2, qe3, w1, w2, w3]``: error-quaternion vector part [-] and
+        body rate ``omega_BN_B`` [rad/s].
+    torque : list of 3
+        Body torque [N m].
+    omega_ref : array_like (3,), optional
+        Constant rate of the reference frame in its own components [rad/s]
+        (not checked here; zero when None).
+
+    Returns
+    -------
+    list of 6
+        ``[q_ev', omega']`` from the one definition (module docstring).
+    """
+    qv = list(x[:3])
+    w = list(x[3:6])
+    q0 = bk.sqrt(1.0 - (qv[0] * qv[0] + qv[1] * qv[1] + qv[2] * qv[2]))
+    q_e = [q0, *qv]
+    q_dot = quaternion_rate(q_e, w)
+    if omega_ref is not None:
+        w_r = [float(v) for v in np.asarray(omega_ref, dtype=float).reshape(3)]
+        if any(v != 0.0 for v in w_r):
+            left = quaternion_multiply_components([0.0, *w_r], q_e)
+            q_dot = [a - 0.5 * b for a, b in zip(q_dot, left)]
+    return q_dot[1:] + body.omega_dot_components(w, torque)
+
+
+def plant_nlsys(
+    body: RigidBody, *, omega_ref: ArrayLike | None = None, name: str = "attitude_plant"
+) -> control.NonlinearIOSystem:
+    """The rigid-body plant as a python-control nonlinear system (6 states).
+
+    Parameters
+    ----------
+    body : RigidBody
+        A single rigid body [kg m^2].
+    omega_ref : array_like (3,), optional
+        Rate of the reference frame R [rad/s], along a principal axis of the
+        body (a steady spin); None (default) for a reference at rest.
+    name : str
+        System name.
+
+    Returns
+    -------
+    control.NonlinearIOSystem
+        States :data:`STATE_NAMES` (``q_ev`` [-], ``omega_BN_B`` [rad/s]),
+        inputs :data:`INPUT_NAMES` (body torque [N m]), outputs the states.
+        The update function evaluates :func:`error_state_derivative_components`
+        on numpy; it raises ``ValueError`` if ``|q_ev| > 1`` (outside the
+        shortest-way chart). Operating point: ``x = [0, 0, 0, omega_ref]``,
+        ``u = 0``.
+
+    Raises
+    ------
+    ValueError
+        If ``body`` is not a single RigidBody or ``omega_ref`` is not a
+        steady spin about a principal axis.
+    """
+    body = _single_body(body)
+    w_ref = _omega_ref(body, omega_ref)
+
+    def update(t: float, x: NDArray[np.float64], u: NDArray[np.float64], params: Any) -> NDArray[np.float64]:
+        x = np.asarray(x, dtype=float).reshape(6)
+        u = np.asarray(u, dtype=float).reshape(3)
+        norm2 = float(x[:3] @ x[:3])
+        if norm2 > 1.0:
+            raise ValueError(
+                f"state qe must satisfy |q_ev| <= 1 (shortest-way chart q_e0 = sqrt(1 - |q_ev|^2)); "
+                f"got |q_ev| = {np.sqrt(norm2):.6g} at t = {float(t):.6g} s"
+            )
+        return np.array(error_state_derivative_components(body, list(x), list(u), w_ref), dtype=float)
+
+    return control.nlsys(
+        update,
+        None,
+        states=list(STATE_NAMES),
+        inputs=list(INPUT_NAMES),
+        outputs=list(OUTPUT_NAMES),
+        name=name,
+    )
+
+
+def _exact_jacobians(body: RigidBody, w_ref: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
+    x = ca.SX.sym("x", 6)
+    u = ca.SX.sym("tau", 3)
+    xc = [x[i] for i in range(6)]
+    uc = [u[i] for i in range(3)]
+    f = ca.vertcat(*error_state_derivative_components(body, xc, uc, w_ref))
+    jac = ca.Function("error_model_jacobian", [x, u], [ca.jacobian(f, x), ca.jacobian(f, u)])
+    a, b = jac(np.concatenate([np.zeros(3), w_ref]), np.zeros(3))
+    # + 0.0 turns the -0.0 entries of structurally non-zero terms into 0.0 (cosmetic).
+    return np.array(a.full()) + 0.0, np.array(b.full()) + 0.0
+
+
+def linearize(
+    body: RigidBody,
+    *,
+    omega_ref: ArrayLike | None = None,
+    method: str = "exact",
+    eps: float = 1e-6,
+    name: str = "attitude_plant",
+) -> control.StateSpace:
+    """Linear model of the plant at rest or in steady spin about a principal axis.
+
+    Parameters
+    ----------
+    body : RigidBody
+        A single rigid body (diagonal or full inertia tensor) [kg m^2].
+    omega_ref : array_like (3,), optional
+        Steady spin rate in body components [rad/s], along a principal axis
+        (see :func:`principal_spin`); None (default) linearises at rest, which
+        is the same model for every reference attitude.
+    method : {"exact", "finite-difference"}
+        "exact": casadi Jacobian of the component equations (exact to
+        rounding). "finite-difference": ``control.linearize`` of
+        :func:`plant_nlsys` (one-sided differences, ~1e-7 relative error).
+    eps : float
+        Finite-difference step (only for "finite-difference") [-, rad/s].
+    name : str
+        Name of the nonlinear plant; the result is named ``name + "$linearized"``.
+
+    Returns
+    -------
+    control.StateSpace
+        Continuous-time model in the deviation ``[q_ev, omega - omega_ref]``
+        from the operating point, states :data:`STATE_NAMES`, inputs
+        :data:`INPUT_NAMES` [N m], outputs :data:`OUTPUT_NAMES` (``C = I``,
+        ``D = 0``).
+
+    Raises
+    ------
+    ValueError
+        Bad ``body``, ``omega_ref`` off a principal axis, unknown ``method``
+        or non-positive ``eps``.
+
+    Examples
+    --------
+    >>> body = RigidBody([10.0, 12.0, 8.0])
+    >>> sys = linearize(body)
+    >>> sys.A[:3, 3:]
+    array([[0.5, 0. , 0. ],
+           [0. , 0.5, 0. ],
+           [0. , 0. , 0.5]])
+    """
+    body = _single_body(body)
+    if method not in _METHODS:
+        raise ValueError(f"method must be one of {_METHODS}, got {method!r}")
+    if not (np.isfinite(eps) and eps > 0):
+        raise ValueError(f"eps must be a finite positive step, got {eps!r}")
+    w_ref = _omega_ref(body, omega_ref)
+    lin_name = f"{name}$linearized"
+    if method == "finite-difference":
+        plant = plant_nlsys(body, omega_ref=w_ref, name=name)
+        # copy_names=True: python-control's default (False) drops every signal name.
+        return control.linearize(
+            plant, np.concatenate([np.zeros(3), w_ref]), np.zeros(3), eps=eps, copy_names=True, name=lin_name
+        )
+    a, b = _exact_jacobians(body, w_ref)
+    return control.ss(
+        a,
+        b,
+        np.eye(6),
+        np.zeros((6, 3)),
+        states=list(STATE_NAMES),
+        inputs=list(INPUT_NAMES),
+        outputs=list(OUTPUT_NAMES),
+        name=lin_name,
+    )
+
+
+def rate_block_eigenvalues(sys: control.StateSpace) -> NDArray[np.complex128]:
+    """Eigenvalues of the rate block ``A[3:, 3:]`` (Euler's equations) [1/s].
+
+    For a model from :func:`linearize` the matrix is block upper-triangular,
+    so these are exactly the eigenvalues of ``A`` that belong to the body
+    rates (nutation, middle-axis growth, and 0 along the spin axis), sorted by
+    imaginary then real part; the remaining three (``0, +-i |omega_ref|``) are
+    those of the attitude block ``A[:3, :3]``.
+
+    Raises
+    ------
+    ValueError
+        If ``sys`` does not have the 6 states of :func:`linearize`.
+    """
+    if not isinstance(sys, control.StateSpace) or sys.nstates != 6:
+        raise ValueError(f"sys must be a 6-state StateSpace from linearize(), got {sys!r}")
+    eig = np.linalg.eigvals(np.asarray(sys.A)[3:, 3:])
+    return eig[np.lexsort((eig.real, eig.imag))]
