@@ -295,6 +295,9 @@ def simulate(
             "no sensors or estimator, and a constant (or no) disturbance"
         )
     use_compiled = compiled_ok and engine != "python"
+    for s in sensors:
+        if hasattr(s, "reset"):
+            s.reset()  # a sensor carries state (e.g. gyro bias) from run to run otherwise
     start = time.perf_counter()
     runner = _run_compiled if use_compiled else _run_python
     result = runner(
@@ -506,6 +509,8 @@ def _run_python(model, controller, sensors, estimator, disturbance, q0, omega0, 
             if v is not None:
                 arr[i, : v.size] = v
         packed[key] = arr
+    for s in sensors:  # a sensor that never sampled (e.g. blinded) still gets its column
+        packed.setdefault(f"sensor.{s.name}", np.full((n_ticks + 1, 0), np.nan))
     if model.wheels is None:
         u_all = np.zeros((n_ticks + 1, 0))
     return _finish(model, t, x_all, tau_c_all, tau_a_all, u_all, err, est_q, est_w, packed)

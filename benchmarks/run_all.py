@@ -14,7 +14,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from benchmarks import bench_closed_loop, bench_propagation  # noqa: E402
+from benchmarks import bench_closed_loop, bench_propagation
 
 SUITES = {"propagation": bench_propagation.run, "closed_loop": bench_closed_loop.run}
 

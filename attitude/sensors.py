@@ -1,0 +1,960 @@
+"""Attitude sensors: a rate-integrating gyro (Farrenkopf model) and a star tracker.
+
+Both meet the sensor protocol of :mod:`attitude.simulation`: a ``name``, a
+``period`` [s] and ``measure(t, truth, rng)`` returning an array, or None when
+the sensor has nothing to report. Everything inside is SI (rad, rad/s, s);
+datasheet units (deg/sqrt(h), deg/h, deg/h/sqrt(h), ppm, arcsec) appear only
+in the ``from_datasheet`` constructors and the converters below, whose
+argument names carry the unit.
+
+Gyro model
+----------
+The continuous Farrenkopf model (Farrenkopf, "Analytic steady-state accuracy
+solutions for two common spacecraft attitude estimators", J. Guidance and
+Control 1(4), 1978; Crassidis and Junkins, *Optimal Estimation of Dynamic
+Systems*, 2nd ed., sec. 7.2.1) of each gyro axis is
+
+.. math::
+
+    \\tilde\\omega(t) = \\omega(t) + \\beta(t) + \\eta_v(t), \\qquad
+    \\dot\\beta(t) = \\eta_u(t),
+
+with independent zero-mean white noises of spectral densities
+``sigma_v**2`` (angle random walk, ARW, [rad^2/s]) and ``sigma_u**2`` (rate
+random walk, RRW, [rad^2/s^3]). A digital gyro reports the *average* of
+``omega_tilde`` over each sample interval ``dt`` (what the integrated angle
+increment divided by ``dt`` gives). Averaging the model exactly over
+``[t_k, t_k + dt]`` gives (Crassidis and Junkins, sec. 7.2.1, the discrete
+gyro simulation model)
+
+.. math::
+
+    \\beta_{k+1} = \\beta_k + \\sigma_u \\sqrt{dt}\\, N_u, \\qquad
+    \\tilde\\omega_{k+1} = \\omega_{k+1} + \\tfrac12(\\beta_{k+1} + \\beta_k)
+        + \\sqrt{\\sigma_v^2/dt + \\sigma_u^2\\, dt / 12}\\; N_v,
+
+with ``N_u``, ``N_v`` independent standard normal vectors, independent from
+step to step. This is not an Euler approximation: the mean of a Brownian
+motion over an interval, given its end points, is the mid-point average plus
+an independent Brownian-bridge term of variance ``sigma_u**2 dt / 12``, and
+the mean of the white noise has variance ``sigma_v**2 / dt``. The sampled
+sequence therefore has exactly the Allan variance of the continuous model at
+every ``tau = m dt``: ``sigma_v**2 / tau + sigma_u**2 tau / 3``.
+
+Deterministic errors act on the true rate before the noise is added, then the
+output is quantised and saturated::
+
+    raw  = (I + S + M) omega_BN_B + beta + noise
+    out  = clip(LSB * round(raw / LSB), -saturation, +saturation)
+
+``S = diag(scale_factor)`` (dimensionless, e.g. 1e-3 for 1000 ppm), ``M`` the
+axis misalignment / non-orthogonality with zero diagonal (``M[i, j]`` is the
+sensitivity of gyro axis ``i`` to body rate ``j``). A misalignment given as a
+small rotation vector ``theta`` [rad] (the gyro triad rotated by ``theta``
+from the body axes) is ``M = -[theta x]``, the first-order part of
+``C(theta)^T``. Quantisation acts on the reported rate (a gyro that reports
+integrated angle increments carries its quantisation residue over to the
+next sample; that is not modelled). Quantising before clipping keeps every
+output within ``+-saturation``.
+
+The true rate used is the engine's instantaneous rate at the sample time
+(the engine hands sensors the state at ``t``); the average of the true rate
+over the interval differs from it by ``O(dt * d omega/dt)``.
+
+Star tracker model
+------------------
+The tracker reports the attitude ``q_meas = q_BN ⊗ dq``, where ``dq`` is the
+rotation vector ``C_BS [s_c N_1, s_c N_2, s_r N_3]`` [rad]: independent
+Gaussian errors about the two cross-boresight axes (standard deviation
+``s_c``) and about the boresight (``s_r``, the roll, usually several times
+larger because a star pattern near the boresight constrains roll only through
+the short lever arm of the field of view), expressed in the sensor frame S
+whose third axis is the boresight and rotated into body axes by ``C_BS``.
+The error rotation vector ``to_rotation_vector(q_BN* ⊗ q_meas)`` in body
+axes therefore has covariance :attr:`StarTracker.covariance_B`
+``= s_c**2 I + (s_r**2 - s_c**2) b b^T`` (``b`` the boresight), the measurement
+noise an MEKF with the body-frame error convention ``q = q_est ⊗ dq`` needs.
+With a Sun direction and an exclusion half-angle, no measurement is made
+(``measure`` returns None) while the Sun is strictly inside the cone of that
+half-angle about the boresight.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from attitude import quaternion as quat
+from attitude._validation import as_float_array, check_positive, check_vector, describe
+from attitude.rng import as_generator
+
+__all__ = [
+    "ARCSEC",
+    "BIAS_INSTABILITY_FLOOR_FACTOR",
+    "GYRO_PRESETS",
+    "STAR_TRACKER_PRESETS",
+    "Gyro",
+    "StarTracker",
+    "arw_from_sigma_v",
+    "arw_to_sigma_v",
+    "bias_instability_to_sigma_u",
+    "deg_per_h_to_rad_per_s",
+    "rrw_from_sigma_u",
+    "rrw_to_sigma_u",
+]
+
+#: One arcsecond [rad].
+ARCSEC = np.pi / (180.0 * 3600.0)
+
+_DEG = np.pi / 180.0
+_HOUR = 3600.0  # [s]
+_SQRT_HOUR = 60.0  # sqrt(3600 s) [s^0.5]
+
+#: Ratio of the flicker (bias-instability) floor of the Allan deviation to the
+#: bias-instability coefficient B: ``sqrt(2 ln 2 / pi) = 0.6643`` (IEEE Std
+#: 952-1997, Annex C: the flicker floor of the Allan variance is
+#: ``2 ln(2) B^2 / pi``).
+BIAS_INSTABILITY_FLOOR_FACTOR = float(np.sqrt(2.0 * np.log(2.0) / np.pi))
+
+
+# ---------------------------------------------------------------------------
+# Datasheet converters
+
+
+def arw_to_sigma_v(arw_deg_per_sqrt_h: float) -> float:
+    """Angle random walk [deg/sqrt(h)] to the ARW density ``sigma_v`` [rad/s^0.5].
+
+    ``sigma_v = ARW * (pi / 180) / 60``, because ``sqrt(1 h) = 60 sqrt(s)``.
+    Example: 0.15 deg/sqrt(h) = 4.363e-5 rad/s^0.5. (A noise density quoted
+    in deg/s/sqrt(Hz) is ARW/60 in these units: multiply it by 60 to get
+    deg/sqrt(h).)
+    """
+    return float(check_positive(arw_deg_per_sqrt_h, "arw_deg_per_sqrt_h", allow_zero=True)) * _DEG / _SQRT_HOUR
+
+
+def arw_from_sigma_v(sigma_v: float) -> float:
+    """Inverse of :func:`arw_to_sigma_v`: ``sigma_v`` [rad/s^0.5] to ARW [deg/sqrt(h)]."""
+    return float(check_positive(sigma_v, "sigma_v", allow_zero=True)) * _SQRT_HOUR / _DEG
+
+
+def rrw_to_sigma_u(rrw_deg_per_h_per_sqrt_h: float) -> float:
+    """Rate random walk [deg/h/sqrt(h)] to the RRW density ``sigma_u`` [rad/s^1.5].
+
+    ``sigma_u = RRW * (pi / 180) / 3600 / 60`` (deg -> rad, per hour -> per
+    second, per sqrt(h) -> per sqrt(s)). Example: 1 deg/h/sqrt(h) =
+    8.080e-8 rad/s^1.5.
+    """
+    value = float(check_positive(rrw_deg_per_h_per_sqrt_h, "rrw_deg_per_h_per_sqrt_h", allow_zero=True))
+    return value * _DEG / _HOUR / _SQRT_HOUR
+
+
+def rrw_from_sigma_u(sigma_u: float) -> float:
+    """Inverse of :func:`rrw_to_sigma_u`: ``sigma_u`` [rad/s^1.5] to RRW [deg/h/sqrt(h)]."""
+    return float(check_positive(sigma_u, "sigma_u", allow_zero=True)) * _HOUR * _SQRT_HOUR / _DEG
+
+
+def deg_per_h_to_rad_per_s(value_deg_per_h: ArrayLike) -> NDArray[np.float64]:
+    """A rate or bias [deg/h] in rad/s: ``* (pi / 180) / 3600``."""
+    return as_float_array(value_deg_per_h, "value_deg_per_h") * _DEG / _HOUR
+
+
+def bias_instability_to_sigma_u(bias_instability_deg_per_h: float, correlation_time_s: float) -> float:
+    """An *approximate* rate random walk ``sigma_u`` [rad/s^1.5] from a bias instability.
+
+    The Farrenkopf model has no flicker (1/f) noise, which is what a
+    datasheet's bias instability ``B`` describes. This returns the rate
+    random walk whose Allan deviation line ``sigma_u sqrt(tau / 3)`` reaches
+    the flicker floor ``0.664 B`` (:data:`BIAS_INSTABILITY_FLOOR_FACTOR`,
+    IEEE Std 952-1997 Annex C) at ``tau = correlation_time_s``:
+
+    ``sigma_u = 0.664 B sqrt(3 / tau_c) = B sqrt(6 ln 2 / (pi tau_c))``
+
+    with ``B`` in rad/s. It is an approximation in both directions: below
+    ``tau_c`` the random walk has less instability than the real sensor,
+    above it the random walk keeps growing while the real bias wanders near
+    its floor, so long runs (>> ``tau_c``) over-state the bias drift. Take
+    ``tau_c`` from the sensor's Allan-deviation plot (the averaging time at
+    its minimum); prefer a measured or published RRW when there is one.
+
+    Parameters
+    ----------
+    bias_instability_deg_per_h : float
+        Bias instability ``B`` [deg/h] (the Allan floor divided by 0.664, as
+        IEEE 952 defines it; most datasheets quote it so).
+    correlation_time_s : float
+        Averaging time ``tau_c`` [s] at which the Allan deviation reaches its floor.
+    """
+    b = float(check_positive(bias_instability_deg_per_h, "bias_instability_deg_per_h")) * _DEG / _HOUR
+    tau = float(check_positive(correlation_time_s, "bias_instability_time_s"))
+    return BIAS_INSTABILITY_FLOOR_FACTOR * b * np.sqrt(3.0 / tau)
+
+
+# ---------------------------------------------------------------------------
+# Validation helpers
+
+
+def _nonnegative_scalar(value: Any, name: str) -> float:
+    arr = check_positive(value, name, allow_zero=True)
+    if arr.ndim != 0:
+        raise ValueError(f"{name} must be a scalar, got shape {arr.shape}")
+    return float(arr)
+
+
+def _positive_scalar(value: Any, name: str) -> float:
+    arr = check_positive(value, name)
+    if arr.ndim != 0:
+        raise ValueError(f"{name} must be a scalar, got shape {arr.shape}")
+    return float(arr)
+
+
+def _per_axis(value: ArrayLike, name: str) -> NDArray[np.float64]:
+    arr = as_float_array(value, name)
+    if arr.ndim > 1 or (arr.ndim == 1 and arr.size != 3):
+        raise ValueError(f"{name} must be a scalar or have shape (3,), got shape {arr.shape}")
+    out = np.array(np.broadcast_to(arr, (3,)), dtype=np.float64)
+    out.flags.writeable = False
+    return out
+
+
+def _unit_vector(value: ArrayLike, name: str) -> NDArray[np.float64]:
+    arr = check_vector(value, name, 3)
+    if arr.shape != (3,):
+        raise ValueError(f"{name} must have shape (3,), got shape {arr.shape}")
+    n = float(np.linalg.norm(arr))
+    if n == 0.0:
+        raise ValueError(f"{name} must be a non-zero vector (it is normalised), got {describe(arr)}")
+    return arr / n
+
+
+def _skew(v: NDArray[np.float64]) -> NDArray[np.float64]:
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def _misalignment_matrix(value: ArrayLike) -> NDArray[np.float64]:
+    arr = as_float_array(value, "misalignment")
+    if arr.shape == (3,):
+        return -_skew(arr)
+    if arr.shape == (3, 3):
+        if np.any(np.diag(arr) != 0.0):
+            raise ValueError(
+                "misalignment as a (3, 3) matrix must have a zero diagonal (the diagonal is the "
+                f"scale_factor), got diagonal {describe(np.diag(arr))}"
+            )
+        return arr.copy()
+    raise ValueError(
+        f"misalignment must be a small rotation vector (3,) [rad] or a (3, 3) matrix with zero diagonal, "
+        f"got shape {arr.shape}"
+    )
+
+
+# ---------------------------------------------------------------------------
+# Gyro
+
+
+class Gyro:
+    """A three-axis rate gyro: Farrenkopf noise, bias, scale factor, misalignment, quantisation, saturation.
+
+    The model and its exact discrete-time sampling are described in the
+    module docstring. The object is a sensor for
+    :func:`attitude.simulation.simulate`; it carries state (the current bias
+    and the time of the previous sample), so call :meth:`reset` (or build a
+    new gyro) before reusing it in another run. :meth:`sample_errors` and
+    :meth:`measure_history` are pure vectorised paths that share the same
+    code and random-number layout.
+
+    Parameters
+    ----------
+    sigma_v : float
+        Angle-random-walk density [rad/s^0.5] (>= 0; 0 only for tests of the
+        deterministic errors).
+    sigma_u : float
+        Rate-random-walk density driving the bias [rad/s^1.5] (>= 0; 0 gives
+        a constant bias).
+    period : float
+        Sample period [s] (> 0); the engine samples at multiples of its tick.
+    bias : array_like (3,) or float
+        Bias at the first sample [rad/s] (the constant part of the bias; a
+        Monte Carlo draws it from the turn-on bias repeatability).
+    scale_factor : array_like (3,) or float
+        Scale-factor errors (dimensionless, e.g. 1e-3 = 1000 ppm), each > -1.
+    misalignment : array_like (3,) or (3, 3)
+        Small rotation vector [rad] of the gyro triad from the body axes, or
+        the matrix ``M`` (zero diagonal) of cross-axis sensitivities.
+    quantization : float
+        Output resolution [rad/s per LSB] (0: none).
+    saturation : float
+        Largest reported rate magnitude per axis [rad/s] (inf: none).
+    name : str
+        Sensor name (key in the estimator's measurements and the logs).
+
+    Raises
+    ------
+    ValueError
+        For negative or non-finite noise figures, a period <= 0, a
+        saturation <= 0 or NaN, a scale factor <= -1, a misalignment of the
+        wrong shape or with a non-zero diagonal.
+    """
+
+    def __init__(
+        self,
+        sigma_v: float,
+        sigma_u: float = 0.0,
+        *,
+        period: float,
+        bias: ArrayLike = 0.0,
+        scale_factor: ArrayLike = 0.0,
+        misalignment: ArrayLike = (0.0, 0.0, 0.0),
+        quantization: float = 0.0,
+        saturation: float = np.inf,
+        name: str = "gyro",
+    ) -> None:
+        self.sigma_v = _nonnegative_scalar(sigma_v, "sigma_v")
+        self.sigma_u = _nonnegative_scalar(sigma_u, "sigma_u")
+        self.period = _positive_scalar(period, "period")
+        self.initial_bias = _per_axis(bias, "bias")
+        self.scale_factor = _per_axis(scale_factor, "scale_factor")
+        if np.any(self.scale_factor <= -1.0):
+            raise ValueError(f"scale_factor must be > -1 on every axis (a positive gain), got {self.scale_factor}")
+        self.misalignment = _misalignment_matrix(misalignment)
+        self.misalignment.flags.writeable = False
+        self.quantization = _nonnegative_scalar(quantization, "quantization")
+        sat = as_float_array(saturation, "saturation", allow_nonfinite=True)
+        if sat.ndim != 0 or np.isnan(sat) or sat <= 0:
+            raise ValueError(f"saturation must be a positive scalar rate [rad/s] or inf, got {describe(sat)}")
+        self.saturation = float(sat)
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"name must be a non-empty string, got {name!r}")
+        self.name = name
+        transfer = np.eye(3) + np.diag(self.scale_factor) + self.misalignment
+        transfer.flags.writeable = False
+        #: ``I + S + M``: maps the true body rate to the noise-free gyro output.
+        self.transfer_matrix = transfer
+        self.reset()
+
+    def __repr__(self) -> str:
+        return (
+            f"Gyro(name={self.name!r}, sigma_v={self.sigma_v:.4g} rad/s^0.5 "
+            f"({arw_from_sigma_v(self.sigma_v):.4g} deg/sqrt(h)), sigma_u={self.sigma_u:.4g} rad/s^1.5, "
+            f"period={self.period:g} s)"
+        )
+
+    # -- construction from datasheets -------------------------------------------------
+
+    @classmethod
+    def from_datasheet(
+        cls,
+        arw_deg_per_sqrt_h: float,
+        *,
+        period: float,
+        rrw_deg_per_h_per_sqrt_h: float | None = None,
+        bias_instability_deg_per_h: float | None = None,
+        bias_instability_time_s: float | None = None,
+        bias_deg_per_h: ArrayLike = 0.0,
+        scale_factor_ppm: ArrayLike = 0.0,
+        misalignment_rad: ArrayLike = (0.0, 0.0, 0.0),
+        quantization_deg_per_s: float = 0.0,
+        saturation_deg_per_s: float = np.inf,
+        name: str = "gyro",
+    ) -> Gyro:
+        """Build a gyro from datasheet figures.
+
+        Conversions (see the module-level converters):
+
+        - ``sigma_v [rad/s^0.5] = ARW [deg/sqrt(h)] * (pi/180) / 60``
+          (:func:`arw_to_sigma_v`);
+        - ``sigma_u [rad/s^1.5] = RRW [deg/h/sqrt(h)] * (pi/180) / 3600 / 60``
+          (:func:`rrw_to_sigma_u`);
+        - with only a bias instability ``B`` [deg/h]: the approximation of
+          :func:`bias_instability_to_sigma_u`, which needs the averaging time
+          ``bias_instability_time_s`` at the Allan-deviation floor;
+        - biases ``[deg/h] * (pi/180) / 3600``; scale factor ``ppm * 1e-6``;
+          rates ``[deg/s] * pi/180``.
+
+        Parameters
+        ----------
+        arw_deg_per_sqrt_h : float
+            Angle random walk [deg/sqrt(h)] (> 0).
+        period : float
+            Sample period [s].
+        rrw_deg_per_h_per_sqrt_h : float, optional
+            Rate random walk [deg/h/sqrt(h)].
+        bias_instability_deg_per_h : float, optional
+            Bias instability [deg/h]; used only without an RRW figure.
+        bias_instability_time_s : float, optional
+            Averaging time [s] at which the Allan deviation reaches the
+            bias-instability floor; required with ``bias_instability_deg_per_h``.
+        bias_deg_per_h : float or array_like (3,)
+            Constant bias [deg/h].
+        scale_factor_ppm : float or array_like (3,)
+            Scale-factor error [ppm].
+        misalignment_rad : array_like (3,) or (3, 3)
+            See the class parameters [rad].
+        quantization_deg_per_s : float
+            Output resolution [deg/s per LSB] (0: none).
+        saturation_deg_per_s : float
+            Measurement range [deg/s] (inf: none).
+        name : str
+            Sensor name.
+
+        Raises
+        ------
+        ValueError
+            If both an RRW and a bias instability are given (the model has a
+            single bias-driving noise; choose one), if the bias instability
+            comes without its averaging time, or for any invalid figure.
+        """
+        _positive_scalar(arw_deg_per_sqrt_h, "arw_deg_per_sqrt_h")
+        if rrw_deg_per_h_per_sqrt_h is not None and bias_instability_deg_per_h is not None:
+            raise ValueError(
+                "give rrw_deg_per_h_per_sqrt_h or bias_instability_deg_per_h, not both: the Farrenkopf model has one "
+                f"bias-driving noise (got RRW = {rrw_deg_per_h_per_sqrt_h!r}, B = {bias_instability_deg_per_h!r})"
+            )
+        if rrw_deg_per_h_per_sqrt_h is not None:
+            sigma_u = rrw_to_sigma_u(rrw_deg_per_h_per_sqrt_h)
+        elif bias_instability_deg_per_h is not None:
+            if bias_instability_time_s is None:
+                raise ValueError(
+                    "bias_instability_time_s (the averaging time [s] at the Allan-deviation floor) is required "
+                    f"with bias_instability_deg_per_h = {bias_instability_deg_per_h!r}"
+                )
+            sigma_u = bias_instability_to_sigma_u(bias_instability_deg_per_h, bias_instability_time_s)
+        else:
+            sigma_u = 0.0
+        saturation = as_float_array(saturation_deg_per_s, "saturation_deg_per_s", allow_nonfinite=True)
+        if saturation.ndim != 0 or np.isnan(saturation) or saturation <= 0:
+            raise ValueError(f"saturation_deg_per_s must be a positive scalar or inf, got {describe(saturation)}")
+        return cls(
+            arw_to_sigma_v(arw_deg_per_sqrt_h),
+            sigma_u,
+            period=period,
+            bias=deg_per_h_to_rad_per_s(bias_deg_per_h),
+            scale_factor=as_float_array(scale_factor_ppm, "scale_factor_ppm") * 1e-6,
+            misalignment=misalignment_rad,
+            quantization=_nonnegative_scalar(quantization_deg_per_s, "quantization_deg_per_s") * _DEG,
+            saturation=float(saturation) * _DEG,
+            name=name,
+        )
+
+    @classmethod
+    def preset(cls, grade: str, *, period: float = 0.1, **overrides: Any) -> Gyro:
+        """A gyro of a typical grade: ``"mems"``, ``"tactical"`` or ``"navigation"``.
+
+        The figures, and where they come from, are in :data:`GYRO_PRESETS`
+        (one entry per grade, keyword arguments of :meth:`from_datasheet`).
+
+        - ``"mems"``: Analog Devices ADIS16470 MEMS IMU (datasheet rev. C):
+          ARW 0.34 deg/sqrt(h), in-run bias stability 8 deg/h, range
+          +-2000 deg/s. No RRW is published; ``sigma_u`` comes from the
+          bias-instability approximation with an *assumed* 100 s Allan
+          minimum (typical of this class, not a datasheet figure). The 32-bit
+          output LSB (~1.5e-6 deg/s) is far below the noise and is not modelled.
+        - ``"tactical"``: Northrop Grumman LN-200 class fibre-optic gyro IMU
+          (LN-200/LN-200S datasheets): ARW 0.07 deg/sqrt(h), bias 1 deg/h
+          (1 sigma; the datasheet quotes bias repeatability, used here as the
+          instability floor, a conservative reading), range +-1000 deg/s;
+          Allan minimum *assumed* at 300 s.
+        - ``"navigation"``: Honeywell HG9900 ring-laser-gyro IMU (brochure
+          N61-1638-000-000): ARW 0.002 deg/sqrt(h), bias stability
+          0.0035 deg/h; Allan minimum *assumed* at 3600 s; range not modelled.
+          Crassidis and Junkins' MEKF example (``sigma_v = sqrt(10) 1e-7``
+          rad/s^0.5 = 0.0011 deg/sqrt(h)) is of the same class.
+
+        Check the current datasheet revision before relying on a figure.
+
+        Parameters
+        ----------
+        grade : {"mems", "tactical", "navigation"}
+            Preset name.
+        period : float
+            Sample period [s].
+        **overrides
+            Any keyword of :meth:`from_datasheet` (e.g. ``bias_deg_per_h`` for
+            a drawn turn-on bias, ``name``).
+        """
+        if grade not in GYRO_PRESETS:
+            raise ValueError(f"grade must be one of {tuple(GYRO_PRESETS)}, got {grade!r}")
+        kwargs = dict(GYRO_PRESETS[grade]["figures"])
+        if "rrw_deg_per_h_per_sqrt_h" in overrides:
+            kwargs.pop("bias_instability_deg_per_h", None)
+            kwargs.pop("bias_instability_time_s", None)
+        kwargs.update(overrides)
+        return cls.from_datasheet(period=period, **kwargs)
+
+    # -- discrete noise figures for estimators ---------------------------------------
+
+    def _dt(self, dt: float | None) -> float:
+        return self.period if dt is None else _positive_scalar(dt, "dt")
+
+    def rate_noise_variance(self, dt: float | None = None) -> float:
+        """Variance [rad^2/s^2] of the white part of one rate sample, per axis.
+
+        ``sigma_v**2 / dt + sigma_u**2 dt / 12`` (the term ``N_v`` of the
+        module docstring), for a sample averaged over ``dt`` [s] (default
+        :attr:`period`). A filter whose state holds the bias at the sample
+        time (``omega_meas = omega + beta_{k+1} + e``) sees the error
+        ``e = -(beta_{k+1} - beta_k)/2 + noise`` of variance
+        ``sigma_v**2/dt + sigma_u**2 dt/3``, correlated with the bias step
+        (covariance ``-sigma_u**2 dt / 2``).
+        """
+        dt = self._dt(dt)
+        return self.sigma_v**2 / dt + self.sigma_u**2 * dt / 12.0
+
+    def bias_step_variance(self, dt: float | None = None) -> float:
+        """Variance [rad^2/s^2] of the bias increment over ``dt`` [s], per axis: ``sigma_u**2 dt``."""
+        return self.sigma_u**2 * self._dt(dt)
+
+    def process_noise(self, dt: float | None = None) -> NDArray[np.float64]:
+        """Discrete process noise (6, 6) of the attitude-error / bias-error state over ``dt`` [s].
+
+        For the MEKF state ``x = [dtheta, dbeta]`` with ``dtheta`` [rad] the
+        attitude error (``q_true = q_est ⊗ dq(dtheta)``) after propagating
+        with ``omega_meas - beta_est`` and ``dbeta = beta - beta_est`` [rad/s]:
+
+        ``Q = [[(sigma_v**2 dt + sigma_u**2 dt**3 / 3) I, -(sigma_u**2 dt**2 / 2) I],
+        [-(sigma_u**2 dt**2 / 2) I, sigma_u**2 dt I]]``
+
+        (Crassidis and Junkins, 2nd ed., sec. 7.2.1; exact for the sampled
+        model at zero rate, to first order in ``|omega| dt`` otherwise).
+        """
+        dt = self._dt(dt)
+        su2, sv2 = self.sigma_u**2, self.sigma_v**2
+        eye = np.eye(3)
+        return np.block(
+            [
+                [(sv2 * dt + su2 * dt**3 / 3.0) * eye, -(su2 * dt**2 / 2.0) * eye],
+                [-(su2 * dt**2 / 2.0) * eye, su2 * dt * eye],
+            ]
+        )
+
+    # -- sampling -------------------------------------------------------------------
+
+    @property
+    def bias(self) -> NDArray[np.float64]:
+        """The bias [rad/s] at the time of the latest :meth:`measure` sample (a copy)."""
+        return self._bias.copy()
+
+    def reset(self) -> None:
+        """Forget the sample history: the bias returns to its initial value, the next sample is a first one."""
+        self._bias = np.array(self.initial_bias, dtype=np.float64)
+        self._t_last: float | None = None
+
+    def _errors(
+        self,
+        bias0: NDArray[np.float64],
+        dt_bias: NDArray[np.float64],
+        dt_noise: NDArray[np.float64],
+        normals: NDArray[np.float64],
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Farrenkopf errors of ``n`` consecutive samples (the one code path).
+
+        ``normals`` (n, 2, 3) holds ``N_u`` and ``N_v`` of each step;
+        ``dt_bias`` the bias propagation interval (0 for a first sample) and
+        ``dt_noise`` the averaging interval. Returns the rate errors (n, 3)
+        and the biases (n + 1, 3) starting with ``bias0``. Sequential sums
+        (``cumsum``) make a batch bit-identical to one-at-a-time calls.
+        """
+        steps = (self.sigma_u * np.sqrt(dt_bias))[:, None] * normals[:, 0, :]
+        biases = np.cumsum(np.concatenate([bias0[None, :], steps], axis=0), axis=0)
+        white = np.sqrt(self.sigma_v**2 / dt_noise + self.sigma_u**2 * dt_noise / 12.0)
+        errors = 0.5 * (biases[:-1] + biases[1:]) + white[:, None] * normals[:, 1, :]
+        return errors, biases
+
+    def ideal_output(self, omega_BN_B: ArrayLike) -> NDArray[np.float64]:
+        """Noise-free, unquantised output ``(I + S + M) omega`` [rad/s], shape (..., 3)."""
+        omega = check_vector(omega_BN_B, "omega_BN_B", 3)
+        t = self.transfer_matrix
+        # Explicit products (no BLAS) so a batch and a single sample round identically.
+        return omega[..., 0:1] * t[:, 0] + omega[..., 1:2] * t[:, 1] + omega[..., 2:3] * t[:, 2]
+
+    def _output(self, omega: NDArray[np.float64], errors: NDArray[np.float64]) -> NDArray[np.float64]:
+        raw = self.ideal_output(omega) + errors
+        if self.quantization > 0:
+            raw = np.round(raw / self.quantization) * self.quantization
+        if np.isfinite(self.saturation):
+            raw = np.clip(raw, -self.saturation, self.saturation)
+        return raw
+
+    def measure(self, t: float, truth: Any, rng: Any = None) -> NDArray[np.float64]:
+        """One rate sample [rad/s] at time ``t`` [s] (the engine's sensor protocol).
+
+        Propagates the bias exactly over the time since the previous sample
+        (a first sample, after construction or :meth:`reset`, starts from the
+        initial bias with no propagation and the white noise of one nominal
+        period), then applies the model of the module docstring.
+
+        Parameters
+        ----------
+        t : float
+            Sample time [s]; must increase from call to call.
+        truth : attitude.simulation.Truth
+            Anything with ``omega`` (3,) [rad/s], the true body rate.
+        rng : Generator, int or None
+            Random source. Pass one Generator for a sequence of samples (an
+            integer seed here would restart the stream at every call).
+
+        Raises
+        ------
+        ValueError
+            If ``t`` does not come after the previous sample (call
+            :meth:`reset` before a new run) or ``truth.omega`` is invalid.
+        """
+        gen = as_generator(rng)
+        t = float(as_float_array(t, "t"))
+        omega = check_vector(truth.omega, "truth.omega", 3)
+        if self._t_last is None:
+            dt_bias, dt_noise = 0.0, self.period
+        else:
+            dt = t - self._t_last
+            if dt <= 0:
+                raise ValueError(
+                    f"t must come after the previous sample of gyro {self.name!r}: t = {t!r} s <= {self._t_last!r} s "
+                    "(call reset() before reusing the gyro in a new run)"
+                )
+            dt_bias = dt_noise = dt
+        normals = gen.standard_normal((1, 2, 3))
+        errors, biases = self._errors(self._bias, np.array([dt_bias]), np.array([dt_noise]), normals)
+        self._bias = biases[-1]
+        self._t_last = t
+        return self._output(omega, errors[0])
+
+    def sample_errors(
+        self,
+        n_steps: int,
+        rng: Any = None,
+        *,
+        dt: float | None = None,
+        bias0: ArrayLike | None = None,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Rate errors of ``n_steps`` consecutive samples of a running gyro, vectorised.
+
+        Every step propagates the bias (unlike the first :meth:`measure` of a
+        run). Does not touch the gyro's state.
+
+        Parameters
+        ----------
+        n_steps : int
+            Number of samples (>= 1).
+        rng : Generator, int or None
+            Random source.
+        dt : float, optional
+            Sample interval [s] (default :attr:`period`).
+        bias0 : array_like (3,), optional
+            Bias before the first step [rad/s] (default the initial bias).
+
+        Returns
+        -------
+        errors : ndarray (n_steps, 3)
+            ``omega_meas - omega`` of each sample before scale factor,
+            misalignment, quantisation and saturation [rad/s].
+        biases : ndarray (n_steps + 1, 3)
+            Bias at the start and at each sample time [rad/s].
+        """
+        if not isinstance(n_steps, (int, np.integer)) or isinstance(n_steps, bool) or n_steps < 1:
+            raise ValueError(f"n_steps must be a positive integer, got {n_steps!r}")
+        dt = self._dt(dt)
+        b0 = self.initial_bias if bias0 is None else _per_axis(bias0, "bias0")
+        normals = as_generator(rng).standard_normal((int(n_steps), 2, 3))
+        dts = np.full(int(n_steps), dt)
+        return self._errors(np.array(b0, dtype=np.float64), dts, dts, normals)
+
+    def measure_history(self, t: ArrayLike, omega_BN_B: ArrayLike, rng: Any = None) -> NDArray[np.float64]:
+        """Samples [rad/s] of a whole true-rate history at once (a fresh run).
+
+        Bit-identical to calling :meth:`measure` at each ``t[k]`` on a freshly
+        reset gyro with the same Generator; does not touch the gyro's state.
+
+        Parameters
+        ----------
+        t : array_like (n,)
+            Strictly increasing sample times [s].
+        omega_BN_B : array_like (n, 3)
+            True body rates at those times [rad/s].
+        rng : Generator, int or None
+            Random source.
+        """
+        t = as_float_array(t, "t")
+        if t.ndim != 1 or t.size < 1:
+            raise ValueError(f"t must be a 1-D array of sample times, got shape {t.shape}")
+        if np.any(np.diff(t) <= 0):
+            raise ValueError("t must be strictly increasing")
+        omega = check_vector(omega_BN_B, "omega_BN_B", 3)
+        if omega.shape != (t.size, 3):
+            raise ValueError(f"omega_BN_B must have shape ({t.size}, 3), got {omega.shape}")
+        steps = np.diff(t)
+        dt_bias = np.concatenate([[0.0], steps])
+        dt_noise = np.concatenate([[self.period], steps])
+        normals = as_generator(rng).standard_normal((t.size, 2, 3))
+        errors, _ = self._errors(np.array(self.initial_bias, dtype=np.float64), dt_bias, dt_noise, normals)
+        return self._output(omega, errors)
+
+
+#: Datasheet figures of the gyro presets (keywords of :meth:`Gyro.from_datasheet`) and their sources.
+GYRO_PRESETS: dict[str, dict[str, Any]] = {
+    "mems": {
+        "figures": {
+            "arw_deg_per_sqrt_h": 0.34,
+            "bias_instability_deg_per_h": 8.0,
+            "bias_instability_time_s": 100.0,
+            "saturation_deg_per_s": 2000.0,
+        },
+        "source": "Analog Devices ADIS16470 datasheet (rev. C): ARW 0.34 deg/sqrt(h), in-run bias stability "
+        "8 deg/h, +-2000 deg/s; Allan-minimum time 100 s assumed",
+    },
+    "tactical": {
+        "figures": {
+            "arw_deg_per_sqrt_h": 0.07,
+            "bias_instability_deg_per_h": 1.0,
+            "bias_instability_time_s": 300.0,
+            "saturation_deg_per_s": 1000.0,
+        },
+        "source": "Northrop Grumman LN-200/LN-200S FOG IMU datasheets: ARW 0.07 deg/sqrt(h), bias 1 deg/h "
+        "(1 sigma), +-1000 deg/s; Allan-minimum time 300 s assumed",
+    },
+    "navigation": {
+        "figures": {
+            "arw_deg_per_sqrt_h": 0.002,
+            "bias_instability_deg_per_h": 0.0035,
+            "bias_instability_time_s": 3600.0,
+        },
+        "source": "Honeywell HG9900 RLG IMU brochure (N61-1638-000-000): ARW 0.002 deg/sqrt(h), bias 0.0035 deg/h; "
+        "Allan-minimum time 3600 s assumed",
+    },
+}
+
+
+# ---------------------------------------------------------------------------
+# Star tracker
+
+
+def _sensor_frame(boresight: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``C_BS`` whose columns are the sensor axes in body components, the third being the boresight."""
+    helper = np.zeros(3)
+    helper[int(np.argmin(np.abs(boresight)))] = 1.0
+    x = np.cross(helper, boresight)
+    x /= np.linalg.norm(x)
+    y = np.cross(boresight, x)
+    return np.column_stack([x, y, boresight])
+
+
+class StarTracker:
+    """A star tracker: noisy attitude quaternions, larger noise about the boresight, Sun blinding.
+
+    See the module docstring for the model. Stateless: ``measure`` depends
+    only on its arguments.
+
+    Parameters
+    ----------
+    sigma_cross_rad : float
+        Standard deviation of the error about each cross-boresight axis [rad] (> 0).
+    sigma_roll_rad : float
+        Standard deviation of the error about the boresight (roll) [rad] (> 0).
+    period : float
+        Sample period [s] (> 0).
+    boresight_B : array_like (3,)
+        Boresight direction in body components (normalised here; non-zero).
+    sun_direction_N : array_like (3,) or callable, optional
+        Direction to the Sun in inertial components (normalised), or a
+        function ``t -> (3,)`` of time [s]. None: the Sun is ignored.
+    sun_exclusion_rad : float, optional
+        Half-angle of the Sun-exclusion cone about the boresight [rad], in
+        ``(0, pi)``; required with, and only with, ``sun_direction_N``.
+    name : str
+        Sensor name.
+    """
+
+    def __init__(
+        self,
+        sigma_cross_rad: float,
+        sigma_roll_rad: float,
+        *,
+        period: float,
+        boresight_B: ArrayLike = (0.0, 0.0, 1.0),
+        sun_direction_N: ArrayLike | Callable[[float], ArrayLike] | None = None,
+        sun_exclusion_rad: float | None = None,
+        name: str = "star_tracker",
+    ) -> None:
+        self.sigma_cross = _positive_scalar(sigma_cross_rad, "sigma_cross_rad")
+        self.sigma_roll = _positive_scalar(sigma_roll_rad, "sigma_roll_rad")
+        self.period = _positive_scalar(period, "period")
+        self.boresight_B = _unit_vector(boresight_B, "boresight_B")
+        self.boresight_B.flags.writeable = False
+        #: Sensor axes in body components (columns); the third is the boresight.
+        self.C_BS = _sensor_frame(self.boresight_B)
+        self.C_BS.flags.writeable = False
+        if (sun_direction_N is None) != (sun_exclusion_rad is None):
+            raise ValueError(
+                "sun_direction_N and sun_exclusion_rad must be given together (or neither), got "
+                f"sun_direction_N={'None' if sun_direction_N is None else 'set'} and "
+                f"sun_exclusion_rad={sun_exclusion_rad!r}"
+            )
+        self.sun_exclusion: float | None = None
+        self.sun_direction_N: NDArray[np.float64] | Callable[[float], ArrayLike] | None = None
+        if sun_direction_N is not None:
+            half = _positive_scalar(sun_exclusion_rad, "sun_exclusion_rad")
+            if half >= np.pi:
+                raise ValueError(f"sun_exclusion_rad must be in (0, pi) [rad], got {half!r}")
+            self.sun_exclusion = half
+            self.sun_direction_N = (
+                sun_direction_N if callable(sun_direction_N) else _unit_vector(sun_direction_N, "sun_direction_N")
+            )
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"name must be a non-empty string, got {name!r}")
+        self.name = name
+
+    def __repr__(self) -> str:
+        return (
+            f"StarTracker(name={self.name!r}, sigma_cross={self.sigma_cross / ARCSEC:.3g} arcsec, "
+            f"sigma_roll={self.sigma_roll / ARCSEC:.3g} arcsec, period={self.period:g} s)"
+        )
+
+    @classmethod
+    def from_datasheet(
+        cls,
+        cross_boresight_arcsec: float,
+        roll_arcsec: float,
+        *,
+        period: float,
+        boresight_B: ArrayLike = (0.0, 0.0, 1.0),
+        sun_direction_N: ArrayLike | Callable[[float], ArrayLike] | None = None,
+        sun_exclusion_deg: float | None = None,
+        name: str = "star_tracker",
+    ) -> StarTracker:
+        """Build a tracker from 1-sigma noise figures [arcsec] and a Sun-exclusion half-angle [deg].
+
+        ``1 arcsec = pi / 648000 rad`` (:data:`ARCSEC`). Datasheets quote
+        either 1 sigma or 3 sigma: divide a 3-sigma figure by 3 first.
+        """
+        cross = _positive_scalar(cross_boresight_arcsec, "cross_boresight_arcsec")
+        roll = _positive_scalar(roll_arcsec, "roll_arcsec")
+        exclusion = None
+        if sun_exclusion_deg is not None:
+            exclusion = _positive_scalar(sun_exclusion_deg, "sun_exclusion_deg") * _DEG
+        return cls(
+            cross * ARCSEC,
+            roll * ARCSEC,
+            period=period,
+            boresight_B=boresight_B,
+            sun_direction_N=sun_direction_N,
+            sun_exclusion_rad=exclusion,
+            name=name,
+        )
+
+    @classmethod
+    def preset(
+        cls,
+        kind: str = "typical",
+        *,
+        period: float | None = None,
+        sun_direction_N: ArrayLike | Callable[[float], ArrayLike] | None = None,
+        **overrides: Any,
+    ) -> StarTracker:
+        """A typical commercial small-satellite star tracker.
+
+        ``"typical"``: 6 arcsec cross-boresight and 40 arcsec about the
+        boresight (1 sigma), 5 Hz: the figures Blue Canyon Technologies
+        publishes for its Nano Star Tracker (NST) and XACT units; Sinclair
+        ST-16 and Arcsec Sagitta class trackers are similar (a few arcsec
+        cross-boresight, 5 to 10 times more in roll, 2 to 10 Hz). With a Sun
+        direction, a 45 deg Sun-exclusion half-angle (an *assumed* typical
+        small-baffle value; larger trackers with long baffles reach about
+        30 deg, e.g. the Terma HE-5AS on CryoSat). See :data:`STAR_TRACKER_PRESETS`.
+
+        Parameters
+        ----------
+        kind : {"typical"}
+            Preset name.
+        period : float, optional
+            Sample period [s] (default that of the preset, 0.2 s).
+        sun_direction_N : array_like (3,) or callable, optional
+            Enables Sun exclusion (see the class).
+        **overrides
+            Keywords of :meth:`from_datasheet`.
+        """
+        if kind not in STAR_TRACKER_PRESETS:
+            raise ValueError(f"kind must be one of {tuple(STAR_TRACKER_PRESETS)}, got {kind!r}")
+        figures = dict(STAR_TRACKER_PRESETS[kind]["figures"])
+        exclusion = figures.pop("sun_exclusion_deg")
+        if period is not None:
+            figures["period"] = period
+        if sun_direction_N is not None:
+            figures["sun_direction_N"] = sun_direction_N
+            figures["sun_exclusion_deg"] = exclusion
+        figures.update(overrides)
+        return cls.from_datasheet(**figures)
+
+    @property
+    def covariance_B(self) -> NDArray[np.float64]:
+        """Covariance (3, 3) [rad^2] of the error rotation vector of ``q_BN* ⊗ q_meas`` in body axes.
+
+        ``C_BS diag(s_c^2, s_c^2, s_r^2) C_BS^T = s_c^2 I + (s_r^2 - s_c^2) b b^T``.
+        """
+        b = self.boresight_B
+        return self.sigma_cross**2 * np.eye(3) + (self.sigma_roll**2 - self.sigma_cross**2) * np.outer(b, b)
+
+    def sun_direction_at(self, t: float) -> NDArray[np.float64] | None:
+        """Unit Sun direction in N at ``t`` [s] (None without Sun exclusion)."""
+        if self.sun_direction_N is None:
+            return None
+        if callable(self.sun_direction_N):
+            return _unit_vector(self.sun_direction_N(t), "sun_direction_N(t)")
+        return self.sun_direction_N
+
+    def sun_blinded(self, t: float, q_BN: ArrayLike) -> bool:
+        """True when the Sun is strictly inside the exclusion cone about the boresight.
+
+        The test is ``angle(boresight, sun) < sun_exclusion``, with the Sun
+        direction taken into body axes by ``q_BN``.
+        """
+        sun_N = self.sun_direction_at(t)
+        if sun_N is None:
+            return False
+        sun_B = quat.rotate_inverse(q_BN, sun_N)
+        cos_angle = float(np.dot(sun_B, self.boresight_B)) / float(np.linalg.norm(sun_B))
+        sin_angle = float(np.linalg.norm(np.cross(sun_B, self.boresight_B))) / float(np.linalg.norm(sun_B))
+        return bool(np.arctan2(sin_angle, cos_angle) < self.sun_exclusion)
+
+    def add_noise(self, q_BN: ArrayLike, rng: Any = None) -> NDArray[np.float64]:
+        """Noisy attitudes ``q_BN ⊗ dq`` for true attitudes ``q_BN`` (..., 4); no Sun check.
+
+        The batch path shared with :meth:`measure`: a batch of ``n`` draws
+        the same numbers as ``n`` calls of :meth:`measure` with one Generator.
+        """
+        q = quat.as_unit_quaternion(q_BN, "q_BN")
+        gen = as_generator(rng)
+        scale = np.array([self.sigma_cross, self.sigma_cross, self.sigma_roll])
+        dtheta_S = gen.standard_normal((*q.shape[:-1], 3)) * scale
+        c = self.C_BS
+        dtheta_B = dtheta_S[..., 0:1] * c[:, 0] + dtheta_S[..., 1:2] * c[:, 1] + dtheta_S[..., 2:3] * c[:, 2]
+        return quat.multiply(q, quat.from_rotation_vector(dtheta_B))
+
+    def measure(self, t: float, truth: Any, rng: Any = None) -> NDArray[np.float64] | None:
+        """Measured attitude ``q_BN`` (4,) at ``t`` [s], or None while the Sun blinds the tracker.
+
+        No random numbers are drawn for a blinded sample.
+
+        Parameters
+        ----------
+        t : float
+            Time [s] (for a time-varying Sun direction).
+        truth : attitude.simulation.Truth
+            Anything with ``q`` (4,), the true attitude ``q_BN``.
+        rng : Generator, int or None
+            Random source.
+        """
+        q = quat.as_unit_quaternion(truth.q, "truth.q")
+        if self.sun_blinded(t, q):
+            return None
+        return self.add_noise(q, rng)
+
+
+#: Datasheet figures of the star-tracker presets (keywords of :meth:`StarTracker.from_datasheet`).
+STAR_TRACKER_PRESETS: dict[str, dict[str, Any]] = {
+    "typical": {
+        "figures": {"cross_boresight_arcsec": 6.0, "roll_arcsec": 40.0, "period": 0.2, "sun_exclusion_deg": 45.0},
+        "source": "Blue Canyon Technologies Nano Star Tracker (NST) datasheet: 6 arcsec cross-boresight, "
+        "40 arcsec roll (1 sigma), 5 Hz; 45 deg Sun exclusion assumed",
+    },
+}

@@ -1,0 +1,474 @@
+"""Filter consistency: NEES and NIS, chi-square bands, Monte Carlo averages and plots.
+
+A filter is consistent when its errors are zero-mean and its covariance is
+the covariance of its errors (Bar-Shalom, Li and Kirubarajan, *Estimation
+with Applications to Tracking and Navigation*, 2001, sec. 5.4). Two tests
+follow:
+
+- NEES, the normalised estimation error squared ``e^T P^-1 e`` with
+  ``e = x_true - x_est`` (needs the truth: simulation only), is chi-square
+  with ``n`` degrees of freedom (``n`` the state dimension);
+- NIS, the normalised innovation squared ``nu^T S^-1 nu`` with ``nu`` the
+  innovation and ``S`` its covariance (flight data too), is chi-square with
+  ``m`` degrees of freedom (``m`` the measurement dimension).
+
+Averaged over ``N`` independent Monte Carlo runs (independent seeds), ``N``
+times the average is chi-square with ``N n`` degrees of freedom, so the
+two-sided band at confidence ``1 - a`` for the average is
+``chi2.ppf([a/2, 1 - a/2], N n) / N`` (:func:`chi2_band`, scipy.stats.chi2).
+The same holds for a moving average of ``w`` consecutive NIS values of one
+run, because the innovations of an optimal filter are white
+(:func:`nis_health`).
+
+``filterpy.stats.NEES`` (named ``NESS`` before filterpy 2.0.0) computes the
+same number, but loops over the samples of one run in Python and inverts
+``P``. :func:`nees` and :func:`nis` take any batch shape (runs x times) in
+one call and use a Cholesky factor and a linear solve, which is better
+conditioned and rejects a covariance that is not positive definite instead
+of returning a meaningless number. The tests check that both agree.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from matplotlib.figure import Figure
+from numpy.typing import ArrayLike, NDArray
+from scipy import stats
+
+from attitude._validation import as_float_array, describe
+
+__all__ = [
+    "NisHealth",
+    "average_nees",
+    "average_nis",
+    "chi2_band",
+    "fraction_inside_band",
+    "nees",
+    "nis",
+    "nis_health",
+    "plot_errors_with_bounds",
+    "plot_nees",
+]
+
+
+def _check_confidence(confidence: float) -> float:
+    c = as_float_array(confidence, "confidence")
+    if c.ndim != 0 or not 0.0 < float(c) < 1.0:
+        raise ValueError(f"confidence must be a scalar in (0, 1), got {describe(c)}")
+    return float(c)
+
+
+def _check_count(value: int, name: str) -> int:
+    if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < 1:
+        raise ValueError(f"{name} must be a positive integer, got {value!r}")
+    return int(value)
+
+
+def _normalised_squares(
+    vectors: ArrayLike, covariances: ArrayLike, vec_name: str, cov_name: str
+) -> NDArray[np.float64]:
+    """``v^T C^-1 v`` over broadcast batches, through a Cholesky factor and a solve."""
+    v = as_float_array(vectors, vec_name)
+    c = as_float_array(covariances, cov_name)
+    if v.ndim < 1:
+        raise ValueError(f"{vec_name} must have shape (..., n), got a scalar")
+    n = v.shape[-1]
+    if c.ndim < 2 or c.shape[-2:] != (n, n):
+        raise ValueError(f"{cov_name} must have shape (..., {n}, {n}) to match {vec_name} (..., {n}), got {c.shape}")
+    try:
+        batch = np.broadcast_shapes(v.shape[:-1], c.shape[:-2])
+    except ValueError as exc:
+        raise ValueError(
+            f"{vec_name} batch shape {v.shape[:-1]} and {cov_name} batch shape {c.shape[:-2]} do not broadcast"
+        ) from exc
+    asym = np.abs(c - np.swapaxes(c, -1, -2))
+    scale = np.maximum(np.abs(c).max(axis=(-1, -2), keepdims=True), np.finfo(float).tiny)
+    if np.any(asym > 1e-9 * scale):
+        raise ValueError(f"{cov_name} must be symmetric; found a relative asymmetry of {np.max(asym / scale):.3g}")
+    try:
+        chol = np.linalg.cholesky(c)
+    except np.linalg.LinAlgError as exc:
+        raise ValueError(f"{cov_name} must be positive definite; a Cholesky factorisation failed") from exc
+    chol = np.broadcast_to(chol, (*batch, n, n))
+    vb = np.broadcast_to(v, (*batch, n))
+    z = np.linalg.solve(chol, vb[..., None])[..., 0]
+    return np.sum(z * z, axis=-1)
+
+
+def nees(errors: ArrayLike, covariances: ArrayLike) -> NDArray[np.float64]:
+    """Normalised estimation error squared ``e^T P^-1 e`` (dimensionless).
+
+    Parameters
+    ----------
+    errors : array_like (..., n)
+        Estimation errors ``x_true - x_est`` (any consistent units; for
+        attitude, the error rotation vector [rad]).
+    covariances : array_like (..., n, n)
+        The filter's error covariances, in the squared units of ``errors``;
+        batch shapes broadcast.
+
+    Returns
+    -------
+    ndarray (...)
+        One NEES per error vector; chi-square with ``n`` degrees of freedom
+        for a consistent filter.
+
+    Raises
+    ------
+    ValueError
+        For mismatched shapes, non-finite values, or a covariance that is not
+        symmetric (to 1e-9 of its largest entry) positive definite.
+    """
+    return _normalised_squares(errors, covariances, "errors", "covariances")
+
+
+def nis(innovations: ArrayLike, innovation_covariances: ArrayLike) -> NDArray[np.float64]:
+    """Normalised innovation squared ``nu^T S^-1 nu`` (dimensionless).
+
+    Parameters
+    ----------
+    innovations : array_like (..., m)
+        Innovations ``z - h(x_pred)`` in measurement units.
+    innovation_covariances : array_like (..., m, m)
+        Their predicted covariances ``S = H P H^T + R``.
+
+    Returns
+    -------
+    ndarray (...)
+        Chi-square with ``m`` degrees of freedom for a consistent filter.
+    """
+    return _normalised_squares(innovations, innovation_covariances, "innovations", "innovation_covariances")
+
+
+def chi2_band(dof: int, n_runs: int = 1, confidence: float = 0.95) -> tuple[float, float]:
+    """Two-sided band for the average of ``n_runs`` independent chi-square(``dof``) values.
+
+    ``chi2.ppf([a/2, 1 - a/2], dof * n_runs) / n_runs`` with ``a = 1 - confidence``.
+
+    Parameters
+    ----------
+    dof : int
+        Degrees of freedom of each value (state or measurement dimension).
+    n_runs : int
+        Number of independent values averaged (Monte Carlo runs, or the
+        window of a moving average of a white sequence).
+    confidence : float
+        Probability that the average lies inside the band, in (0, 1).
+
+    Returns
+    -------
+    (float, float)
+        Lower and upper bound.
+    """
+    dof = _check_count(dof, "dof")
+    n_runs = _check_count(n_runs, "n_runs")
+    a = 1.0 - _check_confidence(confidence)
+    lo, hi = stats.chi2.ppf([a / 2.0, 1.0 - a / 2.0], dof * n_runs) / n_runs
+    return float(lo), float(hi)
+
+
+def average_nees(errors: ArrayLike, covariances: ArrayLike, axis: int = 0) -> NDArray[np.float64]:
+    """NEES averaged over Monte Carlo runs.
+
+    Parameters
+    ----------
+    errors : array_like (n_runs, n_times, n)
+        Estimation errors of each run (runs along ``axis``).
+    covariances : array_like (n_runs, n_times, n, n) or (n_times, n, n)
+        Covariances of each run, or one shared history.
+    axis : int
+        The runs axis of the NEES array ``(n_runs, n_times)``.
+
+    Returns
+    -------
+    ndarray (n_times,)
+        Compare with :func:`chi2_band` ``(n, n_runs)``.
+    """
+    return np.mean(nees(errors, covariances), axis=axis)
+
+
+def average_nis(innovations: ArrayLike, innovation_covariances: ArrayLike, axis: int = 0) -> NDArray[np.float64]:
+    """NIS averaged over Monte Carlo runs (see :func:`average_nees`)."""
+    return np.mean(nis(innovations, innovation_covariances), axis=axis)
+
+
+def fraction_inside_band(values: ArrayLike, dof: int, n_runs: int = 1, confidence: float = 0.95) -> float:
+    """Fraction of ``values`` (averaged NEES or NIS) inside :func:`chi2_band` ``(dof, n_runs, confidence)``.
+
+    About ``confidence`` for a consistent filter. NaN entries (no sample)
+    are left out; infinite ones count as outside.
+    """
+    v = as_float_array(values, "values", allow_nonfinite=True).ravel()
+    v = v[~np.isnan(v)]
+    if v.size == 0:
+        raise ValueError("values must hold at least one non-NaN entry")
+    lo, hi = chi2_band(dof, n_runs, confidence)
+    return float(np.mean((v >= lo) & (v <= hi)))
+
+
+@dataclass(frozen=True)
+class NisHealth:
+    """Result of :func:`nis_health`.
+
+    Attributes
+    ----------
+    window_mean : ndarray (n_valid - window + 1,)
+        Mean NIS of each window of ``window`` consecutive valid samples.
+    window_start : ndarray (n_valid - window + 1,) of int
+        Index (into the input sequence) of each window's first sample.
+    band : (float, float)
+        The chi-square band of a window mean.
+    flagged : ndarray (n,) of bool
+        Samples belonging to at least one out-of-band window.
+    intervals : list of (int, int)
+        Runs of flagged samples as ``(start, stop)`` indices into the input,
+        ``stop`` exclusive.
+    interval_times : list of (float, float)
+        The same as ``(t[start], t[stop - 1])`` [s] when ``t`` was given.
+    """
+
+    window_mean: NDArray[np.float64]
+    window_start: NDArray[np.int64]
+    band: tuple[float, float]
+    flagged: NDArray[np.bool_]
+    intervals: list[tuple[int, int]] = field(default_factory=list)
+    interval_times: list[tuple[float, float]] = field(default_factory=list)
+
+    @property
+    def healthy(self) -> bool:
+        """True when no window left the band."""
+        return not self.intervals
+
+
+def nis_health(
+    nis_sequence: ArrayLike,
+    dof: int,
+    window: int,
+    confidence: float = 0.999,
+    t: ArrayLike | None = None,
+) -> NisHealth:
+    """Flag stretches where the moving-window mean NIS leaves its chi-square band.
+
+    For a consistent filter the innovations are white, so the mean of
+    ``window`` consecutive NIS values is chi-square(``dof * window``) /
+    ``window``; a window outside :func:`chi2_band` ``(dof, window,
+    confidence)`` is flagged (above: the filter is over-confident or the
+    measurements are biased; below: it is too pessimistic). Every sample of a
+    flagged window is flagged, so an interval can extend up to ``window - 1``
+    samples beyond the offending stretch on each side.
+
+    ``confidence`` applies to each window; over a run of ``n`` samples there
+    are about ``n / window`` independent windows, so the chance of a false
+    alarm somewhere in a clean run is about ``(n / window) (1 - confidence)``.
+    Choose ``confidence`` accordingly (the default 0.999 gives about 4% over
+    2000 samples with a 50-sample window).
+
+    Parameters
+    ----------
+    nis_sequence : array_like (n,)
+        NIS values of one run in time order; NaN marks samples without a
+        measurement (skipped: windows run over the valid samples).
+    dof : int
+        Measurement dimension.
+    window : int
+        Number of valid samples per window (>= 1).
+    confidence : float
+        Per-window confidence in (0, 1).
+    t : array_like (n,), optional
+        Sample times [s], for :attr:`NisHealth.interval_times`.
+
+    Returns
+    -------
+    NisHealth
+
+    Raises
+    ------
+    ValueError
+        For a negative or infinite NIS, fewer valid samples than ``window``,
+        or a ``t`` of another length.
+    """
+    values = as_float_array(nis_sequence, "nis_sequence", allow_nonfinite=True)
+    if values.ndim != 1:
+        raise ValueError(f"nis_sequence must be 1-D (one run in time order), got shape {values.shape}")
+    valid = ~np.isnan(values)
+    if np.any(np.isinf(values)):
+        raise ValueError("nis_sequence must be finite (NaN marks a missing sample); found inf")
+    if np.any(values[valid] < 0):
+        raise ValueError(f"nis_sequence must be non-negative, found {values[valid].min()!r}")
+    window = _check_count(window, "window")
+    index = np.nonzero(valid)[0]
+    if index.size < window:
+        raise ValueError(f"nis_sequence has {index.size} valid samples, fewer than window = {window}")
+    times = None
+    if t is not None:
+        times = as_float_array(t, "t")
+        if times.shape != values.shape:
+            raise ValueError(f"t must have the shape of nis_sequence {values.shape}, got {times.shape}")
+    lo, hi = chi2_band(dof, window, confidence)
+    csum = np.concatenate([[0.0], np.cumsum(values[valid])])
+    means = (csum[window:] - csum[:-window]) / window
+    out = (means < lo) | (means > hi)
+    # Mark the valid samples of every out-of-band window (difference array over valid positions).
+    marks = np.zeros(index.size + 1, dtype=np.int64)
+    bad = np.nonzero(out)[0]
+    np.add.at(marks, bad, 1)
+    np.add.at(marks, bad + window, -1)
+    flagged_valid = np.cumsum(marks[:-1]) > 0
+    flagged = np.zeros(values.size, dtype=bool)
+    flagged[index[flagged_valid]] = True
+    intervals: list[tuple[int, int]] = []
+    if np.any(flagged_valid):
+        fv = flagged_valid.astype(np.int8)
+        edges = np.diff(np.concatenate([[0], fv, [0]]))
+        starts = np.nonzero(edges == 1)[0]
+        stops = np.nonzero(edges == -1)[0]
+        intervals = [(int(index[a]), int(index[b - 1]) + 1) for a, b in zip(starts, stops)]
+    interval_times = [] if times is None else [(float(times[a]), float(times[b - 1])) for a, b in intervals]
+    return NisHealth(
+        window_mean=means,
+        window_start=index[: means.size],
+        band=(lo, hi),
+        flagged=flagged,
+        intervals=intervals,
+        interval_times=interval_times,
+    )
+
+
+# ---------------------------------------------------------------------------
+# Plots
+
+
+def plot_nees(
+    t: ArrayLike,
+    avg_nees: ArrayLike,
+    dof: int,
+    n_runs: int,
+    *,
+    confidence: float = 0.95,
+    quantity: str = "NEES",
+    title: str | None = None,
+) -> Figure:
+    """Monte-Carlo-averaged NEES (or NIS) against time with its chi-square band.
+
+    Parameters
+    ----------
+    t : array_like (n,)
+        Time [s].
+    avg_nees : array_like (n,)
+        Average over ``n_runs`` runs (NaN where there is no sample).
+    dof : int
+        Degrees of freedom of one value (state or measurement dimension).
+    n_runs : int
+        Number of runs averaged.
+    confidence : float
+        Confidence of the band.
+    quantity : str
+        Name on the axis ("NEES" or "NIS").
+    title : str, optional
+        Figure title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    t = as_float_array(t, "t")
+    v = as_float_array(avg_nees, "avg_nees", allow_nonfinite=True)
+    if t.ndim != 1 or v.shape != t.shape:
+        raise ValueError(f"avg_nees must have the shape of t {t.shape}, got {v.shape}")
+    lo, hi = chi2_band(dof, n_runs, confidence)
+    inside = fraction_inside_band(v, dof, n_runs, confidence)
+    fig = Figure(figsize=(9, 4.5), layout="constrained")
+    ax = fig.subplots()
+    ok = ~np.isnan(v)
+    ax.plot(t[ok], v[ok], lw=1.0, color="tab:blue", label=f"average {quantity} ({n_runs} runs)")
+    ax.axhspan(lo, hi, color="tab:green", alpha=0.15, label=f"{100 * confidence:g}% band [{lo:.3g}, {hi:.3g}]")
+    ax.axhline(dof, color="k", ls="--", lw=1.0, label=f"expected value {dof}")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel(f"average {quantity}")
+    ax.set_ylim(bottom=0)
+    ax.grid(True, alpha=0.3)
+    ax.margins(x=0)
+    ax.legend(loc="upper right")
+    ax.set_title(title or f"{quantity} consistency: {100 * inside:.1f}% of samples inside the band")
+    return fig
+
+
+def plot_errors_with_bounds(
+    t: ArrayLike,
+    errors: ArrayLike,
+    sigmas: ArrayLike,
+    labels: Sequence[str] | None = None,
+    units: str | Sequence[str] = "",
+    *,
+    scale: float | Sequence[float] = 1.0,
+    title: str | None = None,
+) -> Figure:
+    """Estimation errors with their +-3 sigma bounds, one panel per component.
+
+    Parameters
+    ----------
+    t : array_like (n,)
+        Time [s].
+    errors : array_like (n, k) or (n_runs, n, k)
+        Errors ``x_true - x_est`` in SI units; several runs are drawn thin.
+    sigmas : array_like (n, k) or (n_runs, n, k)
+        Standard deviations from the filter covariance (square roots of its
+        diagonal), same units; with runs, each run's bounds are drawn.
+    labels : sequence of str, optional
+        Component names (default ``x1 ... xk``).
+    units : str or sequence of str
+        Unit label(s) after conversion by ``scale``, e.g. "arcsec".
+    scale : float or sequence of float
+        Factor(s) from SI to the displayed unit (e.g. ``1 / ARCSEC``).
+    title : str, optional
+        Figure title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    t = as_float_array(t, "t")
+    e = as_float_array(errors, "errors", allow_nonfinite=True)
+    s = as_float_array(sigmas, "sigmas", allow_nonfinite=True)
+    if e.ndim == 2:
+        e = e[None]
+    if s.ndim == 2:
+        s = s[None]
+    if e.ndim != 3 or e.shape[1] != t.size:
+        raise ValueError(f"errors must have shape (len(t)={t.size}, k) or (n_runs, len(t), k), got {e.shape}")
+    if s.shape[1:] != e.shape[1:] or s.shape[0] not in (1, e.shape[0]):
+        raise ValueError(f"sigmas must have shape {e.shape[1:]} or (n_runs, *{e.shape[1:]}), got {s.shape}")
+    if np.any(s[~np.isnan(s)] < 0):
+        raise ValueError("sigmas must be non-negative standard deviations")
+    k = e.shape[2]
+    names = [f"x{i + 1}" for i in range(k)] if labels is None else list(labels)
+    if len(names) != k:
+        raise ValueError(f"labels must name the {k} components, got {len(names)}")
+    unit_list = [units] * k if isinstance(units, str) else list(units)
+    if len(unit_list) != k:
+        raise ValueError(f"units must be one string or one per component ({k}), got {len(unit_list)}")
+    factors = np.broadcast_to(as_float_array(scale, "scale"), (k,))
+    fig = Figure(figsize=(9, 2.2 * k + 0.8), layout="constrained")
+    axes = fig.subplots(k, 1, sharex=True, squeeze=False)[:, 0]
+    thin = e.shape[0] > 1
+    for i, ax in enumerate(axes):
+        f = factors[i]
+        for r in range(e.shape[0]):
+            ax.plot(t, e[r, :, i] * f, lw=0.6 if thin else 1.0, color="tab:blue", alpha=0.5 if thin else 1.0)
+        for r in range(s.shape[0]):
+            bound = 3.0 * s[r, :, i] * f
+            ax.plot(t, bound, color="tab:red", ls="--", lw=0.8, alpha=0.6 if s.shape[0] > 1 else 1.0)
+            ax.plot(t, -bound, color="tab:red", ls="--", lw=0.8, alpha=0.6 if s.shape[0] > 1 else 1.0)
+        unit = f" [{unit_list[i]}]" if unit_list[i] else ""
+        ax.set_ylabel(f"{names[i]}{unit}")
+        ax.grid(True, alpha=0.3)
+        ax.margins(x=0)
+    axes[-1].set_xlabel("time [s]")
+    axes[0].plot([], [], color="tab:blue", label="error" + (f" ({e.shape[0]} runs)" if thin else ""))
+    axes[0].plot([], [], color="tab:red", ls="--", label=r"$\pm 3\sigma$")
+    axes[0].legend(loc="upper right", ncols=2)
+    fig.suptitle(title or r"estimation errors with $\pm 3\sigma$ bounds")
+    return fig
