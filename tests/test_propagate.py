@@ -2,6 +2,8 @@
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 from matplotlib.figure import Figure
 
 from attitude import RigidBody
@@ -263,3 +265,44 @@ def test_order_of_convergence_is_four(method):
     # Both are fourth-order methods; the measured slope must be within 0.3 of 4
     # (errors here range 1e-6 .. 1e-10, far above rounding).
     assert abs(_convergence_slope(method) - 4.0) < 0.3
+
+
+# ---------------------------------------------------------------------------
+# Property tests: random valid input propagates; random invalid input is named
+# ---------------------------------------------------------------------------
+
+@given(
+    st.integers(0, 2**32 - 1),
+    st.sampled_from(["rk4", "geometric", "adaptive"]),
+    st.integers(2, 12),
+)
+def test_random_valid_inputs_give_finite_unit_attitudes(seed, method, n_points):
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(np.concatenate([[rng.uniform(-5, 5)], rng.uniform(0.01, 0.5, n_points - 1)]))
+    traj = propagate(
+        BODY, quat.random(rng=rng), rng.normal(scale=0.5, size=3), t, rng.normal(scale=0.1, size=3), method=method
+    )
+    assert np.all(np.isfinite(traj.q)) and np.all(np.isfinite(traj.omega))
+    # Renormalised (rk4), Lie-group (geometric) or DOP853 at rtol 1e-10 over <= 6 s.
+    assert np.max(np.abs(np.linalg.norm(traj.q, axis=-1) - 1.0)) < 1e-8
+
+
+@given(st.integers(0, 2**32 - 1), st.integers(3, 12))
+def test_any_non_increasing_time_grid_is_rejected(seed, n_points):
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(rng.uniform(0.01, 1.0, n_points))
+    i = int(rng.integers(1, n_points))
+    t[i] = t[i - 1] - rng.uniform(0.0, 1.0)  # equal or decreasing
+    with pytest.raises(ValueError, match="t must be strictly increasing"):
+        propagate(BODY, Q0, W0, t)
+
+
+@given(
+    st.integers(0, 2**32 - 1), st.sampled_from(["q0", "omega0", "torque"]), st.sampled_from([np.nan, np.inf, -np.inf])
+)
+def test_any_non_finite_entry_is_rejected_with_its_name(seed, argument, bad):
+    rng = np.random.default_rng(seed)
+    args = {"q0": Q0.copy(), "omega0": W0.copy(), "torque": np.zeros(3)}
+    args[argument][int(rng.integers(0, args[argument].size))] = bad
+    with pytest.raises(ValueError, match=f"{argument} must be finite"):
+        propagate(BODY, args["q0"], args["omega0"], np.linspace(0, 1, 5), args["torque"])
