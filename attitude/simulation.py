@@ -11,7 +11,8 @@ Protocols (duck-typed)
 ----------------------
 controller
     ``period`` [s] and ``torque(t, estimate) -> (3,)`` commanded body torque
-    [N m]. Optional: ``reference(t) -> (q_ref, omega_ref)`` (the engine then
+    [N m]. Optional: ``prepare(t0, q0, omega0)`` called once before the run
+    (e.g. to latch limits from the initial error); ``reference(t) -> (q_ref, omega_ref)`` (the engine then
     logs the attitude error; ``reference_samples(t_array)`` does it in one
     call), ``log() -> dict`` of floats/arrays logged at each
     controller sample, and the compiled path below.
@@ -87,9 +88,12 @@ class Truth:
 class Estimate:
     """What the controller sees: attitude, body rate and wheel momenta.
 
-    ``h_body`` is the wheel momentum in body components [N m s] (the engine
-    fills it from the wheel tachometers); ``covariance`` is optional (an
-    estimator's error covariance).
+    ``h_body`` is the wheels' momentum *relative to the body*,
+    ``sum_i J_i Omega_i a_i`` in body components [N m s] (the engine fills it
+    from the wheel tachometers). With the whole-spacecraft inertia ``I`` a
+    controller uses, ``I omega + h_body`` is then exactly the total angular
+    momentum ``I_s omega + A h`` (the wheels' spin inertia is counted once).
+    ``covariance`` is optional (an estimator's error covariance).
     """
 
     t: float
@@ -298,6 +302,8 @@ def simulate(
     for s in sensors:
         if hasattr(s, "reset"):
             s.reset()  # a sensor carries state (e.g. gyro bias) from run to run otherwise
+    if controller is not None and hasattr(controller, "prepare"):
+        controller.prepare(0.0, q0, omega0)
     start = time.perf_counter()
     runner = _run_compiled if use_compiled else _run_python
     result = runner(
@@ -416,10 +422,12 @@ def _run_compiled(
 
 
 def _body_momentum(model: _PlantModel, xc: list) -> list:
-    """Wheel momentum in body components ``A h`` (zeros without wheels)."""
+    """Wheel momentum relative to the body, ``A (J Omega)``, in body components (zeros without wheels)."""
     if model.wheels is None:
         return [0.0 * xc[4]] * 3
-    return model.wheels._body_components(xc[7:], scale=1.0)
+    wheels = model.wheels
+    relative = [wheels.spin_inertia[i] * s for i, s in enumerate(wheels.wheel_speed_components(xc[7:], xc[4:7]))]
+    return wheels._body_components(relative, scale=1.0)
 
 
 def _error_angles(controller: Any, t: NDArray, q: NDArray) -> NDArray:
