@@ -569,10 +569,10 @@ def plot_simulation(result: SimulationResult) -> Figure:
     fig = Figure(figsize=(10, 10 if has_wheels else 8), layout="constrained")
     axes = fig.subplots(4 if has_wheels else 3, 1, sharex=True)
     err_deg = np.degrees(result.error_angle)
-    floor = 1e-6
+    floor = 1e-9  # deg; below this the error is at rounding level for any realistic pointing
     axes[0].semilogy(t, np.maximum(err_deg, floor), color="black")
     axes[0].set_ylabel("attitude error [deg]")
-    axes[0].set_title("error angle to the reference (shortest way)", fontsize=10)
+    axes[0].set_title("error angle to the reference (shortest way; shown down to 1e-9 deg)", fontsize=10)
     for i, name in enumerate("xyz"):
         axes[1].plot(t, np.degrees(result.omega[:, i]), color=AXIS_COLORS[i], label=rf"$\omega_{name}$")
     axes[1].set_ylabel("body rate [deg/s]")
