@@ -14,9 +14,9 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from benchmarks import bench_closed_loop, bench_propagation
+from benchmarks import bench_closed_loop, bench_propagation, bench_slew
 
-SUITES = {"propagation": bench_propagation.run, "closed_loop": bench_closed_loop.run}
+SUITES = {"propagation": bench_propagation.run, "closed_loop": bench_closed_loop.run, "slew": bench_slew.run}
 
 
 def main() -> None:
