@@ -162,11 +162,22 @@ def _torque_kind(torque: TorqueInput, n_t: int, batch: tuple[int, ...]) -> tuple
     return "const", arr
 
 
+#: Most fixed steps one call may take (about an hour of CPU time at the
+#: measured speeds); a larger count is almost surely a mistyped max_step.
+MAX_FIXED_STEPS = 10**9
+
+
 def _substeps(t: NDArray[np.float64], max_step: float | None) -> NDArray[np.int64]:
     dt = np.diff(t)
     if max_step is None:
         return np.ones(dt.size, dtype=np.int64)
-    return np.maximum(1, np.ceil(dt / max_step * (1 - 1e-12))).astype(np.int64)
+    counts = np.maximum(1.0, np.ceil(dt / max_step * (1 - 1e-12)))
+    if np.sum(counts) > MAX_FIXED_STEPS:
+        raise ValueError(
+            f"max_step = {max_step!r} s makes {np.sum(counts):.3g} steps over the time grid; "
+            f"the limit is {MAX_FIXED_STEPS:.0e} (check the units of max_step)"
+        )
+    return counts.astype(np.int64)
 
 
 def propagate(
@@ -246,10 +257,33 @@ def propagate(
     elif method == "rk4" and not batch and kind != "callable":
         q, omega, info = _propagate_rk4_casadi(body, q0, omega0, t, kind, tq, max_step)
     else:
-        q, omega, info = _propagate_fixed_numpy(body, q0, omega0, t, kind, tq, batch, max_step, method)
+        # A diverging run overflows; _check_finite below reports it as an error.
+        with np.errstate(over="ignore", invalid="ignore"):
+            q, omega, info = _propagate_fixed_numpy(body, q0, omega0, t, kind, tq, batch, max_step, method)
     info["wall_time_s"] = time.perf_counter() - start
+    _check_finite(q, omega, t, method, max_step)
     inertia = np.broadcast_to(body.inertia, (*batch, 3, 3)).copy() if body.batch_shape else body.inertia
     return Trajectory(t=t.copy(), q=q, omega=omega, inertia=inertia, method=method, info=info)
+
+
+class PropagationDivergedError(FloatingPointError):
+    """A fixed-step propagation blew up (the step is too long for the rates)."""
+
+
+def _check_finite(q: NDArray, omega: NDArray, t: NDArray, method: str, max_step: float | None) -> None:
+    """Raise instead of returning NaN/inf when a fixed-step run diverges."""
+    bad = ~(np.all(np.isfinite(q), axis=-1) & np.all(np.isfinite(omega), axis=-1))
+    if not np.any(bad):
+        return
+    k = int(np.argmax(np.any(bad.reshape(-1, t.size), axis=0)))
+    with np.errstate(over="ignore", invalid="ignore"):
+        rate0 = float(np.max(np.linalg.norm(omega[..., 0, :], axis=-1)))
+    step = float(np.min(np.diff(t))) if max_step is None else max_step
+    raise PropagationDivergedError(
+        f"{method} propagation diverged at t = {float(t[k]):.6g} s (non-finite state): initial body rate "
+        f"{rate0:.3g} rad/s with a step of {step:.3g} s (|omega| h = {rate0 * step:.3g}); "
+        "use a smaller max_step (|omega| h below about 0.5) or method='adaptive'"
+    )
 
 
 def _call_torque(fun: Callable, t: float, q: NDArray, omega: NDArray, batch: tuple[int, ...]) -> NDArray:
@@ -314,11 +348,27 @@ def _propagate_fixed_numpy(body, q0, omega0, t, kind, tq, batch, max_step, metho
     size = int(np.prod(batch))
     q0f = q0.reshape(size, 4)
     w0f = omega0.reshape(size, 3)
-    inertia = np.broadcast_to(body.inertia, (*batch, 3, 3)).reshape(size, 3, 3) if body.batch_shape else None
     if kind == "const":
         tqf = np.broadcast_to(tq, (*batch, 3)).reshape(size, 3)
     else:
         tqf = np.broadcast_to(tq, (t.size, *batch, 3)).reshape(t.size, size, 3)
+    principal = None
+    if not body.is_diagonal:
+        # Exact change of variables to the principal frame P, where the
+        # inertia is diagonal and Euler's equations cost a third of the
+        # products: q_PN = q_BN ⊗ q_PB, omega_P = C_PB omega_B, tau_P = C_PB tau_B.
+        axes = body.principal_axes()
+        q_pb = np.broadcast_to(axes.q_PB, (*batch, 4)).reshape(size, 4)
+        c_pb = np.broadcast_to(axes.C_PB, (*batch, 3, 3)).reshape(size, 3, 3)
+        principal = (q_pb, c_pb)
+        q0f = quat.multiply(q0f, q_pb)
+        w0f = np.einsum("nij,nj->ni", c_pb, w0f)
+        tqf = np.einsum("nij,...nj->...ni", c_pb, tqf)
+        moments = np.broadcast_to(axes.moments, (*batch, 3)).reshape(size, 3)
+        inertia = moments if body.batch_shape else None
+        body = RigidBody(axes.moments) if not body.batch_shape else body
+    else:
+        inertia = np.broadcast_to(body.inertia, (*batch, 3, 3)).reshape(size, 3, 3) if body.batch_shape else None
     q_out = np.empty((t.size, size, 4))
     w_out = np.empty((t.size, size, 3))
     steps = 0
@@ -332,6 +382,10 @@ def _propagate_fixed_numpy(body, q0, omega0, t, kind, tq, batch, max_step, metho
         q_out[:, sl], w_out[:, sl], steps = _run_fixed(
             chunk_body, q0f[sl], w0f[sl], t, subs, kind, chunk_tq, (n,), method
         )
+    if principal is not None:
+        q_pb, c_pb = principal
+        q_out = quat.multiply(q_out, quat.conjugate(q_pb))
+        w_out = np.einsum("nji,tnj->tni", c_pb, w_out)
     q = np.moveaxis(q_out.reshape(t.size, *batch, 4), 0, -2)
     w = np.moveaxis(w_out.reshape(t.size, *batch, 3), 0, -2)
     return q, w, _fixed_info(steps, subs)

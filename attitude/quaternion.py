@@ -62,6 +62,21 @@ UNIT_NORM_TOLERANCE = 1e-6
 # the truncation error of the series used is below 1e-20 there.
 _SMALL_ANGLE = 1e-5
 
+# Largest scalar part whose exponential is finite in float64 (e^709.78 ~ 1.8e308).
+_EXP_MAX = 709.0
+
+
+def _norm(x: NDArray[np.float64], keepdims: bool = False) -> NDArray[np.float64]:
+    """Euclidean norm over the last axis that neither overflows nor underflows.
+
+    Scaling by the largest magnitude first keeps ``|x|`` exact for entries
+    near 1e300 or 1e-300, where ``sqrt(sum x^2)`` returns inf or 0.
+    """
+    scale = np.max(np.abs(x), axis=-1, keepdims=True)
+    safe = np.where(scale > 0, scale, 1.0)
+    out = scale * np.linalg.norm(x / safe, axis=-1, keepdims=True)
+    return out if keepdims else out[..., 0]
+
 
 def as_unit_quaternion(q: ArrayLike, name: str = "q", *, tolerance: float = UNIT_NORM_TOLERANCE) -> NDArray[np.float64]:
     """Validate an attitude quaternion and return it normalised.
@@ -100,7 +115,7 @@ def as_unit_quaternion(q: ArrayLike, name: str = "q", *, tolerance: float = UNIT
 
 def _nonzero_quaternion(q: ArrayLike, name: str) -> NDArray[np.float64]:
     arr = check_vector(q, name, 4)
-    n = np.linalg.norm(arr, axis=-1)
+    n = _norm(arr)
     if np.any(n == 0):
         raise ValueError(f"{name} must be non-zero; found a quaternion with norm 0")
     return arr
@@ -142,19 +157,20 @@ def conjugate(q: ArrayLike) -> NDArray[np.float64]:
 
 def norm(q: ArrayLike) -> NDArray[np.float64]:
     """Euclidean norm ``|q|``, shape ``(...)``."""
-    return np.linalg.norm(check_vector(q, "q", 4), axis=-1)
+    return _norm(check_vector(q, "q", 4))
 
 
 def inverse(q: ArrayLike) -> NDArray[np.float64]:
     """Multiplicative inverse ``q* / |q|^2`` of a non-zero quaternion."""
     q = _nonzero_quaternion(q, "q")
-    return conjugate(q) / np.sum(q * q, axis=-1, keepdims=True)
+    n = _norm(q, keepdims=True)
+    return conjugate(q) / n / n
 
 
 def normalize(q: ArrayLike) -> NDArray[np.float64]:
     """Return ``q / |q|`` for any non-zero quaternion (raises for zero norm)."""
     q = _nonzero_quaternion(q, "q")
-    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+    return q / _norm(q, keepdims=True)
 
 
 def rotate(q: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
@@ -190,11 +206,14 @@ def exp(q: ArrayLike) -> NDArray[np.float64]:
     q = check_vector(q, "q", 4)
     s = q[..., 0]
     v = q[..., 1:]
-    angle = np.linalg.norm(v, axis=-1)
+    if np.any(s > _EXP_MAX):
+        raise ValueError(f"q scalar part must be at most {_EXP_MAX} (e^s overflows beyond); got {np.max(s)!r}")
+    angle = _norm(v)
     small = angle < _SMALL_ANGLE
     safe = np.where(small, 1.0, angle)
     # sin(x)/x = 1 - x^2/6 + x^4/120 - ...; the x^4 term is < 1e-22 below _SMALL_ANGLE.
-    sinc = np.where(small, 1.0 - angle**2 / 6.0, np.sin(safe) / safe)
+    tiny = np.where(small, angle, 0.0)
+    sinc = np.where(small, 1.0 - tiny * tiny / 6.0, np.sin(safe) / safe)
     out = np.concatenate([np.cos(angle)[..., None], sinc[..., None] * v], axis=-1)
     return np.exp(s)[..., None] * out
 
@@ -207,7 +226,7 @@ def log(q: ArrayLike) -> NDArray[np.float64]:
     ``phi`` the rotation vector taken the way ``q`` (not ``-q``) points.
     """
     q = _nonzero_quaternion(q, "q")
-    qn = np.linalg.norm(q, axis=-1)
+    qn = _norm(q)
     w = q[..., 0]
     v = q[..., 1:]
     # hypot does not underflow: the direction v/|v| matters even for a tiny v when w < 0.
@@ -246,7 +265,7 @@ def error_angle(q_ref: ArrayLike, q: ArrayLike) -> NDArray[np.float64]:
     ``2 * atan2(|v_err|, |w_err|)``, which keeps full precision for tiny errors.
     """
     e = multiply(conjugate(as_unit_quaternion(q_ref, "q_ref")), as_unit_quaternion(q, "q"))
-    return 2.0 * np.arctan2(np.linalg.norm(e[..., 1:], axis=-1), np.abs(e[..., 0]))
+    return 2.0 * np.arctan2(_norm(e[..., 1:]), np.abs(e[..., 0]))
 
 
 def slerp(q0: ArrayLike, q1: ArrayLike, fraction: ArrayLike) -> NDArray[np.float64]:
@@ -365,7 +384,7 @@ def from_dcm(dcm: ArrayLike) -> NDArray[np.float64]:
         axis=-1,
     )
     q = np.take_along_axis(cand, choice[..., None, None], axis=-2)[..., 0, :]
-    return shortest(q / np.linalg.norm(q, axis=-1, keepdims=True))
+    return shortest(q / _norm(q, keepdims=True))
 
 
 def to_rotation_vector(q: ArrayLike) -> NDArray[np.float64]:
@@ -387,7 +406,7 @@ def to_axis_angle(q: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64
     For a zero rotation the axis is undefined; ``[1, 0, 0]`` is returned.
     """
     phi = to_rotation_vector(q)
-    angle = np.linalg.norm(phi, axis=-1)
+    angle = _norm(phi)
     safe = np.where(angle > 0, angle, 1.0)
     axis = np.where((angle > 0)[..., None], phi / safe[..., None], np.array([1.0, 0.0, 0.0]))
     return axis, angle
@@ -403,7 +422,7 @@ def from_axis_angle(axis: ArrayLike, angle: ArrayLike) -> NDArray[np.float64]:
     """
     axis = check_vector(axis, "axis", 3)
     angle = as_float_array(angle, "angle")
-    n = np.linalg.norm(axis, axis=-1)
+    n = _norm(axis)
     if np.any(n == 0):
         raise ValueError("axis must be a non-zero vector; found a zero-length axis")
     half = 0.5 * angle
@@ -429,15 +448,23 @@ def to_mrp(q: ArrayLike) -> NDArray[np.float64]:
 def mrp_shadow(sigma: ArrayLike) -> NDArray[np.float64]:
     """Shadow MRP set ``-sigma / |sigma|^2`` (same attitude; raises for ``sigma = 0``)."""
     sigma = check_vector(sigma, "sigma", 3)
-    s2 = np.sum(sigma * sigma, axis=-1, keepdims=True)
-    if np.any(s2 == 0):
+    n = _norm(sigma, keepdims=True)
+    if np.any(n == 0):
         raise ValueError("sigma must be non-zero for its shadow set (the shadow of 0 is at infinity)")
-    return -sigma / s2
+    return -sigma / n / n
 
 
 def from_mrp(sigma: ArrayLike) -> NDArray[np.float64]:
-    """Unit quaternion (``w >= 0``) of modified Rodrigues parameters ``sigma``."""
+    """Unit quaternion (``w >= 0``) of modified Rodrigues parameters ``sigma``.
+
+    A set with ``|sigma| > 1`` is first replaced by its shadow (the same
+    attitude), which keeps ``|sigma|^2`` from overflowing for huge inputs.
+    """
     sigma = check_vector(sigma, "sigma", 3)
+    n = _norm(sigma, keepdims=True)
+    big = n > 1.0
+    n_big = np.where(big, n, 1.0)
+    sigma = np.where(big, -sigma / n_big / n_big, sigma)
     s2 = np.sum(sigma * sigma, axis=-1, keepdims=True)
     q = np.concatenate([1.0 - s2, 2.0 * sigma], axis=-1) / (1.0 + s2)
     return shortest(q)
@@ -459,4 +486,4 @@ def random(shape: int | tuple[int, ...] = (), rng: object = None) -> NDArray[np.
     gen = as_generator(rng)
     shape = (shape,) if isinstance(shape, int) else tuple(shape)
     g = gen.standard_normal((*shape, 4))
-    return g / np.linalg.norm(g, axis=-1, keepdims=True)
+    return g / _norm(g, keepdims=True)

@@ -196,8 +196,13 @@ class RigidBody:
                 f"inertia must be symmetric (max|I - I^T| <= {SYMMETRY_TOLERANCE:g} max|I|); "
                 f"found an asymmetry of {np.max(asym):.6g} kg m^2 in {describe(tensor)}"
             )
-        tensor = 0.5 * (tensor + np.swapaxes(tensor, -1, -2))
+        tensor = 0.5 * tensor + 0.5 * np.swapaxes(tensor, -1, -2)
         moments, axes = np.linalg.eigh(tensor)
+        if not np.all(np.isfinite(moments)):
+            raise ValueError(
+                f"inertia must have finite principal moments; got {describe(moments)} kg m^2 "
+                f"(entries of magnitude {np.max(scale):.3g} overflow)"
+            )
         if np.any(moments <= 0):
             raise ValueError(f"inertia must be positive definite; principal moments are {describe(moments)} kg m^2")
         # Triangle inequality: I3 <= I1 + I2 with I1 <= I2 <= I3 (sorted by eigh).
@@ -210,8 +215,13 @@ class RigidBody:
         # Make the eigenvector frame right-handed.
         left_handed = np.linalg.det(axes) < 0
         axes[..., :, 2] = np.where(left_handed[..., None], -axes[..., :, 2], axes[..., :, 2])
+        inverse = np.linalg.inv(tensor)
+        if not np.all(np.isfinite(inverse)):
+            raise ValueError(
+                f"inertia must have a finite inverse; principal moments {describe(moments)} kg m^2 are too small"
+            )
         self._inertia = tensor
-        self._inertia_inv = np.linalg.inv(tensor)
+        self._inertia_inv = inverse
         self._moments = moments
         self._axes_B = axes
         self._I = _entries(tensor)

@@ -271,6 +271,7 @@ def test_order_of_convergence_is_four(method):
 # Property tests: random valid input propagates; random invalid input is named
 # ---------------------------------------------------------------------------
 
+
 @given(
     st.integers(0, 2**32 - 1),
     st.sampled_from(["rk4", "geometric", "adaptive"]),
@@ -306,3 +307,17 @@ def test_any_non_finite_entry_is_rejected_with_its_name(seed, argument, bad):
     args[argument][int(rng.integers(0, args[argument].size))] = bad
     with pytest.raises(ValueError, match=f"{argument} must be finite"):
         propagate(BODY, args["q0"], args["omega0"], np.linspace(0, 1, 5), args["torque"])
+
+
+class TestDivergenceIsReported:
+    @pytest.mark.parametrize("method", ["rk4", "geometric"])
+    def test_a_step_too_long_for_the_rates_raises_instead_of_returning_nan(self, method):
+        from attitude.propagate import PropagationDivergedError
+
+        # |omega| h = 11.6: far outside RK4's stability region; the state overflows.
+        with pytest.raises(PropagationDivergedError, match=r"\|omega\| h = 11.6"):
+            propagate(BODY, Q0, [3.0, 5.0, 10.0], np.arange(0.0, 600.0, 1.0), method=method)
+
+    def test_a_mistyped_max_step_is_named(self):
+        with pytest.raises(ValueError, match="max_step = 1e-300 s makes"):
+            propagate(BODY, Q0, W0, np.linspace(0, 10, 11), max_step=1e-300)

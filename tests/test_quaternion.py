@@ -751,3 +751,27 @@ def test_unit_norm_tolerance_boundary():
     assert_close(Q.to_dcm(q), Q.to_dcm(_U), atol=4 * EPS)
     with pytest.raises(ValueError, match="^q " + _UNIT):
         Q.to_dcm(_U * (1.0 + 2.0 * Q.UNIT_NORM_TOLERANCE))
+
+
+class TestExtremeMagnitudes:
+    """Norms are computed with scaling, so huge or tiny inputs keep their meaning."""
+
+    def test_huge_and_tiny_quaternions_normalise(self):
+        np.testing.assert_array_equal(Q.normalize([1e200, 0.0, 0.0, 0.0]), [1.0, 0.0, 0.0, 0.0])
+        np.testing.assert_array_equal(Q.normalize([1e-170, 0.0, 0.0, 0.0]), [1.0, 0.0, 0.0, 0.0])
+        np.testing.assert_allclose(Q.inverse([2e200, 0.0, 0.0, 0.0]), [0.5e-200, 0.0, 0.0, 0.0], rtol=1e-15)
+
+    def test_huge_axis_and_mrp_give_unit_quaternions(self):
+        q = Q.from_axis_angle([1e200, 0.0, 0.0], 0.5)
+        np.testing.assert_allclose(q, [np.cos(0.25), np.sin(0.25), 0.0, 0.0], atol=1e-15)
+        # |sigma| -> infinity is a full turn: the identity attitude.
+        np.testing.assert_allclose(Q.from_mrp([1e160, 0.0, 0.0]), [1.0, 0.0, 0.0, 0.0], atol=1e-15)
+
+    def test_tiny_rotation_axis_is_unit(self):
+        axis, angle = Q.to_axis_angle([1.0, 4.76e-162, 4.76e-162, 4.76e-162])
+        np.testing.assert_allclose(axis, np.full(3, 1 / np.sqrt(3)), rtol=1e-15)
+        assert angle == pytest.approx(2 * np.sqrt(3) * 4.76e-162, rel=1e-14)
+
+    def test_overflowing_exponential_is_named(self):
+        with pytest.raises(ValueError, match="q scalar part must be at most"):
+            Q.exp([1000.0, 0.0, 0.0, 0.0])

@@ -202,3 +202,15 @@ class TestInvariants:
             body.omega_dot([0.1, np.nan, 0.0])
         with pytest.raises(ValueError, match="torque"):
             body.omega_dot([0.1, 0.0, 0.0], [1.0, 2.0])
+
+
+@pytest.mark.parametrize(
+    ("inertia", "match"),
+    [
+        ([1e-310] * 3, "finite inverse"),
+        ([[1e308, 1e308, 0], [1e308, 1e308, 0], [0, 0, 1.0]], "finite principal moments"),
+    ],
+)
+def test_inertia_beyond_float_range_is_rejected(inertia, match):
+    with pytest.raises(ValueError, match=match):
+        RigidBody(inertia)
