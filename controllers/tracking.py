@@ -81,9 +81,29 @@ class ReferenceTrajectory:
             t=np.asarray(plan.t), q=np.asarray(plan.q), omega=np.asarray(plan.omega), torque=np.asarray(plan.torque)
         )
 
-    def sample(self, t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        """Reference attitude (n, 4), rate (n, 3) [rad/s] and feedforward torque (n, 3) [N m] at times ``t``."""
+    def torque_integral(self, t: ArrayLike) -> NDArray[np.float64]:
+        """``integral_0^t torque dt`` of the held plan torque [N m s], shape (n, 3); constant after the end."""
+        t = np.clip(np.atleast_1d(as_float_array(t, "t")), self.t[0], self.t[-1])
+        steps = np.diff(self.t)[:, None] * self.torque[:-1]
+        cumulative = np.concatenate([np.zeros((1, 3)), np.cumsum(steps, axis=0)])
+        k = np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, self.t.size - 2)
+        return cumulative[k] + self.torque[k] * (t - self.t[k])[:, None]
+
+    def sample(
+        self, t: ArrayLike, window: float | None = None
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Reference attitude (n, 4), rate (n, 3) [rad/s] and feedforward torque (n, 3) [N m] at times ``t``.
+
+        With ``window`` [s] the torque is the plan's average over
+        ``[t, t + window)``: held by a controller of that period it delivers
+        exactly the plan's angular impulse per sample even where a plan
+        switch falls between samples.
+        """
         t = np.atleast_1d(as_float_array(t, "t"))
+        if window is not None:
+            q, omega, _ = self.sample(t)
+            torque = (self.torque_integral(t + window) - self.torque_integral(t)) / window
+            return q, omega, torque
         k = np.clip(np.searchsorted(self.t, t, side="right") - 1, 0, self.t.size - 2)
         span = self.t[k + 1] - self.t[k]
         frac = np.clip((t - self.t[k]) / span, 0.0, 1.0)
@@ -98,6 +118,10 @@ class ReferenceTrajectory:
         q[before] = self.q[0]
         omega[before] = self.omega[0]
         return q, omega, torque
+
+
+def _as_reference(value: Any) -> ReferenceTrajectory:
+    return value if isinstance(value, ReferenceTrajectory) else ReferenceTrajectory.from_plan(value)
 
 
 class TrackingController:
@@ -117,6 +141,12 @@ class TrackingController:
         Controller sample time [s].
     t_start : float
         Simulation time [s] at which the plan's ``t = 0`` is flown.
+    feedforward : ReferenceTrajectory or plan, optional
+        Source of the feedforward torque when it differs from ``reference``:
+        e.g. ``reference=plan.resample(period)`` for exact states at the
+        controller rate and ``feedforward=plan`` for the plan's own
+        piecewise-constant torque (whose switches need not fall on the
+        resampled grid). Default: ``reference``.
     """
 
     def __init__(
@@ -128,16 +158,20 @@ class TrackingController:
         period: float,
         *,
         t_start: float = 0.0,
+        feedforward: Any = None,
     ) -> None:
-        self.trajectory = (
-            reference if isinstance(reference, ReferenceTrajectory) else ReferenceTrajectory.from_plan(reference)
-        )
+        self.trajectory = _as_reference(reference)
+        self.torque_source = self.trajectory if feedforward is None else _as_reference(feedforward)
         self.t_start = float(as_float_array(t_start, "t_start"))
         self.feedback = QuaternionPD.from_bandwidth(body, wn, zeta, period, reference_fn=self.reference)
         self.period = self.feedback.period
 
     def _samples(self, t: ArrayLike):
-        return self.trajectory.sample(np.atleast_1d(np.asarray(t, dtype=float)) - self.t_start)
+        t_plan = np.atleast_1d(np.asarray(t, dtype=float)) - self.t_start
+        q, omega, _ = self.trajectory.sample(t_plan)
+        # Feedforward averaged over each controller period (ReferenceTrajectory.sample).
+        _, _, torque = self.torque_source.sample(t_plan, window=self.period)
+        return q, omega, torque
 
     def reference(self, t: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Planned attitude ``q_RN`` and rate [rad/s] at simulation time ``t``."""
