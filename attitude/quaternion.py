@@ -73,9 +73,14 @@ def _norm(x: NDArray[np.float64], keepdims: bool = False) -> NDArray[np.float64]
     near 1e300 or 1e-300, where ``sqrt(sum x^2)`` returns inf or 0.
     """
     scale = np.max(np.abs(x), axis=-1, keepdims=True)
-    safe = np.where(scale > 0, scale, 1.0)
-    out = scale * np.linalg.norm(x / safe, axis=-1, keepdims=True)
-    return out if keepdims else out[..., 0]
+    y = x / np.where(scale > 0, scale, 1.0)
+    # Component by component (not np.linalg.norm, whose summation order
+    # differs between 1-D and batched input): a batch is bit-identical to a loop.
+    total = y[..., 0] * y[..., 0]
+    for i in range(1, x.shape[-1]):
+        total = total + y[..., i] * y[..., i]
+    out = scale[..., 0] * np.sqrt(total)
+    return out[..., None] if keepdims else out
 
 
 def as_unit_quaternion(q: ArrayLike, name: str = "q", *, tolerance: float = UNIT_NORM_TOLERANCE) -> NDArray[np.float64]:
@@ -102,7 +107,7 @@ def as_unit_quaternion(q: ArrayLike, name: str = "q", *, tolerance: float = UNIT
         by more than ``tolerance``.
     """
     arr = check_vector(q, name, 4)
-    n = np.linalg.norm(arr, axis=-1)
+    n = _norm(arr)
     bad = np.abs(n - 1.0) > tolerance
     if np.any(bad):
         first = np.asarray(n)[bad].flat[0] if np.ndim(n) else float(n)

@@ -947,7 +947,9 @@ class StarTracker:
         q = quat.as_unit_quaternion(truth.q, "truth.q")
         if self.sun_blinded(t, q):
             return None
-        return self.add_noise(q, rng)
+        # add_noise normalises truth.q itself: normalising once keeps a
+        # sequence of measurements bit-identical to one batch call.
+        return self.add_noise(truth.q, rng)
 
 
 #: Datasheet figures of the star-tracker presets (keywords of :meth:`StarTracker.from_datasheet`).

@@ -1,0 +1,1181 @@
+"""Multiplicative extended Kalman filter (MEKF) for attitude and gyro bias.
+
+The filter of Markley and Crassidis (*Fundamentals of Spacecraft Attitude
+Determination and Control*, 2014, ch. 6) and Crassidis and Junkins
+(*Optimal Estimation of Dynamic Systems*, 2nd ed., sec. 7.2): a reference
+quaternion ``q_hat`` (the attitude ``q_BN``, kept unit norm) and a gyro bias
+estimate ``b_hat`` [rad/s] are carried outside the Kalman state; the Kalman
+state is the six-component error
+
+.. math::
+
+    x = [\\delta\\theta, \\delta b], \\qquad
+    q_{BN} = \\hat q \\otimes \\exp(\\delta\\theta / 2), \\qquad
+    b = \\hat b + \\delta b,
+
+(``delta_theta`` [rad] a rotation vector in body axes, the convention of
+:attr:`attitude.sensors.StarTracker.covariance_B` and
+:meth:`attitude.sensors.Gyro.process_noise`) with its covariance ``P``
+(6 x 6, [rad^2], [rad^2/s], [rad^2/s^2]). ``x`` is zero between updates: each
+update estimates it, moves it into ``q_hat`` and ``b_hat`` (the *reset*) and
+zeroes it again.
+
+Propagation (gyro)
+------------------
+A gyro sample ``omega_meas[k]`` at ``t[k]`` is taken as the *mean* rate over
+``(t[k-1], t[k]]`` (the angle increment divided by the interval, what
+:class:`attitude.sensors.Gyro` models), held constant over the interval
+(zeroth order: no coning correction). With ``w = omega_meas - b_hat``:
+
+- ``q_hat <- q_hat ⊗ exp(w dt / 2)`` (:func:`attitude.quaternion.from_rotation_vector`
+  of ``w dt``), the exact quaternion step for a constant rate, then normalised;
+- ``P <- Phi P Phi^T + Q`` with ``Phi = expm([[-[w x], -I], [0, 0]] dt)`` in
+  closed form (Crassidis and Junkins, sec. 7.2; Markley and Crassidis, ch. 6):
+  ``Phi11 = I - [w x] sin(a)/|w| + [w x]^2 (1 - cos a)/|w|^2``,
+  ``Phi12 = -I dt + [w x] (1 - cos a)/|w|^2 - [w x]^2 (a - sin a)/|w|^3``,
+  ``a = |w| dt``;
+- ``Q`` the discrete noise of the Farrenkopf gyro model,
+  :meth:`attitude.sensors.Gyro.process_noise`
+  (``[[(sv^2 dt + su^2 dt^3/3) I, -su^2 dt^2/2 I], [-su^2 dt^2/2 I, su^2 dt I]]``),
+  exact for the sampled model at zero rate and to first order in
+  ``|w| dt`` otherwise (its isotropic angle-random-walk part is exact at any rate).
+
+Update (star tracker)
+---------------------
+A tracker quaternion ``q_meas = q_BN ⊗ exp(v/2)`` (noise ``v`` with covariance
+``R`` in body axes) gives the residual ``z = rotvec(q_hat* ⊗ q_meas)``
+(:func:`attitude.quaternion.to_rotation_vector`, shortest way, so ``q_meas``
+and ``-q_meas`` are the same measurement) ``= delta_theta + v`` to first
+order: ``H = [I 0]``. The Kalman update uses the Joseph form. Reset:
+``q_hat <- normalise(q_hat ⊗ exp(delta_theta_hat / 2))``,
+``b_hat <- b_hat + delta_b_hat``, ``x <- 0``. The error after the reset is
+``delta_theta' = log(exp(-delta_theta_hat) ⊗ exp(delta_theta))
+= delta_theta - delta_theta_hat - [delta_theta_hat x] delta_theta / 2 + ...``,
+so the covariance reset Jacobian is the identity to first order (the
+classical MEKF, ``covariance_reset="first_order"``, the default) and
+``G = blockdiag(I - [delta_theta_hat x] / 2, I)``, ``P <- G P G^T`` to
+second order (``covariance_reset="second_order"``; Mueller, Hehn and
+D'Andrea, "Covariance correction step for Kalman filtering with an attitude",
+J. Guidance, Control, and Dynamics 40(9), 2017; the exact Jacobian, the
+right Jacobian of SO(3) at ``delta_theta_hat``, differs from ``G`` by
+``|delta_theta_hat|^2 / 6``). With an arcsecond tracker the two options
+differ by a relative ``|delta_theta_hat| / 2`` ~ 1e-5.
+
+filterpy
+--------
+:class:`filterpy.kalman.KalmanFilter` carries the error state of one filter
+(:class:`MEKF`): ``predict()`` with ``F = Phi`` and ``Q`` set before each
+call (filterpy uses ``self.F`` and ``self.Q`` as they stand), ``update(z)``
+with ``x`` held at zero, ``H = [I 0]``, ``R``: its Joseph-form update is the
+MEKF's, and its ``y``, ``S`` and ``SI`` give the NIS. ``x`` and ``z`` are 1-D
+arrays (filterpy keeps ``x``'s shape and reshapes ``z`` to match). What falls
+outside filterpy's model is done here: the reference quaternion and bias
+bookkeeping, the reset after each update (filterpy would leave ``x`` non-zero
+and propagate it linearly), the covariance reset Jacobian, the residual
+computed on the quaternion manifold, missing and NaN samples and time
+checks. filterpy's ``ExtendedKalmanFilter`` is not used: its update adds
+``K y`` to ``x`` in a vector space and has no reset. The Monte Carlo batch
+path of :func:`run_mekf` (many runs at once) does not use filterpy either:
+filterpy runs one filter at a time in Python, and a campaign gets fast by
+doing each step for all runs in one numpy operation. It repeats the same
+equations over a leading runs axis; a test proves both paths agree.
+
+Steady state
+------------
+:func:`steady_state_covariance` and :func:`steady_state_attitude_sigma` give
+the closed-form steady state of the single-axis filter (gyro with ARW
+``sigma_v`` and RRW ``sigma_u``, attitude sensor with noise ``sigma_n``
+every ``dt``): the quantity analysed by Farrenkopf (1978) and by Markley and
+Reynolds ("Analytic steady-state accuracy of a spacecraft attitude
+estimator", J. Guidance, Control, and Dynamics 23, 2000; Markley and
+Crassidis 2014, ch. 6). The formula used is derived here from the
+discrete algebraic Riccati equation (see :func:`steady_state_covariance`);
+a test checks it against :func:`scipy.linalg.solve_discrete_are`.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from filterpy.kalman import KalmanFilter
+from matplotlib.figure import Figure
+from numpy.typing import ArrayLike, NDArray
+
+from attitude import quaternion as quat
+from attitude._validation import as_float_array, check_positive
+from attitude.results import ResultIO
+from attitude.sensors import ARCSEC, Gyro, StarTracker
+from attitude.simulation import Estimate
+from estimation.consistency import NisHealth, nees, nis_health, plot_errors_with_bounds
+
+__all__ = [
+    "MEKF",
+    "MEKFResult",
+    "initial_covariance",
+    "process_noise",
+    "run_mekf",
+    "steady_state_attitude_sigma",
+    "steady_state_covariance",
+    "transition_matrix",
+]
+
+_I3 = np.eye(3)
+_H = np.hstack([_I3, np.zeros((3, 3))])
+_RESETS = ("first_order", "second_order")
+#: Accepted deviation of a tracker quaternion's norm from 1 (that of attitude.quaternion).
+_UNIT_TOL = quat.UNIT_NORM_TOLERANCE
+_DEG_PER_H = np.pi / 180.0 / 3600.0  # [rad/s] in one deg/h
+
+
+# ---------------------------------------------------------------------------
+# Small batch-aware helpers (no validation: internal hot path; tested against attitude.quaternion)
+
+
+def _skew(v: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``[v x]`` of shape (..., 3, 3)."""
+    z = np.zeros(v.shape[:-1])
+    x, y, w = v[..., 0], v[..., 1], v[..., 2]
+    return np.stack([np.stack([z, -w, y], -1), np.stack([w, z, -x], -1), np.stack([-y, x, z], -1)], -2)
+
+
+def _qmul(p: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.float64]:
+    pw, px, py, pz = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
+    qw, qx, qy, qz = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    return np.stack(
+        [
+            pw * qw - px * qx - py * qy - pz * qz,
+            pw * qx + px * qw + py * qz - pz * qy,
+            pw * qy - px * qz + py * qw + pz * qx,
+            pw * qz + px * qy - py * qx + pz * qw,
+        ],
+        axis=-1,
+    )
+
+
+def _conj(q: NDArray[np.float64]) -> NDArray[np.float64]:
+    return q * np.array([1.0, -1.0, -1.0, -1.0])
+
+
+def _exp_rotvec(phi: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Unit quaternion of the rotation vector ``phi`` [rad] (..., 3)."""
+    angle = np.sqrt(np.sum(phi * phi, axis=-1))
+    half = 0.5 * angle
+    small = angle < 1e-5
+    safe = np.where(small, 1.0, angle)
+    # sin(a/2)/a = 1/2 - a^2/48 + a^4/3840: the a^4 term is < 1e-23 below 1e-5.
+    s = np.where(small, 0.5 - angle**2 / 48.0, np.sin(half) / safe)
+    return np.concatenate([np.cos(half)[..., None], s[..., None] * phi], axis=-1)
+
+
+def _log_rotvec(q: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rotation vector [rad] of the unit quaternion ``q`` on the shortest way (``|phi| <= pi``)."""
+    sign = np.where(q[..., 0] < 0.0, -1.0, 1.0)
+    w = sign * q[..., 0]
+    v = sign[..., None] * q[..., 1:]
+    vn = np.sqrt(np.sum(v * v, axis=-1))
+    # atan2 keeps full relative precision for any |v| > 0; |v| = 0 means no rotation.
+    ratio = np.where(vn > 0.0, 2.0 * np.arctan2(vn, w) / np.where(vn > 0.0, vn, 1.0), 2.0)
+    return ratio[..., None] * v
+
+
+def _normalize(q: NDArray[np.float64]) -> NDArray[np.float64]:
+    return q / np.sqrt(np.sum(q * q, axis=-1, keepdims=True))
+
+
+def _compose_one(q: NDArray[np.float64], phi: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``normalise(q ⊗ exp(phi / 2))`` for one quaternion (4,) and rotation vector (3,), with Python scalars."""
+    px, py, pz = float(phi[0]), float(phi[1]), float(phi[2])
+    angle = math.sqrt(px * px + py * py + pz * pz)
+    s = 0.5 - angle * angle / 48.0 if angle < 1e-5 else math.sin(0.5 * angle) / angle  # as in _exp_rotvec
+    dw, dx, dy, dz = math.cos(0.5 * angle), s * px, s * py, s * pz
+    qw, qx, qy, qz = float(q[0]), float(q[1]), float(q[2]), float(q[3])
+    w = qw * dw - qx * dx - qy * dy - qz * dz
+    x = qw * dx + qx * dw + qy * dz - qz * dy
+    y = qw * dy - qx * dz + qy * dw + qz * dx
+    z = qw * dz + qx * dy - qy * dx + qz * dw
+    n = math.sqrt(w * w + x * x + y * y + z * z)
+    return np.array([w / n, x / n, y / n, z / n])
+
+
+def transition_matrix(omega: ArrayLike, dt: ArrayLike) -> NDArray[np.float64]:
+    """Error-state transition ``Phi = expm([[-[w x], -I], [0, 0]] dt)`` in closed form, shape (..., 6, 6).
+
+    Parameters
+    ----------
+    omega : array_like (..., 3)
+        Estimated body rate ``w = omega_meas - b_hat`` [rad/s], constant over the step.
+    dt : float or array_like (...)
+        Step [s] (>= 0).
+
+    Returns
+    -------
+    ndarray (..., 6, 6)
+        ``[[Phi11, Phi12], [0, I]]`` with ``Phi11 = exp(-[w x] dt)`` (the
+        transpose of the rotation over the step) and ``Phi12 = -int_0^dt
+        exp(-[w x] s) ds`` (module docstring).
+    """
+    w = as_float_array(omega, "omega")
+    if w.ndim == 0 or w.shape[-1] != 3:
+        raise ValueError(f"omega must have shape (..., 3), got shape {w.shape}")
+    h = check_positive(dt, "dt", allow_zero=True)
+    return _transition(w, h)
+
+
+def _transition(w: NDArray[np.float64], dt: Any) -> NDArray[np.float64]:
+    dt = np.asarray(dt, dtype=np.float64)
+    wn = np.sqrt(np.sum(w * w, axis=-1))
+    a = wn * dt
+    small = a < 1e-2
+    sa = np.where(small, 1.0, a)
+    # Coefficients in units of dt: sin(a)/a, (1 - cos a)/a^2, (a - sin a)/a^3. Series below a = 1e-2
+    # (first dropped terms a^6/5040, a^6/40320, a^6/362880 < 2e-16 relative there); (1 - cos a)
+    # as 2 sin^2(a/2) has no cancellation.
+    c1 = np.where(small, 1.0 - a**2 / 6.0 + a**4 / 120.0, np.sin(sa) / sa)
+    c2 = np.where(small, 0.5 - a**2 / 24.0 + a**4 / 720.0, 2.0 * np.sin(0.5 * sa) ** 2 / sa**2)
+    c3 = np.where(small, 1.0 / 6.0 - a**2 / 120.0 + a**4 / 5040.0, (sa - np.sin(sa)) / sa**3)
+    k = _skew(w * dt[..., None])  # [w x] dt
+    k2 = k @ k
+    d = dt[..., None, None]
+    phi11 = _I3 - c1[..., None, None] * k + c2[..., None, None] * k2
+    phi12 = d * (-_I3 + c2[..., None, None] * k - c3[..., None, None] * k2)
+    out = np.zeros((*np.broadcast_shapes(w.shape[:-1], dt.shape), 6, 6))
+    out[..., :3, :3] = phi11
+    out[..., :3, 3:] = phi12
+    out[..., 3:, 3:] = _I3
+    return out
+
+
+def _transition_one(w: NDArray[np.float64], dt: float) -> NDArray[np.float64]:
+    """:func:`_transition` for one rate (3,) and a scalar step, with Python scalars (the per-step path)."""
+    wx, wy, wz = float(w[0]) * dt, float(w[1]) * dt, float(w[2]) * dt
+    a = math.sqrt(wx * wx + wy * wy + wz * wz)
+    if a < 1e-2:
+        a2 = a * a
+        c1 = 1.0 - a2 / 6.0 + a2 * a2 / 120.0
+        c2 = 0.5 - a2 / 24.0 + a2 * a2 / 720.0
+        c3 = 1.0 / 6.0 - a2 / 120.0 + a2 * a2 / 5040.0
+    else:
+        c1 = math.sin(a) / a
+        c2 = 2.0 * math.sin(0.5 * a) ** 2 / (a * a)
+        c3 = (a - math.sin(a)) / a**3
+    k = np.array([[0.0, -wz, wy], [wz, 0.0, -wx], [-wy, wx, 0.0]])
+    k2 = k @ k
+    out = np.zeros((6, 6))
+    out[:3, :3] = _I3 - c1 * k + c2 * k2
+    out[:3, 3:] = dt * (-_I3 + c2 * k - c3 * k2)
+    out[3:, 3:] = _I3
+    return out
+
+
+def process_noise(sigma_v: float, sigma_u: float, dt: float) -> NDArray[np.float64]:
+    """Discrete process noise (6, 6) of ``[delta_theta, delta_b]`` over ``dt`` [s].
+
+    The formula of :meth:`attitude.sensors.Gyro.process_noise` (Crassidis and
+    Junkins, sec. 7.2.1) for ``sigma_v`` [rad/s^0.5] and ``sigma_u``
+    [rad/s^1.5]: ``[[(sv^2 dt + su^2 dt^3/3) I, -(su^2 dt^2/2) I],
+    [-(su^2 dt^2/2) I, su^2 dt I]]``.
+    """
+    sv = float(check_positive(sigma_v, "sigma_v", allow_zero=True))
+    su = float(check_positive(sigma_u, "sigma_u", allow_zero=True))
+    h = float(check_positive(dt, "dt", allow_zero=True))
+    return _process_noise(sv * sv, su * su, h)
+
+
+_MASK_AA = np.zeros((6, 6))
+_MASK_AA[:3, :3] = _I3
+_MASK_AB = np.zeros((6, 6))
+_MASK_AB[:3, 3:] = _I3
+_MASK_AB[3:, :3] = _I3
+_MASK_BB = np.zeros((6, 6))
+_MASK_BB[3:, 3:] = _I3
+
+
+def _process_noise(sv2: float, su2: float, h: float) -> NDArray[np.float64]:
+    """:func:`process_noise` without checks, from the squared densities."""
+    return (sv2 * h + su2 * h**3 / 3.0) * _MASK_AA - (su2 * h**2 / 2.0) * _MASK_AB + (su2 * h) * _MASK_BB
+
+
+def initial_covariance(attitude_sigma: float, bias_sigma: float) -> NDArray[np.float64]:
+    """Diagonal initial covariance (6, 6) from per-axis standard deviations.
+
+    Parameters
+    ----------
+    attitude_sigma : float
+        Initial attitude error per axis [rad] (> 0).
+    bias_sigma : float
+        Initial gyro bias error per axis [rad/s] (> 0).
+    """
+    a = _positive_scalar(attitude_sigma, "attitude_sigma")
+    b = _positive_scalar(bias_sigma, "bias_sigma")
+    return np.diag([a**2] * 3 + [b**2] * 3)
+
+
+# ---------------------------------------------------------------------------
+# Validation
+
+
+def _positive_scalar(value: Any, name: str) -> float:
+    arr = check_positive(value, name)
+    if arr.ndim != 0:
+        raise ValueError(f"{name} must be a scalar, got shape {arr.shape}")
+    return float(arr)
+
+
+def _check_covariance(value: ArrayLike, name: str, n: int) -> NDArray[np.float64]:
+    """A finite, symmetric (to 1e-9 of its largest entry), positive definite (n, n) matrix, symmetrised."""
+    c = as_float_array(value, name)
+    if c.shape != (n, n):
+        raise ValueError(f"{name} must have shape ({n}, {n}), got shape {c.shape}")
+    scale = max(float(np.abs(c).max()), np.finfo(float).tiny)
+    asym = float(np.abs(c - c.T).max())
+    if asym > 1e-9 * scale:
+        raise ValueError(f"{name} must be symmetric; found a relative asymmetry of {asym / scale:.3g}")
+    c = 0.5 * (c + c.T)
+    try:
+        np.linalg.cholesky(c)
+    except np.linalg.LinAlgError:
+        eig = np.linalg.eigvalsh(c)
+        raise ValueError(f"{name} must be positive definite; its smallest eigenvalue is {eig.min():.6g}") from None
+    return c
+
+
+def _check_name(value: Any, name: str) -> str:
+    if not isinstance(value, str) or not value:
+        raise ValueError(f"{name} must be a non-empty string, got {value!r}")
+    return value
+
+
+# ---------------------------------------------------------------------------
+# The filter
+
+
+class MEKF:
+    """Multiplicative EKF: attitude ``q_BN`` and gyro bias from a gyro and a star tracker.
+
+    See the module docstring for the equations. The object is also an
+    estimator for :func:`attitude.simulation.simulate`: :attr:`period` (the
+    gyro period) and :meth:`update` ``(t, measurements) -> Estimate``; the
+    controller then sees ``q_hat`` and ``omega_hat = omega_meas - b_hat``.
+
+    Handling of imperfect input (documented behaviour, all counted in
+    :attr:`counts` and :meth:`log`):
+
+    - a missing tracker sample (None, e.g. Sun blinding, or a slower tracker
+      than the gyro): propagate only;
+    - a tracker sample with any NaN: skipped (no update), counted as
+      ``tracker_nan``; it never reaches the state;
+    - a missing (None) or NaN gyro sample: the last valid gyro sample is held
+      over the interval (zero rate before the first one); NaN samples are
+      counted as ``gyro_nan``. The held rate's error is not in ``Q``: a long
+      gyro outage makes the filter over-confident, which the counts and the
+      NIS reveal;
+    - a time that goes backwards raises ValueError (a repeated time
+      propagates nothing and may still update);
+    - a finite tracker quaternion whose norm differs from 1 by more than
+      1e-6, or samples of the wrong shape, raise ValueError (input
+      corruption the filter cannot interpret). Every check runs before the
+      state changes.
+
+    Parameters
+    ----------
+    sigma_v : float
+        Gyro angle-random-walk density [rad/s^0.5] (> 0).
+    sigma_u : float
+        Gyro rate-random-walk density [rad/s^1.5] (> 0; a constant bias is
+        modelled with a small value: with zero the bias covariance collapses
+        and the filter stops learning the bias).
+    tracker_covariance : array_like (3, 3)
+        Covariance of the tracker's error rotation vector in body axes
+        [rad^2] (:attr:`attitude.sensors.StarTracker.covariance_B`);
+        symmetric positive definite.
+    period : float
+        Gyro (and propagation) period [s] (> 0): the estimator period for the engine.
+    q0 : array_like (4,)
+        Initial attitude estimate ``q_BN`` (unit norm).
+    P0 : array_like (6, 6)
+        Initial error covariance [rad^2, rad^2/s, rad^2/s^2], symmetric
+        positive definite (see :func:`initial_covariance`).
+    bias0 : array_like (3,) or float
+        Initial gyro bias estimate [rad/s].
+    t0 : float, optional
+        Time [s] of ``q0`` and ``P0``; default: the first :meth:`update`'s time
+        (no propagation on that call).
+    covariance_reset : {"first_order", "second_order"}
+        Covariance reset Jacobian after each update (module docstring).
+    gyro_name, tracker_name : str
+        Keys of the gyro and tracker samples in the measurements (the
+        sensors' ``name``).
+
+    Raises
+    ------
+    ValueError
+        For non-positive or non-finite noise figures or period, a covariance
+        that is not symmetric positive definite, a non-unit ``q0``, an
+        unknown reset option or empty names.
+    """
+
+    def __init__(
+        self,
+        sigma_v: float,
+        sigma_u: float,
+        tracker_covariance: ArrayLike,
+        *,
+        period: float,
+        q0: ArrayLike,
+        P0: ArrayLike,
+        bias0: ArrayLike = 0.0,
+        t0: float | None = None,
+        covariance_reset: str = "first_order",
+        gyro_name: str = "gyro",
+        tracker_name: str = "star_tracker",
+    ) -> None:
+        self.sigma_v = _positive_scalar(sigma_v, "sigma_v")
+        su = as_float_array(sigma_u, "sigma_u")
+        if su.ndim != 0 or su <= 0:
+            raise ValueError(
+                f"sigma_u must be strictly positive [rad/s^1.5] (for a constant bias use a small value: with 0 the "
+                f"bias covariance collapses and the filter stops learning the bias), got {su.tolist()!r}"
+            )
+        self.sigma_u = float(su)
+        self.tracker_covariance = _check_covariance(tracker_covariance, "tracker_covariance", 3)
+        self.tracker_covariance.flags.writeable = False
+        self.period = _positive_scalar(period, "period")
+        q = quat.as_unit_quaternion(q0, "q0")
+        if q.shape != (4,):
+            raise ValueError(f"q0 must have shape (4,), got shape {q.shape}")
+        b = as_float_array(bias0, "bias0")
+        if b.ndim > 1 or (b.ndim == 1 and b.size != 3):
+            raise ValueError(f"bias0 must be a scalar or have shape (3,), got shape {b.shape}")
+        p0 = _check_covariance(P0, "P0", 6)
+        if covariance_reset not in _RESETS:
+            raise ValueError(f"covariance_reset must be one of {_RESETS}, got {covariance_reset!r}")
+        self.covariance_reset = covariance_reset
+        self.gyro_name = _check_name(gyro_name, "gyro_name")
+        self.tracker_name = _check_name(tracker_name, "tracker_name")
+        if t0 is not None:
+            t0 = float(as_float_array(t0, "t0"))
+
+        self._q = q.copy()
+        self._b = np.array(np.broadcast_to(b, (3,)), dtype=np.float64)
+        kf = KalmanFilter(dim_x=6, dim_z=3)
+        kf.x = np.zeros(6)  # 1-D: filterpy keeps x's shape and reshapes z to (3,)
+        kf.P = p0.copy()
+        kf.H = _H.copy()
+        kf.R = self.tracker_covariance.copy()
+        self._kf = kf
+        self._t: float | None = t0
+        self._last_gyro: NDArray[np.float64] | None = None
+        self._last_nis = np.nan
+        self._nis_t: list[float] = []
+        self._nis: list[float] = []
+        self._counts = dict.fromkeys(
+            ("steps", "updates", "tracker_missing", "tracker_nan", "gyro_missing", "gyro_nan"), 0
+        )
+
+    @classmethod
+    def from_sensors(
+        cls,
+        gyro: Gyro,
+        tracker: StarTracker,
+        *,
+        q0: ArrayLike,
+        P0: ArrayLike,
+        bias0: ArrayLike = 0.0,
+        **kwargs: Any,
+    ) -> MEKF:
+        """A filter matched to a gyro and a tracker: their noise figures, period and names.
+
+        ``sigma_v``, ``sigma_u``, ``period`` and ``gyro_name`` come from
+        ``gyro``, ``tracker_covariance`` (:attr:`StarTracker.covariance_B`)
+        and ``tracker_name`` from ``tracker``; other keywords go to the
+        constructor. A gyro with ``sigma_u = 0`` (constant bias) is refused
+        (see the class); build the filter with a small ``sigma_u`` instead.
+        """
+        return cls(
+            gyro.sigma_v,
+            gyro.sigma_u,
+            tracker.covariance_B,
+            period=gyro.period,
+            q0=q0,
+            P0=P0,
+            bias0=bias0,
+            gyro_name=gyro.name,
+            tracker_name=tracker.name,
+            **kwargs,
+        )
+
+    def __repr__(self) -> str:
+        return (
+            f"MEKF(sigma_v={self.sigma_v:.4g} rad/s^0.5, sigma_u={self.sigma_u:.4g} rad/s^1.5, "
+            f"period={self.period:g} s, t={self._t!r}, updates={self._counts['updates']})"
+        )
+
+    # -- state ----------------------------------------------------------------------
+
+    @property
+    def q(self) -> NDArray[np.float64]:
+        """Attitude estimate ``q_BN`` (4,) (a copy)."""
+        return self._q.copy()
+
+    @property
+    def bias(self) -> NDArray[np.float64]:
+        """Gyro bias estimate [rad/s] (3,) (a copy)."""
+        return self._b.copy()
+
+    @property
+    def P(self) -> NDArray[np.float64]:
+        """Error covariance (6, 6) of ``[delta_theta, delta_b]`` (a copy)."""
+        return self._kf.P.copy()
+
+    @property
+    def t(self) -> float | None:
+        """Time [s] of the estimate (None before the first update without ``t0``)."""
+        return self._t
+
+    @property
+    def omega(self) -> NDArray[np.float64]:
+        """Rate estimate ``omega_meas - b_hat`` [rad/s] from the last valid gyro sample (zeros before one)."""
+        if self._last_gyro is None:
+            return np.zeros(3)
+        return self._last_gyro - self._b
+
+    @property
+    def counts(self) -> dict[str, int]:
+        """Steps, updates, missing tracker samples, skipped NaN tracker/gyro samples, missing gyro samples."""
+        return dict(self._counts)
+
+    @property
+    def nis_history(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Times [s] and NIS values of every tracker update so far."""
+        return np.array(self._nis_t), np.array(self._nis)
+
+    def copy(self) -> MEKF:
+        """An independent copy (state, covariance, counters and history)."""
+        return copy.deepcopy(self)
+
+    def estimate(self) -> Estimate:
+        """The current :class:`attitude.simulation.Estimate` (``covariance`` = P)."""
+        t = 0.0 if self._t is None else self._t
+        return Estimate(t, self._q.copy(), self.omega, covariance=self._kf.P.copy())
+
+    # -- the filter -------------------------------------------------------------------
+
+    def update(self, t: float, measurements: Mapping[str, Any]) -> Estimate:
+        """One estimator step for :func:`attitude.simulation.simulate`.
+
+        Parameters
+        ----------
+        t : float
+            Time [s]; must not go backwards.
+        measurements : mapping
+            Sensor name -> newest sample or None. Reads ``gyro_name``
+            ((3,) [rad/s]) and ``tracker_name`` ((4,) quaternion ``q_BN``);
+            other keys are ignored.
+
+        Returns
+        -------
+        attitude.simulation.Estimate
+            ``q_hat``, ``omega_hat = omega_meas - b_hat`` and ``covariance = P``.
+        """
+        return self.step(t, measurements.get(self.gyro_name), measurements.get(self.tracker_name))
+
+    def step(self, t: float, gyro: ArrayLike | None = None, tracker: ArrayLike | None = None) -> Estimate:
+        """Propagate to ``t`` with the gyro sample, then update with the tracker sample.
+
+        Parameters
+        ----------
+        t : float
+            Time [s] of both samples; not before the previous step.
+        gyro : array_like (3,), optional
+            Gyro sample at ``t`` [rad/s]: the mean rate since the previous
+            step (class docstring for None and NaN).
+        tracker : array_like (4,), optional
+            Star tracker attitude ``q_BN`` at ``t`` (None: no sample; NaN: skipped).
+
+        Returns
+        -------
+        attitude.simulation.Estimate
+
+        Raises
+        ------
+        ValueError
+            If ``t`` is not finite or goes backwards, or a sample has the
+            wrong shape or (tracker) a finite non-unit norm.
+        """
+        t = float(as_float_array(t, "t"))
+        if self._t is not None and t < self._t:
+            raise ValueError(f"t must not go backwards: t = {t!r} s < previous time {self._t!r} s")
+        rate = self._accept_gyro(gyro)
+        q_meas = self._accept_tracker(tracker)
+
+        if self._t is not None and t > self._t:
+            held = rate if rate is not None else self._last_gyro
+            self._propagate(np.zeros(3) if held is None else held, t - self._t)
+        self._t = t
+        if rate is not None:
+            self._last_gyro = rate
+        self._last_nis = np.nan
+        if q_meas is not None:
+            self._correct(q_meas, t)
+        self._counts["steps"] += 1
+        return self.estimate()
+
+    def _accept_gyro(self, gyro: ArrayLike | None) -> NDArray[np.float64] | None:
+        if gyro is None:
+            self._counts["gyro_missing"] += 1
+            return None
+        g = as_float_array(gyro, "gyro sample", allow_nonfinite=True)
+        if g.shape != (3,):
+            raise ValueError(f"gyro sample must have shape (3,) [rad/s], got shape {g.shape}")
+        if not np.all(np.isfinite(g)):
+            self._counts["gyro_nan"] += 1
+            return None
+        return g.copy()
+
+    def _accept_tracker(self, tracker: ArrayLike | None) -> NDArray[np.float64] | None:
+        if tracker is None:
+            self._counts["tracker_missing"] += 1
+            return None
+        y = as_float_array(tracker, "tracker sample", allow_nonfinite=True)
+        if y.shape != (4,):
+            raise ValueError(f"tracker sample must have shape (4,) (quaternion q_BN), got shape {y.shape}")
+        if not np.all(np.isfinite(y)):
+            self._counts["tracker_nan"] += 1
+            return None
+        n = float(np.sqrt(y @ y))
+        if abs(n - 1.0) > _UNIT_TOL:
+            raise ValueError(
+                f"tracker sample must be a unit quaternion (| |q| - 1 | <= {_UNIT_TOL:g}); found |q| = {n!r}"
+            )
+        return y / n
+
+    def _propagate(self, rate: NDArray[np.float64], dt: float) -> None:
+        w = rate - self._b
+        self._q = _compose_one(self._q, w * dt)
+        kf = self._kf
+        kf.F = _transition_one(w, dt)
+        kf.Q = _process_noise(self.sigma_v**2, self.sigma_u**2, dt)
+        kf.predict()
+
+    def _correct(self, q_meas: NDArray[np.float64], t: float) -> None:
+        kf = self._kf
+        z = _log_rotvec(_qmul(_conj(self._q), q_meas))
+        kf.update(z)
+        nis_value = float(kf.y @ kf.SI @ kf.y)
+        dtheta, db = kf.x[:3].copy(), kf.x[3:].copy()
+        self._q = _compose_one(self._q, dtheta)
+        self._b = self._b + db
+        p = kf.P
+        if self.covariance_reset == "second_order":
+            g = np.eye(6)
+            g[:3, :3] -= 0.5 * _skew(dtheta)
+            p = g @ p @ g.T
+        kf.P = 0.5 * (p + p.T)
+        kf.x = np.zeros(6)
+        self._last_nis = nis_value
+        self._nis_t.append(t)
+        self._nis.append(nis_value)
+        self._counts["updates"] += 1
+
+    # -- reporting --------------------------------------------------------------------
+
+    def log(self) -> dict[str, Any]:
+        """Values the engine logs at each estimator step.
+
+        ``bias`` (3,) [rad/s], ``P_diag`` (6,), ``nis`` (NaN without an
+        update at this step) and the running counts (``updates``,
+        ``tracker_nan``, ``gyro_nan``, ``tracker_missing``, ``gyro_missing``).
+        """
+        out: dict[str, Any] = {"bias": self._b.copy(), "P_diag": np.diag(self._kf.P).copy(), "nis": self._last_nis}
+        for key in ("updates", "tracker_nan", "gyro_nan", "tracker_missing", "gyro_missing"):
+            out[key] = float(self._counts[key])
+        return out
+
+    def nis_health(self, window: int = 50, confidence: float = 0.999) -> NisHealth:
+        """Moving-window NIS check of the updates so far (:func:`estimation.consistency.nis_health`, 3 dof)."""
+        t, values = self.nis_history
+        return nis_health(values, 3, window, confidence, t=t)
+
+
+# ---------------------------------------------------------------------------
+# Batch runs
+
+
+@dataclass
+class MEKFResult(ResultIO):
+    """Histories of one MEKF run, or of many runs at once (leading runs axis).
+
+    Shapes below are for one run; a batch adds a leading ``n_runs`` axis to
+    every field except ``t``.
+
+    Attributes
+    ----------
+    t : ndarray (n,)
+        Step times [s].
+    q : ndarray (n, 4)
+        Attitude estimates ``q_BN`` after each step.
+    bias : ndarray (n, 3)
+        Gyro bias estimates [rad/s].
+    omega : ndarray (n, 3)
+        Rate estimates ``omega_meas - b_hat`` [rad/s] (last valid gyro sample held).
+    P : ndarray (n, 6, 6)
+        Error covariances of ``[delta_theta, delta_b]`` after each step.
+    innovation : ndarray (n, 3)
+        Tracker residuals ``rotvec(q_hat_prior* ⊗ q_meas)`` [rad] (NaN without update).
+    innovation_covariance : ndarray (n, 3, 3)
+        Their covariances ``S = H P_prior H^T + R`` [rad^2] (NaN without update).
+    nis : ndarray (n,)
+        Normalised innovation squared (NaN without update).
+    updated : ndarray (n,) of bool
+        A tracker update happened at the step.
+    tracker_nan, gyro_nan : ndarray (n,) of bool
+        A NaN tracker (gyro) sample was skipped at the step.
+    info : dict
+        Counts (per run for a batch), settings and wall time [s].
+    """
+
+    t: NDArray[np.float64]
+    q: NDArray[np.float64]
+    bias: NDArray[np.float64]
+    omega: NDArray[np.float64]
+    P: NDArray[np.float64]
+    innovation: NDArray[np.float64]
+    innovation_covariance: NDArray[np.float64]
+    nis: NDArray[np.float64]
+    updated: NDArray[np.bool_]
+    tracker_nan: NDArray[np.bool_]
+    gyro_nan: NDArray[np.bool_]
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def n_runs(self) -> int | None:
+        """Number of runs of a batch result (None for a single run)."""
+        return None if self.q.ndim == 2 else int(self.q.shape[0])
+
+    @property
+    def sigma(self) -> NDArray[np.float64]:
+        """Standard deviations ``sqrt(diag P)`` (..., n, 6) [rad, rad/s]."""
+        return np.sqrt(np.diagonal(self.P, axis1=-2, axis2=-1))
+
+    def errors(self, q_true: ArrayLike, bias_true: ArrayLike) -> NDArray[np.float64]:
+        """Estimation errors (..., n, 6): ``[rotvec(q_hat* ⊗ q_true), b_true - b_hat]`` [rad, rad/s].
+
+        The attitude part is the MEKF error ``delta_theta`` (``q_true = q_hat ⊗
+        exp(delta_theta / 2)``), in body axes.
+
+        Parameters
+        ----------
+        q_true : array_like (..., n, 4)
+            True attitudes (broadcast against the runs axis).
+        bias_true : array_like (..., n, 3)
+            True gyro biases at the step times [rad/s].
+        """
+        qt = quat.as_unit_quaternion(q_true, "q_true")
+        bt = as_float_array(bias_true, "bias_true")
+        n = self.t.size
+        if qt.shape[-2:] != (n, 4) or bt.shape[-2:] != (n, 3):
+            raise ValueError(
+                f"q_true must have shape (..., {n}, 4) and bias_true (..., {n}, 3), got {qt.shape} and {bt.shape}"
+            )
+        dtheta = _log_rotvec(_qmul(_conj(self.q), qt))
+        return np.concatenate([dtheta, np.broadcast_to(bt, self.bias.shape) - self.bias], axis=-1)
+
+    def nees(self, q_true: ArrayLike, bias_true: ArrayLike) -> NDArray[np.float64]:
+        """NEES (..., n) of the 6-component error (chi-square, 6 dof, for a consistent filter)."""
+        return nees(self.errors(q_true, bias_true), self.P)
+
+    def nis_health(self, window: int = 50, confidence: float = 0.999, run: int = 0) -> NisHealth:
+        """Moving-window NIS check (:func:`estimation.consistency.nis_health`) of one run."""
+        values = self.nis if self.nis.ndim == 1 else self.nis[run]
+        return nis_health(values, 3, window, confidence, t=self.t)
+
+    def plot(self, q_true: ArrayLike | None = None, bias_true: ArrayLike | None = None, run: int = 0) -> Figure:
+        """Errors with +-3 sigma bounds (with the truth), else tracker residuals with +-3 sqrt(S).
+
+        Attitude in arcsec, bias in deg/h. With the truth, every run of a
+        batch is drawn; without it, the residuals of run ``run``.
+        """
+        if (q_true is None) != (bias_true is None):
+            raise ValueError("q_true and bias_true must be given together (or neither)")
+        labels = ["δθ1", "δθ2", "δθ3"]
+        if q_true is not None:
+            err = self.errors(q_true, bias_true)
+            return plot_errors_with_bounds(
+                self.t,
+                err,
+                self.sigma,
+                labels=[*labels, "δb1", "δb2", "δb3"],
+                units=["arcsec"] * 3 + ["deg/h"] * 3,
+                scale=[1.0 / ARCSEC] * 3 + [1.0 / _DEG_PER_H] * 3,
+                title=r"MEKF errors with $\pm 3\sigma$ bounds",
+            )
+        pick = (lambda a: a) if self.q.ndim == 2 else (lambda a: a[run])
+        mask = pick(self.updated)
+        if not np.any(mask):
+            raise ValueError("no tracker update to plot (and no truth given)")
+        s = np.sqrt(np.diagonal(pick(self.innovation_covariance)[mask], axis1=-2, axis2=-1))
+        return plot_errors_with_bounds(
+            self.t[mask],
+            pick(self.innovation)[mask],
+            s,
+            labels=["residual 1", "residual 2", "residual 3"],
+            units="arcsec",
+            scale=1.0 / ARCSEC,
+            title=r"MEKF tracker residuals with $\pm 3\sqrt{S}$ bounds",
+        )
+
+
+def run_mekf(
+    mekf: MEKF,
+    t: ArrayLike,
+    gyro_meas: ArrayLike,
+    tracker_meas: ArrayLike,
+    *,
+    tracker_mask: ArrayLike | None = None,
+    q0: ArrayLike | None = None,
+    bias0: ArrayLike | None = None,
+    vectorized: bool | None = None,
+) -> MEKFResult:
+    """Run the MEKF over recorded samples: one run, or many runs at once.
+
+    The filter passed in is not modified: a copy runs from its current state
+    (if it has no time yet, it starts at ``t[0]`` with no propagation).
+
+    Parameters
+    ----------
+    mekf : MEKF
+        Filter settings and initial state.
+    t : array_like (n,)
+        Step times [s], non-decreasing (shared by all runs).
+    gyro_meas : array_like (n, 3) or (n_runs, n, 3)
+        Gyro samples [rad/s]; ``gyro_meas[..., k, :]`` is the mean rate over
+        ``(t[k-1], t[k]]`` (row 0 only sets the first rate estimate). Rows
+        with NaN are skipped, counted, and the last valid sample is held.
+    tracker_meas : array_like (n, 4) or (n_runs, n, 4)
+        Tracker quaternions ``q_BN``; all-NaN rows mean "no sample".
+    tracker_mask : array_like (n,) or (n_runs, n) of bool, optional
+        True where the tracker sampled; a NaN anywhere in such a row is a
+        skipped (counted) NaN sample. Default: the rows that are not all NaN.
+    q0 : array_like (4,) or (n_runs, 4), optional
+        Initial attitude estimate(s) replacing the filter's.
+    bias0 : float or array_like (3,) or (n_runs, 3), optional
+        Initial bias estimate(s) [rad/s] replacing the filter's.
+    vectorized : bool, optional
+        True: the numpy path over a runs axis; False: :class:`MEKF` steps
+        (filterpy) run by run. Default: vectorised for a batch, steps for one run.
+
+    Returns
+    -------
+    MEKFResult
+
+    Raises
+    ------
+    ValueError
+        For a time grid that goes backwards or is not finite, inconsistent
+        shapes, a finite non-unit tracker quaternion, or invalid ``q0``/``bias0``.
+    """
+    if not isinstance(mekf, MEKF):
+        raise ValueError(f"mekf must be an MEKF, got {type(mekf).__name__}")
+    tt = as_float_array(t, "t")
+    if tt.ndim != 1 or tt.size < 1:
+        raise ValueError(f"t must be a 1-D array of step times, got shape {tt.shape}")
+    steps = np.diff(tt)
+    if np.any(steps < 0):
+        i = int(np.argmax(steps < 0))
+        raise ValueError(f"t must not go backwards; t[{i + 1}]={tt[i + 1]!r} < t[{i}]={tt[i]!r}")
+    if mekf.t is not None and tt[0] < mekf.t:
+        raise ValueError(f"t[0] = {tt[0]!r} s is before the filter's time {mekf.t!r} s")
+    n = tt.size
+    g = as_float_array(gyro_meas, "gyro_meas", allow_nonfinite=True)
+    y = as_float_array(tracker_meas, "tracker_meas", allow_nonfinite=True)
+    batch = g.ndim == 3
+    if g.shape[-2:] != (n, 3) or g.ndim not in (2, 3):
+        raise ValueError(f"gyro_meas must have shape ({n}, 3) or (n_runs, {n}, 3), got {g.shape}")
+    if y.shape[-2:] != (n, 4) or y.ndim != g.ndim or (batch and y.shape[0] != g.shape[0]):
+        raise ValueError(f"tracker_meas must have shape {(*g.shape[:-1], 4)} to match gyro_meas, got {y.shape}")
+    if np.any(np.isinf(g)) or np.any(np.isinf(y)):
+        raise ValueError("gyro_meas and tracker_meas must not hold inf (NaN marks a skipped sample)")
+    if tracker_mask is None:
+        mask = ~np.all(np.isnan(y), axis=-1)
+    else:
+        mask = np.asarray(tracker_mask)
+        if mask.dtype != np.bool_ or mask.shape not in ((n,), y.shape[:-1]):
+            raise ValueError(
+                f"tracker_mask must be a boolean array of shape ({n},) or {y.shape[:-1]}, "
+                f"got dtype {mask.dtype} and shape {mask.shape}"
+            )
+        mask = np.broadcast_to(mask, y.shape[:-1])
+    finite_rows = np.all(np.isfinite(y), axis=-1)
+    norms = np.sqrt(np.sum(np.where(finite_rows[..., None], y, 0.0) ** 2, axis=-1))
+    bad = mask & finite_rows & (np.abs(norms - 1.0) > _UNIT_TOL)
+    if np.any(bad):
+        idx = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise ValueError(
+            f"tracker_meas must hold unit quaternions (| |q| - 1 | <= {_UNIT_TOL:g}); found |q| = "
+            f"{norms[idx]!r} at index {idx}"
+        )
+
+    runs = g.shape[0] if batch else 1
+    if q0 is not None and np.shape(q0) not in ((4,), (runs, 4)):
+        raise ValueError(f"q0 must have shape (4,) or ({runs}, 4), got {np.shape(q0)}")
+    if bias0 is not None and np.shape(bias0) not in ((), (3,), (runs, 3)):
+        raise ValueError(f"bias0 must be a scalar or have shape (3,) or ({runs}, 3), got {np.shape(bias0)}")
+    qs = np.broadcast_to(mekf.q if q0 is None else quat.as_unit_quaternion(q0, "q0"), (runs, 4))
+    bs = np.broadcast_to(mekf.bias if bias0 is None else as_float_array(bias0, "bias0"), (runs, 3))
+    g3 = g if batch else g[None]
+    y3 = y if batch else y[None]
+    m3 = mask if batch else mask[None]
+    vec = batch if vectorized is None else bool(vectorized)
+    start = time.perf_counter()
+    if vec:
+        out = _run_vectorized(mekf, tt, g3, y3, m3, qs, bs)
+    else:
+        out = _run_steps(mekf, tt, g3, y3, m3, qs, bs)
+    wall = time.perf_counter() - start
+    if not batch:
+        out = {k: v[0] for k, v in out.items()}
+    counts = {
+        "updates": np.sum(out["updated"], axis=-1),
+        "tracker_nan": np.sum(out["tracker_nan"], axis=-1),
+        "gyro_nan": np.sum(out["gyro_nan"], axis=-1),
+    }
+    info: dict[str, Any] = {k: v.tolist() for k, v in counts.items()}
+    info.update(
+        {
+            "n_steps": n,
+            "n_runs": runs if batch else None,
+            "path": "vectorized" if vec else "filterpy steps",
+            "covariance_reset": mekf.covariance_reset,
+            "sigma_v": mekf.sigma_v,
+            "sigma_u": mekf.sigma_u,
+            "wall_time_s": wall,
+            "filter_steps_per_s": runs * n / wall if wall > 0 else float("inf"),
+        }
+    )
+    return MEKFResult(t=tt.copy(), info=info, **out)
+
+
+def _empty_histories(runs: int, n: int) -> dict[str, NDArray]:
+    return {
+        "q": np.empty((runs, n, 4)),
+        "bias": np.empty((runs, n, 3)),
+        "omega": np.empty((runs, n, 3)),
+        "P": np.empty((runs, n, 6, 6)),
+        "innovation": np.full((runs, n, 3), np.nan),
+        "innovation_covariance": np.full((runs, n, 3, 3), np.nan),
+        "nis": np.full((runs, n), np.nan),
+        "updated": np.zeros((runs, n), dtype=bool),
+        "tracker_nan": np.zeros((runs, n), dtype=bool),
+        "gyro_nan": np.zeros((runs, n), dtype=bool),
+    }
+
+
+def _run_steps(mekf, t, g, y, mask, qs, bs) -> dict[str, NDArray]:
+    """One :class:`MEKF` (filterpy) per run, stepped in Python."""
+    runs, n = g.shape[:2]
+    out = _empty_histories(runs, n)
+    for r in range(runs):
+        f = mekf.copy()
+        f._q = qs[r].copy()
+        f._b = np.array(bs[r], dtype=np.float64)
+        for k in range(n):
+            gk = g[r, k]
+            out["gyro_nan"][r, k] = not np.all(np.isfinite(gk))
+            tracker = y[r, k] if mask[r, k] else None
+            if tracker is not None and not np.all(np.isfinite(tracker)):
+                out["tracker_nan"][r, k] = True
+            updates_before = f._counts["updates"]
+            est = f.step(float(t[k]), gk, tracker)
+            out["q"][r, k] = est.q
+            out["bias"][r, k] = f._b
+            out["omega"][r, k] = est.omega
+            out["P"][r, k] = f._kf.P
+            if f._counts["updates"] > updates_before:
+                out["updated"][r, k] = True
+                out["innovation"][r, k] = f._kf.y
+                out["innovation_covariance"][r, k] = f._kf.S
+                out["nis"][r, k] = f._last_nis
+    return out
+
+
+def _run_vectorized(mekf, t, g, y, mask, qs, bs) -> dict[str, NDArray]:
+    """The same equations as :class:`MEKF`, one numpy operation per step for all runs."""
+    runs, n = g.shape[:2]
+    out = _empty_histories(runs, n)
+    q = np.array(qs, dtype=np.float64)
+    b = np.array(bs, dtype=np.float64)
+    P = np.broadcast_to(mekf._kf.P, (runs, 6, 6)).copy()
+    R = mekf.tracker_covariance
+    last = np.zeros((runs, 3)) if mekf._last_gyro is None else np.broadcast_to(mekf._last_gyro, (runs, 3)).copy()
+    t_prev = mekf.t
+    second = mekf.covariance_reset == "second_order"
+    gyro_ok = np.all(np.isfinite(g), axis=-1)
+    out["gyro_nan"][:] = ~gyro_ok
+    y_ok = np.all(np.isfinite(y), axis=-1)
+    do_update = mask & y_ok
+    out["tracker_nan"][:] = mask & ~y_ok
+    eye6 = np.eye(6)
+    for k in range(n):
+        tk = float(t[k])
+        rate = np.where(gyro_ok[:, k, None], g[:, k], last)
+        if t_prev is not None and tk > t_prev:
+            dt = tk - t_prev
+            w = rate - b
+            q = _normalize(_qmul(q, _exp_rotvec(w * dt)))
+            phi = _transition(w, dt)
+            P = phi @ P @ np.swapaxes(phi, -1, -2) + _process_noise(mekf.sigma_v**2, mekf.sigma_u**2, dt)
+        t_prev = tk
+        last = rate
+        sel = np.nonzero(do_update[:, k])[0]
+        if sel.size:
+            qm = y[sel, k] / np.sqrt(np.sum(y[sel, k] ** 2, axis=-1, keepdims=True))
+            z = _log_rotvec(_qmul(_conj(q[sel]), qm))
+            Ps = P[sel]
+            pht = Ps[:, :, :3]
+            S = Ps[:, :3, :3] + R
+            SI = np.linalg.inv(S)
+            K = pht @ SI
+            x = (K @ z[..., None])[..., 0]
+            ikh = eye6 - K @ _H
+            Pn = ikh @ Ps @ np.swapaxes(ikh, -1, -2) + K @ R @ np.swapaxes(K, -1, -2)
+            dtheta = x[:, :3]
+            q[sel] = _normalize(_qmul(q[sel], _exp_rotvec(dtheta)))
+            b[sel] = b[sel] + x[:, 3:]
+            if second:
+                gm = np.broadcast_to(eye6, Pn.shape).copy()
+                gm[:, :3, :3] -= 0.5 * _skew(dtheta)
+                Pn = gm @ Pn @ np.swapaxes(gm, -1, -2)
+            P[sel] = 0.5 * (Pn + np.swapaxes(Pn, -1, -2))
+            out["innovation"][sel, k] = z
+            out["innovation_covariance"][sel, k] = S
+            out["nis"][sel, k] = np.einsum("ri,rij,rj->r", z, SI, z)
+            out["updated"][sel, k] = True
+        out["q"][:, k] = q
+        out["bias"][:, k] = b
+        out["omega"][:, k] = rate - b
+        out["P"][:, k] = P
+    return out
+
+
+# ---------------------------------------------------------------------------
+# Closed-form steady state
+
+
+def steady_state_covariance(
+    sigma_v: float, sigma_u: float, sigma_n: float, dt: float
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Steady-state covariances (2, 2) of the single-axis attitude/bias filter, in closed form.
+
+    The per-axis model of the MEKF at zero rate: state ``[theta, b]``,
+    ``Phi = [[1, -dt], [0, 1]]``, ``Q`` of :func:`process_noise` (per axis),
+    an attitude measurement of variance ``r = sigma_n**2`` every ``dt``. With
+    an isotropic tracker and a zero (or slow) rate the three axes decouple
+    into this problem; ``dt`` is the *update* interval (the gyro may run
+    faster: the sampled Farrenkopf model composes exactly, so propagating
+    in gyro steps gives the same covariance at the update times).
+
+    Derivation (spectral factorisation of the innovations; the result is
+    the same steady state that Farrenkopf (1978) and Markley and Reynolds
+    (2000) derive, Markley and Crassidis 2014, ch. 6, written in our own
+    notation). Let ``S_v = sigma_v**2 dt / r`` and ``S_u = sigma_u**2 dt**3 / r``.
+    The second difference of the measurements is an MA(2) process whose
+    autocovariances are, in units of ``r``, ``c0 = 2 S_v + 2 S_u / 3 + 6``,
+    ``c1 = -S_v + S_u / 6 - 4``, ``c2 = 1``. Its minimum-phase factor
+    ``(1 - l1 z)(1 - l2 z)`` (``|l_i| < 1``) has
+    ``l_i + 1/l_i - 2 = u_i`` with ``u_1, u_2`` the roots of
+    ``u**2 - (S_v - S_u / 6) u + S_u = 0``, and the innovation variance of
+    the steady-state filter is ``S = r / (l1 l2)``. Writing
+    ``A = sqrt(1 + S_v/4 + S_u/48)`` and
+    ``B = sqrt(S_v + S_u/3 + 2 sqrt(S_u) A)`` (both real even when the
+    ``u_i`` are complex),
+
+    .. math::
+
+        \\sqrt{l_1 l_2} = A - B/2 + \\sqrt{S_u}/4 .
+
+    Then, with ``q12 = -sigma_u**2 dt**2 / 2`` and ``q22 = sigma_u**2 dt``:
+
+    - pre-update: ``p11 = S - r``, ``p12 = -sqrt(q22 S)``,
+      ``p22 = q22 + (q12 - p12 p11 / S) / dt``;
+    - post-update: ``p11+ = r (1 - l1 l2)``, ``p12+ = p12 r / S``,
+      ``p22+ = p22 - p12**2 / S``.
+
+    (From ``P- = Phi P+ Phi^T + Q`` and ``P+ = P- - P- H^T H P- / S``: the
+    bias row gives ``p12**2 = q22 S``, the cross term gives ``p22``.)
+    ``1 - l1 l2`` is formed without cancellation for small ``S_v``, ``S_u``.
+
+    Parameters
+    ----------
+    sigma_v : float
+        Angle-random-walk density [rad/s^0.5] (> 0).
+    sigma_u : float
+        Rate-random-walk density [rad/s^1.5] (> 0).
+    sigma_n : float
+        Attitude-measurement noise standard deviation per axis [rad] (> 0).
+    dt : float
+        Measurement interval [s] (> 0).
+
+    Returns
+    -------
+    P_pre, P_post : ndarray (2, 2)
+        Before and after an update, ``[[rad^2, rad^2/s], [rad^2/s, rad^2/s^2]]``.
+    """
+    sv = _positive_scalar(sigma_v, "sigma_v")
+    su = _positive_scalar(sigma_u, "sigma_u")
+    sn = _positive_scalar(sigma_n, "sigma_n")
+    h = _positive_scalar(dt, "dt")
+    r = sn**2
+    s_v = sv**2 * h / r
+    s_u = su**2 * h**3 / r
+    root_su = np.sqrt(s_u)
+    a = np.sqrt(1.0 + s_v / 4.0 + s_u / 48.0)
+    b = np.sqrt(s_v + s_u / 3.0 + 2.0 * root_su * a)
+    sqrt_l = a - 0.5 * b + 0.25 * root_su
+    # 1 - sqrt(l) = B/2 - sqrt(S_u)/4 - (A - 1), with A - 1 = (S_v/4 + S_u/48) / (A + 1): no cancellation.
+    one_minus_sqrt_l = 0.5 * b - 0.25 * root_su - (s_v / 4.0 + s_u / 48.0) / (a + 1.0)
+    one_minus_l = one_minus_sqrt_l * (1.0 + sqrt_l)
+    lam = sqrt_l**2
+    innov = r / lam
+    q12 = -(su**2) * h**2 / 2.0
+    q22 = su**2 * h
+    p11 = r * one_minus_l / lam
+    p12 = -np.sqrt(q22 * innov)
+    p22 = q22 + (q12 - p12 * p11 / innov) / h
+    pre = np.array([[p11, p12], [p12, p22]])
+    post = np.array([[r * one_minus_l, p12 * r / innov], [p12 * r / innov, p22 - p12**2 / innov]])
+    return pre, post
+
+
+def steady_state_attitude_sigma(
+    sigma_v: float, sigma_u: float, sigma_n: float, dt: float, *, when: str = "post"
+) -> float:
+    """Closed-form steady-state attitude error standard deviation per axis [rad].
+
+    ``sqrt(p11)`` of :func:`steady_state_covariance` (see there for the
+    formula and its derivation): ``sigma_n sqrt(1 - l1 l2)`` just after an
+    update (``when="post"``) or ``sigma_n sqrt(1/(l1 l2) - 1)`` just before
+    one (``when="pre"``).
+
+    Parameters
+    ----------
+    sigma_v : float
+        Angle-random-walk density [rad/s^0.5] (> 0).
+    sigma_u : float
+        Rate-random-walk density [rad/s^1.5] (> 0).
+    sigma_n : float
+        Attitude-measurement noise per axis [rad] (> 0).
+    dt : float
+        Measurement interval [s] (> 0).
+    when : {"post", "pre"}
+        After or before an update.
+    """
+    if when not in ("post", "pre"):
+        raise ValueError(f"when must be 'post' or 'pre', got {when!r}")
+    pre, post = steady_state_covariance(sigma_v, sigma_u, sigma_n, dt)
+    return float(np.sqrt((post if when == "post" else pre)[0, 0]))

@@ -1,0 +1,1196 @@
+"""Rate EKF: body rate and gyro bias from a gyro and Euler's equations (filterpy).
+
+State and models
+----------------
+The state is ``x = [omega_BN_B (3) [rad/s], beta (3) [rad/s]]`` (body rate
+and gyro bias), or the rate alone when the bias is known
+(``estimate_bias=False``). The continuous process model is
+
+.. math::
+
+    I \\dot\\omega = \\tau - \\omega \\times (I \\omega + h) + w_\\tau, \\qquad
+    \\dot\\beta = w_u,
+
+with ``tau`` the known body torque, ``h`` the internal (wheel) momentum in
+body components, ``w_tau`` a white torque uncertainty of intensity
+``diag(torque_noise**2)`` [N^2 m^2 s] (external disturbances and model
+errors: ``torque_noise`` [N m / sqrt(Hz)] is the two-sided density, so the
+impulse ``integral tau dt`` over ``T`` seconds has variance
+``torque_noise**2 T``; a one-sided PSD is ``2 torque_noise**2``) and ``w_u``
+the gyro's rate random walk of intensity ``sigma_u**2`` [rad^2/s^3].
+
+- **Mean propagation** (the nonlinear part filterpy cannot do: its
+  ``predict`` computes ``F x``). ``predict_x`` of the filterpy filter
+  (:attr:`RateEKF.kf`) is overridden: the rate is integrated with RK4 (:func:`attitude.integrators.rk4_step`) on
+  :meth:`attitude.rigid_body.RigidBody.omega_dot_components`, the one
+  definition of Euler's equations; the bias is constant.
+- **Transition matrix**. Euler's equations are quadratic in ``omega``, so
+  their Jacobian ``A = d omega_dot / d omega`` is affine in ``(omega, h)``.
+  Its coefficients are taken once from casadi's exact symbolic Jacobian of
+  the same ``omega_dot_components`` (and the affinity is proved
+  symbolically: the second derivative is structurally zero), then
+  ``A(omega_est, h)`` costs one small matrix product per step. ``F`` is the
+  exact discrete transition ``blockdiag(expm(A dt), I)`` of the model
+  linearised at the estimate at the start of the step.
+- **Process noise**: Van Loan's method (C. F. Van Loan, "Computing integrals
+  involving the matrix exponential", IEEE TAC 23(3), 1978): the exponential
+  of ``[[-A, G G^T], [0, A^T]] dt`` gives ``Phi`` and
+  ``Q = integral_0^dt Phi(s) G G^T Phi(s)^T ds`` exactly, with
+  ``G = I^-1 diag(torque_noise)``; the bias block is ``sigma_u**2 dt I``
+  (the two noises are independent, so ``Q`` is block diagonal). The block
+  exponential is what :func:`filterpy.common.van_loan_discretization`
+  computes; it is evaluated here with numpy products only (see
+  :func:`_van_loan`: scipy's ``expm`` uses multi-threaded BLAS, which is
+  slow on a loaded machine); the tests check the two agree and compare
+  ``Q`` with a quadrature of the integral.
+- Long intervals (a gap in the data, a slow gyro) are split into substeps
+  of at most ``max_step`` [s], each a filterpy ``predict`` with ``F`` and
+  ``Q`` set at the propagated estimate.
+
+Measurement: the gyro and the Farrenkopf correlation
+----------------------------------------------------
+A sample (see :mod:`attitude.sensors`) is ``z = omega(t_k) + (beta_k +
+beta_{k-1})/2 + n``, ``n`` white with variance ``sigma_v**2/dt_g +
+sigma_u**2 dt_g/12`` (``dt_g`` the gyro's own sample interval). With the
+bias at the sample time in the state, ``z = H x + v``, ``H = [I, I]`` and
+``v = -(beta_k - beta_{k-1})/2 + n``:
+
+- ``R = Var(v) = (sigma_v**2 / dt_g + sigma_u**2 dt_g / 3) I``;
+- ``v`` is correlated with the bias process noise of the current
+  prediction interval: ``M = Cov(x_k - x_prior, v) = [0; -sigma_u**2 tau/2 I]``
+  with ``tau = min(dt_g, t_k - t_last_update)``.
+
+``noise_model="farrenkopf"`` (default) uses the exact correlated-noise
+update (Simon, *Optimal State Estimation*, 2006, sec. 7.1: ``S = H P H^T +
+H M + M^T H^T + R``, ``K = (P H^T + M) S^-1``), written as an ordinary
+filterpy update of the equivalent decorrelated measurement: with
+``L = M^T P^-1``, ``H' = H + L`` and ``R' = R - L M`` give the same ``S``,
+``K``, innovation and (Joseph-form) covariance. ``noise_model=
+"uncorrelated"`` ignores ``M``. The difference is of relative size
+``sigma_u**2 dt_g / (sigma_v**2 / dt_g)``, below 1e-4 for the gyro presets
+at 10 Hz (negligible), but large for a gyro whose rate random walk
+dominates at its sample rate (the tests show the uncorrelated filter is then
+over-confident and the exact one is not).
+
+The gyro's scale factor, misalignment, quantisation and saturation are not
+modelled (calibrate them out first); the simulated gyro samples the
+instantaneous true rate, as the filter assumes.
+
+Observability: what a gyro alone can tell
+-----------------------------------------
+The gyro measures ``omega + beta``. Rate and bias separate only through the
+dynamics: a constant bias offsets ``omega`` while the true rate must obey
+Euler's equations, whose gyroscopic term ``omega x (I omega + h)`` depends
+on ``omega`` but not on ``beta``. The linearised pair is observable where
+``A(omega)`` is invertible; for a principal-axis inertia ``det A = 2 k1 k2
+k3 omega1 omega2 omega3`` (``k1 = (I2 - I3)/I1`` etc.), so the bias is
+learned from a tumbling asymmetric body in a time of order ``1/|A|``; not
+at all at rest or for a sphere without internal momentum (``A = 0``), and
+not along the spin axis of a pure principal-axis spin (or along ``h`` for a
+sphere with wheel momentum). In those directions ``P`` keeps the bias
+uncertainty and only ``omega + beta`` converges.
+This is physics, not a filter defect; the MEKF (star tracker plus gyro)
+observes the bias directly.
+
+Torque inputs
+-------------
+Without wheels, ``torque`` (the engine's ``"torque_command"``, held over the
+interval just ended) is the known body torque. With
+:class:`attitude.actuators.ReactionWheels`, the filter uses the hub inertia
+(:meth:`ReactionWheels.hub_body`, as the engine does) and, when the wheel
+momenta (tachometers) are known at both ends of an interval, the exact mean
+reaction torque ``-A (h_k - h_{k-1}) / dt`` with the internal momentum
+``A h`` interpolated linearly: this includes saturation and wheel friction,
+which the command does not. Without both momenta it falls back to the
+command as the body torque and the latest known momentum.
+
+Missing samples, NaN, time
+--------------------------
+``None`` for the gyro means no sample: predict only. A sample holding NaN or
+inf is skipped (no update), counted (:attr:`RateEKF.n_nan_skipped`) and
+reported (step report, :meth:`RateEKF.log`, :class:`RateEKFResult`); it never
+reaches the state. A non-finite wheel momentum is treated as missing and
+counted (:attr:`RateEKF.n_wheel_nan_skipped`). Time must not go backwards
+(ValueError); a step to the same time updates without predicting.
+Multi-rate operation is natural: the filter predicts over the actual
+elapsed time to each update, whatever the gyro and filter periods.
+
+Health
+------
+Each update's NIS ``nu^T S^-1 nu`` is tested against the upper
+``nis_confidence`` quantile of chi-square(3). A run of ``nis_run_length``
+consecutive exceedances, or a window of ``nis_window`` updates whose mean
+NIS leaves its two-sided chi-square band
+(:func:`estimation.consistency.nis_health`), raises the health flag; the
+flag is logged at every step and every flagged stretch is kept in
+:class:`RateEKFResult` (``nis_flagged``, ``info["nis_intervals"]``).
+
+False alarms of a consistent filter with the defaults (``nis_confidence``
+0.99, runs of 3, windows of 50 at ``health_confidence`` 0.99999), measured
+on white chi-square(3) sequences: about 1.5 % (runs) and 2 % (windows) of
+10,000-sample runs. The sliding windows overlap, so the per-run rate is far
+above ``(n / window) (1 - confidence)``: at 0.999 the window test alone
+flags about 80 % of 10,000-sample and 19 % of 1,500-sample clean runs.
+
+Attitude (engine protocol)
+--------------------------
+A rate filter has no attitude measurement. :meth:`RateEKF.update` returns
+the attitude ``q0`` (or, with ``attitude_name``, the latest sample of that
+sensor, e.g. a star tracker, taken as is) propagated open loop with the
+estimated rate (``q <- q ⊗ exp(omega_mean dt / 2)``). Its error grows
+without bound between attitude samples; use the MEKF for a filtered
+attitude. ``Estimate.covariance`` is the ``(6, 6)`` (or ``(3, 3)``)
+covariance of ``[omega, beta]``.
+
+filterpy 2.0.0 notes (checked in its source)
+--------------------------------------------
+``predict`` uses ``self.F`` and ``self.Q`` as they stand, so both are set
+before every call; ``x`` and ``z`` are kept one-dimensional (a column ``x``
+with a 1-D ``z`` broadcasts the residual to a matrix; the constructor's
+column ``x``, ``y`` and ``z`` are replaced); ``update`` takes ``R`` per call,
+which carries the decorrelated ``R'`` without touching ``kf.R``;
+``predict_update`` ignores an overridden ``predict_x`` and evaluates ``H``
+at the old state, so it is disabled here (it raises).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass, field
+from typing import Any
+
+import casadi as ca
+import numpy as np
+from filterpy.kalman import ExtendedKalmanFilter
+from matplotlib.figure import Figure
+from numpy.typing import ArrayLike, NDArray
+from scipy import stats
+
+from attitude import quaternion as quat
+from attitude._validation import as_float_array, check_positive, describe
+from attitude.actuators import ReactionWheels
+from attitude.integrators import rk4_step
+from attitude.results import ResultIO
+from attitude.rigid_body import RigidBody, split_components
+from attitude.sensors import Gyro
+from attitude.simulation import Estimate
+from estimation.consistency import nees, nis_health, plot_errors_with_bounds
+
+__all__ = ["NOISE_MODELS", "RateEKF", "RateEKFResult", "StepReport", "run_rate_ekf"]
+
+#: Gyro measurement-noise treatments (see the module docstring).
+NOISE_MODELS = ("farrenkopf", "uncorrelated")
+
+_DIM_Z = 3
+
+
+# ---------------------------------------------------------------------------
+# Helpers
+
+
+# Truncation tolerance of the Taylor series in :func:`_van_loan`, relative to each block's size.
+_SERIES_TOL = 1e-17
+# Largest 1-norm of the scaled block matrix before the series (scaling and squaring).
+_SERIES_NORM = 0.25
+
+
+def _van_loan(a: NDArray[np.float64], g: NDArray[np.float64], dt: float) -> tuple[NDArray, NDArray]:
+    """``(Phi, Q)`` of ``x' = a x + g u`` (``u`` unit white noise) over ``dt`` [s] by Van Loan's method.
+
+    The same quantity as :func:`filterpy.common.van_loan_discretization`
+    ``(a, g, dt)``: ``E = expm([[-a, g g^T], [0, a^T]] dt)``, ``Phi = E22^T``,
+    ``Q = Phi E12``. The exponential is evaluated with numpy matrix products
+    only (scaling and squaring, then a Taylor series whose truncation error is
+    bounded below 1e-17 of each block): scipy's ``expm`` calls multi-threaded
+    BLAS, which on a loaded 2-core machine made each call up to a hundred
+    times slower. ``Q`` is linear in ``g g^T``, so the noise block is scaled to
+    the size of the dynamics block first (relative accuracy for tiny noise).
+    """
+    n = a.shape[0]
+    a_dt = a * dt
+    w_dt = (g @ g.T) * dt
+    norm_a = float(np.abs(a_dt).sum(axis=0).max())
+    norm_w = float(np.abs(w_dt).sum(axis=0).max())
+    scale = max(norm_a, 1e-3) / norm_w if norm_w > 0 else 1.0
+    m = np.zeros((2 * n, 2 * n))
+    m[:n, :n] = -a_dt
+    m[:n, n:] = w_dt * scale
+    m[n:, n:] = a_dt.T
+    theta = float(np.abs(m).sum(axis=0).max())
+    squarings = max(0, math.ceil(math.log2(theta / _SERIES_NORM))) if theta > _SERIES_NORM else 0
+    m /= 2.0**squarings
+    theta /= 2.0**squarings
+    # Order: the remainder theta^(k+1)/(k+1)! e^theta, relative to a block of size ~theta.
+    order, bound = 1, theta / 2.0 * math.exp(theta)
+    while bound > _SERIES_TOL:
+        order += 1
+        bound *= theta / (order + 1)
+    eye = np.eye(2 * n)
+    e = eye + m / order  # Horner: I + m (I + m/2 (I + ... (I + m/order)))
+    for k in range(order - 1, 0, -1):
+        e = eye + (m @ e) / k
+    for _ in range(squarings):
+        e = e @ e
+    phi = e[n:, n:].T
+    return phi, (phi @ e[:n, n:]) / scale
+
+
+def _scalar(value: Any, name: str, *, allow_zero: bool) -> float:
+    arr = check_positive(value, name, allow_zero=allow_zero)
+    if arr.ndim != 0:
+        raise ValueError(f"{name} must be a scalar, got shape {arr.shape}")
+    return float(arr)
+
+
+def _covariance(value: ArrayLike, name: str, n: int) -> NDArray[np.float64]:
+    """A symmetric positive-definite (n, n) covariance, or (n,) variances on the diagonal."""
+    arr = as_float_array(value, name)
+    if arr.shape == (n,):
+        arr = np.diag(arr)
+    if arr.shape != (n, n):
+        raise ValueError(f"{name} must have shape ({n}, {n}) or ({n},) (variances), got shape {arr.shape}")
+    scale = max(float(np.abs(arr).max()), np.finfo(float).tiny)
+    asym = float(np.abs(arr - arr.T).max())
+    if asym > 1e-9 * scale:
+        raise ValueError(f"{name} must be symmetric; found a relative asymmetry of {asym / scale:.3g}")
+    arr = 0.5 * (arr + arr.T)
+    try:
+        np.linalg.cholesky(arr)
+    except np.linalg.LinAlgError as exc:
+        raise ValueError(
+            f"{name} must be positive definite; eigenvalues are {describe(np.linalg.eigvalsh(arr))}"
+        ) from exc
+    return arr
+
+
+def _time(value: Any, name: str) -> float:
+    arr = as_float_array(value, name)
+    if arr.ndim != 0:
+        raise ValueError(f"{name} must be a scalar time [s], got shape {arr.shape}")
+    return float(arr)
+
+
+def _vector3(value: Any, name: str) -> NDArray[np.float64]:
+    arr = as_float_array(value, name)
+    if arr.shape != (3,):
+        raise ValueError(f"{name} must have shape (3,), got shape {arr.shape}")
+    return arr
+
+
+@dataclass(frozen=True)
+class _StepInput:
+    """Inputs of one prediction substep: known torque, internal momentum at its start and rate, length."""
+
+    torque: tuple[float, float, float]
+    h0: tuple[float, float, float]
+    hdot: tuple[float, float, float]
+    dt: float
+
+
+@dataclass(frozen=True)
+class StepReport:
+    """What one :meth:`RateEKF.step` did.
+
+    Attributes
+    ----------
+    t : float
+        Time of the step [s].
+    updated : bool
+        A gyro sample was used.
+    nan_skipped : bool
+        A gyro sample was present but non-finite, and skipped.
+    innovation : ndarray (3,)
+        ``z - h(x_prior)`` [rad/s] (NaN without an update).
+    innovation_covariance : ndarray (3, 3)
+        Its covariance ``S`` [rad^2/s^2] (NaN without an update).
+    nis : float
+        ``nu^T S^-1 nu`` (NaN without an update).
+    nis_exceeds : bool
+        The NIS is above the per-step chi-square threshold.
+    health_flag : bool
+        A run of exceedances or an out-of-band NIS window is in progress.
+    """
+
+    t: float
+    updated: bool
+    nan_skipped: bool
+    innovation: NDArray[np.float64]
+    innovation_covariance: NDArray[np.float64]
+    nis: float
+    nis_exceeds: bool
+    health_flag: bool
+
+
+# ---------------------------------------------------------------------------
+# The filter
+
+
+class _FilterpyEKF(ExtendedKalmanFilter):
+    """filterpy's EKF with the nonlinear mean propagation plugged in (``predict_x``)."""
+
+    def __init__(self, dim_x: int, plant: RigidBody) -> None:
+        super().__init__(dim_x=dim_x, dim_z=_DIM_Z)
+        self.plant = plant
+
+    def predict_x(self, u: Any = 0) -> None:
+        """RK4 on Euler's equations (:meth:`RigidBody.omega_dot_components`) over one substep; bias constant.
+
+        ``u`` is the substep input (known torque, internal momentum and its
+        rate, length); filterpy's default ``F x`` would be wrong for this
+        model, so anything else is refused.
+        """
+        if not isinstance(u, _StepInput):
+            raise ValueError(f"predict needs a step input (torque, momentum, dt), got {u!r}; use RateEKF.step(t, ...)")
+        body = self.plant
+        tau = list(u.torque)
+        h0, hd = u.h0, u.hdot
+        has_h = any(h0) or any(hd)
+
+        def derivative(s: float, w: list) -> list:
+            h = [h0[i] + s * hd[i] for i in range(3)] if has_h else None
+            return body.omega_dot_components(w, tau, h)
+
+        w = [float(v) for v in self.x[:3]]
+        w_next = rk4_step(derivative, 0.0, w, u.dt)
+        self.x = np.concatenate([np.array(w_next, dtype=np.float64), self.x[3:]])
+
+    def predict_update(self, *args: Any, **kwargs: Any) -> None:
+        """Disabled: filterpy's ``predict_update`` ignores ``predict_x`` and evaluates ``H`` at the old state."""
+        raise NotImplementedError(
+            "predict_update is disabled: filterpy 2.0.0 propagates F x there (ignoring the nonlinear "
+            "predict_x) and evaluates H at the old state; use RateEKF.step()"
+        )
+
+
+class RateEKF:
+    """Extended Kalman filter of body rate and gyro bias, built on filterpy's ``ExtendedKalmanFilter``.
+
+    See the module docstring for the models. Drive it with :meth:`step`, the
+    engine protocol :meth:`update`, or :func:`run_rate_ekf` for a recorded
+    run. The filterpy object is :attr:`kf` (its ``predict_x`` is the
+    nonlinear propagation; its ``predict_update`` is disabled); :attr:`x`,
+    :attr:`P` and the other arrays are its 1-D state and covariance.
+
+    Parameters
+    ----------
+    body : RigidBody
+        The whole spacecraft (wheels included) [kg m^2]; a single body.
+    sigma_v : float
+        Gyro angle-random-walk density [rad/s^0.5] (> 0).
+    sigma_u : float
+        Gyro rate-random-walk density [rad/s^1.5] (>= 0; 0: a constant bias).
+    gyro_period : float
+        The gyro's sample interval ``dt_g`` [s] (> 0), the averaging time of
+        each sample (sets ``R``).
+    torque_noise : float or array_like (3,)
+        Torque-uncertainty density [N m / sqrt(Hz)] per body axis (>= 0;
+        0 trusts the model and the torque exactly). See the module docstring.
+    P0 : array_like (n, n) or (n,)
+        Initial covariance of ``[omega, beta]`` (``n = 6``) or of ``omega``
+        (``n = 3`` when ``estimate_bias`` is False) [rad^2/s^2], or its
+        diagonal; symmetric positive definite.
+    x0 : array_like (n,), optional
+        Initial estimate [rad/s] (default zero).
+    wheels : ReactionWheels, optional
+        Reaction wheels: hub inertia, internal momentum and reaction torque
+        from the wheel momenta (module docstring).
+    h_wheels0 : array_like (n_wheels,), optional
+        Wheel momenta at ``t0`` [N m s] (default: taken from the first step
+        that provides them).
+    estimate_bias : bool
+        False: a rate-only filter with the bias known (``known_bias``); then
+        ``sigma_u`` must be 0.
+    known_bias : float or array_like (3,)
+        The known bias [rad/s] when ``estimate_bias`` is False.
+    noise_model : {"farrenkopf", "uncorrelated"}
+        Treatment of the correlation between the gyro noise and the bias
+        random walk (module docstring).
+    t0 : float
+        Time of ``x0`` [s].
+    period : float, optional
+        Estimator period for :func:`attitude.simulation.simulate` [s]
+        (default ``gyro_period``).
+    max_step : float, optional
+        Longest prediction substep [s] (default ``gyro_period``).
+    q0 : array_like (4,), optional
+        Initial attitude ``q_BN`` for the open-loop attitude of :meth:`update`
+        (default identity).
+    gyro_name : str
+        Key of the gyro sample in the engine's measurements.
+    attitude_name : str, optional
+        Key of an attitude sensor (e.g. ``"star_tracker"``) whose samples
+        reset the reported attitude.
+    nis_confidence : float
+        Per-step chi-square confidence of the NIS test, in (0, 1).
+    nis_run_length : int
+        Consecutive exceedances that raise the health flag (>= 1).
+    nis_window : int
+        Updates per window of the moving-mean NIS test (>= 1).
+    health_confidence : float
+        Two-sided confidence of the window band, in (0, 1) (see the module
+        docstring for the false-alarm rates).
+
+    Raises
+    ------
+    ValueError
+        For a non-positive ``sigma_v`` or ``gyro_period``, negative
+        ``sigma_u`` or ``torque_noise``, a ``P0`` that is not symmetric
+        positive definite, a non-finite ``x0``, mismatched shapes, an
+        unknown ``noise_model``, ``sigma_u > 0`` with ``estimate_bias``
+        False, or invalid health settings.
+
+    Attributes
+    ----------
+    kf : filterpy.kalman.ExtendedKalmanFilter
+        The underlying filter (1-D ``x`` and ``z``).
+    t : float
+        Time of the current estimate [s].
+    period : float
+        Estimator period for the engine [s].
+    q : ndarray (4,)
+        The open-loop attitude reported to the engine.
+    n_updates, n_nan_skipped, n_wheel_nan_skipped, n_attitude_nan_skipped, n_nis_exceeds : int
+        Counters of gyro updates, skipped non-finite gyro samples, wheel
+        momenta and attitude samples, and per-step NIS exceedances.
+    """
+
+    def __init__(
+        self,
+        body: RigidBody,
+        sigma_v: float,
+        sigma_u: float,
+        gyro_period: float,
+        *,
+        torque_noise: ArrayLike,
+        P0: ArrayLike,
+        x0: ArrayLike | None = None,
+        wheels: ReactionWheels | None = None,
+        h_wheels0: ArrayLike | None = None,
+        estimate_bias: bool = True,
+        known_bias: ArrayLike = 0.0,
+        noise_model: str = "farrenkopf",
+        t0: float = 0.0,
+        period: float | None = None,
+        max_step: float | None = None,
+        q0: ArrayLike | None = None,
+        gyro_name: str = "gyro",
+        attitude_name: str | None = None,
+        nis_confidence: float = 0.99,
+        nis_run_length: int = 3,
+        nis_window: int = 50,
+        health_confidence: float = 0.99999,
+    ) -> None:
+        if not isinstance(body, RigidBody) or body.batch_shape:
+            raise ValueError(f"body must be a single RigidBody, got {body!r}")
+        if wheels is not None and not isinstance(wheels, ReactionWheels):
+            raise ValueError(f"wheels must be a ReactionWheels or None, got {wheels!r}")
+        self.sigma_v = _scalar(sigma_v, "sigma_v", allow_zero=False)
+        self.sigma_u = _scalar(sigma_u, "sigma_u", allow_zero=True)
+        self.gyro_period = _scalar(gyro_period, "gyro_period", allow_zero=False)
+        tn = check_positive(torque_noise, "torque_noise", allow_zero=True)
+        if tn.ndim > 1 or (tn.ndim == 1 and tn.size != 3):
+            raise ValueError(f"torque_noise must be a scalar or have shape (3,) [N m / sqrt(Hz)], got {tn.shape}")
+        self.torque_noise = np.broadcast_to(tn, (3,)).astype(np.float64)
+        if noise_model not in NOISE_MODELS:
+            raise ValueError(f"noise_model must be one of {NOISE_MODELS}, got {noise_model!r}")
+        self.noise_model = noise_model
+        if not isinstance(estimate_bias, bool):
+            raise ValueError(f"estimate_bias must be a bool, got {estimate_bias!r}")
+        self.estimate_bias = estimate_bias
+        if not estimate_bias and self.sigma_u > 0:
+            raise ValueError(
+                "sigma_u must be 0 when estimate_bias is False (a drifting bias must be estimated), "
+                f"got sigma_u = {self.sigma_u!r} rad/s^1.5"
+            )
+        kb = as_float_array(known_bias, "known_bias")
+        if kb.ndim > 1 or (kb.ndim == 1 and kb.size != 3):
+            raise ValueError(f"known_bias must be a scalar or have shape (3,) [rad/s], got shape {kb.shape}")
+        self.known_bias = np.broadcast_to(kb, (3,)).astype(np.float64)
+        n = 6 if estimate_bias else 3
+
+        # Plant: the hub body with wheels (the wheels' spin inertia is carried by h).
+        self.body = body
+        self.wheels = wheels
+        self.plant = body if wheels is None else wheels.hub_body(body)
+        self._n_wheels = 0 if wheels is None else wheels.n_wheels
+        self._h_wheels: NDArray[np.float64] | None = None
+        if h_wheels0 is not None:
+            if wheels is None:
+                raise ValueError("h_wheels0 needs wheels")
+            self._h_wheels = self._wheel_vector(h_wheels0, "h_wheels0", allow_nonfinite=False)
+        self._jacobian_coefficients()
+        # Noise input of the rate block: omega_dot += I^-1 diag(torque_noise) u, u unit white [rad/s^1.5].
+        self._g_rate = self.plant.inertia_inv * self.torque_noise[None, :]
+
+        # The filterpy filter, with 1-D x and z (see the filterpy notes in the module docstring).
+        x = np.zeros(n) if x0 is None else as_float_array(x0, "x0")
+        if x.shape != (n,):
+            raise ValueError(f"x0 must have shape ({n},) [rad/s], got shape {x.shape}")
+        kf = _FilterpyEKF(n, self.plant)
+        kf.x = x.astype(np.float64).copy()
+        kf.P = _covariance(P0, "P0", n)
+        #: The initial covariance (a copy) [rad^2/s^2].
+        self.P0 = kf.P.copy()
+        kf.x_prior, kf.P_prior = kf.x.copy(), kf.P.copy()
+        kf.x_post, kf.P_post = kf.x.copy(), kf.P.copy()
+        kf.R = self.measurement_variance() * np.eye(_DIM_Z)
+        kf.y = np.zeros(_DIM_Z)
+        kf.z = np.full(_DIM_Z, np.nan)
+        kf.K = np.zeros((n, _DIM_Z))
+        self.kf = kf
+        self._H = np.hstack([np.eye(3), np.eye(3)]) if estimate_bias else np.eye(3)
+        self.t = _time(t0, "t0")
+        self._t_start = self.t
+        self._t_last_update: float | None = None
+
+        self.period = self.gyro_period if period is None else _scalar(period, "period", allow_zero=False)
+        self.max_step = self.gyro_period if max_step is None else _scalar(max_step, "max_step", allow_zero=False)
+        self.q = quat.identity() if q0 is None else quat.as_unit_quaternion(q0, "q0").copy()
+        if self.q.shape != (4,):
+            raise ValueError(f"q0 must have shape (4,), got {self.q.shape}")
+        for name, value in (("gyro_name", gyro_name), ("attitude_name", attitude_name)):
+            if value is not None and (not isinstance(value, str) or not value):
+                raise ValueError(f"{name} must be a non-empty string, got {value!r}")
+        self.gyro_name = gyro_name
+        self.attitude_name = attitude_name
+
+        # Health.
+        self.nis_confidence = _open_unit(nis_confidence, "nis_confidence")
+        self.health_confidence = _open_unit(health_confidence, "health_confidence")
+        self.nis_run_length = _count(nis_run_length, "nis_run_length")
+        self.nis_window = _count(nis_window, "nis_window")
+        #: Per-step NIS threshold ``chi2.ppf(nis_confidence, 3)``.
+        self.nis_threshold = float(stats.chi2.ppf(self.nis_confidence, _DIM_Z))
+        a = 1.0 - self.health_confidence
+        lo, hi = stats.chi2.ppf([a / 2.0, 1.0 - a / 2.0], _DIM_Z * self.nis_window) / self.nis_window
+        #: Band of the mean NIS of a window (``chi2_band(3, nis_window, health_confidence)``).
+        self.nis_window_band = (float(lo), float(hi))
+        self._recent_nis: deque[float] = deque(maxlen=self.nis_window)
+        self._run = 0
+        self.n_updates = 0
+        self.n_nan_skipped = 0
+        self.n_wheel_nan_skipped = 0
+        self.n_nis_exceeds = 0
+        self.n_attitude_nan_skipped = 0
+        self._last: StepReport | None = None
+
+    def __repr__(self) -> str:
+        return (
+            f"RateEKF(t={self.t:g} s, states={self.dim_x}, sigma_v={self.sigma_v:.4g} rad/s^0.5, "
+            f"sigma_u={self.sigma_u:.4g} rad/s^1.5, gyro_period={self.gyro_period:g} s, "
+            f"noise_model={self.noise_model!r})"
+        )
+
+    # -- construction --------------------------------------------------------------
+
+    @classmethod
+    def from_gyro(cls, body: RigidBody, gyro: Gyro, **kwargs: Any) -> RateEKF:
+        """A filter for a :class:`attitude.sensors.Gyro`: its ``sigma_v``, ``sigma_u``, ``period`` and name.
+
+        ``gyro.sigma_v`` must be > 0. Keywords as for the class
+        (``torque_noise`` and ``P0`` are required).
+        """
+        if not isinstance(gyro, Gyro):
+            raise ValueError(f"gyro must be an attitude.sensors.Gyro, got {gyro!r}")
+        kwargs.setdefault("gyro_name", gyro.name)
+        return cls(body, gyro.sigma_v, gyro.sigma_u, gyro.period, **kwargs)
+
+    def _jacobian_coefficients(self) -> None:
+        """Exact ``A(omega, h) = A0 + sum_i c_i [omega, h]_i`` from casadi's Jacobian of the one definition."""
+        w = ca.SX.sym("omega", 3)
+        h = ca.SX.sym("h", 3)
+        tau = ca.SX.sym("tau", 3)
+        wdot = ca.vertcat(
+            *self.plant.omega_dot_components(split_components(w, 3), split_components(tau, 3), split_components(h, 3))
+        )
+        a = ca.jacobian(wdot, w)
+        wh = ca.vertcat(w, h)
+        coeff = ca.jacobian(ca.vec(a), wh)  # (9, 6): constant when A is affine in (omega, h)
+        if ca.jacobian(coeff, ca.vertcat(wh, tau)).nnz() != 0 or ca.jacobian(ca.vec(a), tau).nnz() != 0:
+            raise RuntimeError("Euler's equations are expected to have a Jacobian affine in (omega, h)")
+        a0, c = ca.Function("rate_jacobian", [wh], [a, coeff])(np.zeros(6))
+        self._a0 = np.array(a0)
+        self._a_coeff = np.array(c)  # casadi's vec is column-major: vec(A) = A.ravel(order="F")
+
+    def jacobian(self, omega: ArrayLike, h_body: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Continuous Jacobian ``d omega_dot / d omega`` (3, 3) [1/s] at ``omega`` [rad/s] and ``h_body`` [N m s].
+
+        ``h_body`` is the internal (wheel) momentum in body components.
+        """
+        wh = np.concatenate([_vector3(omega, "omega"), np.zeros(3) if h_body is None else _vector3(h_body, "h_body")])
+        return self._a0 + (self._a_coeff @ wh).reshape((3, 3), order="F")
+
+    def measurement_variance(self) -> float:
+        """Per-axis ``R = sigma_v**2 / dt_g + sigma_u**2 dt_g / 3`` [rad^2/s^2] (module docstring)."""
+        return self.sigma_v**2 / self.gyro_period + self.sigma_u**2 * self.gyro_period / 3.0
+
+    # -- state --------------------------------------------------------------------
+
+    @property
+    def dim_x(self) -> int:
+        """Number of states (6 with bias, 3 without)."""
+        return int(self.kf.dim_x)
+
+    @property
+    def x(self) -> NDArray[np.float64]:
+        """State estimate ``[omega, beta]`` (or ``omega``) [rad/s] (a copy)."""
+        return self.kf.x.copy()
+
+    @property
+    def P(self) -> NDArray[np.float64]:
+        """Error covariance [rad^2/s^2] (a copy)."""
+        return self.kf.P.copy()
+
+    @property
+    def omega(self) -> NDArray[np.float64]:
+        """Estimated body rate ``omega_BN_B`` [rad/s] (a copy)."""
+        return self.kf.x[:3].copy()
+
+    @property
+    def bias(self) -> NDArray[np.float64]:
+        """Estimated (or known) gyro bias [rad/s] (a copy)."""
+        return self.kf.x[3:6].copy() if self.estimate_bias else self.known_bias.copy()
+
+    @property
+    def sigma(self) -> NDArray[np.float64]:
+        """Standard deviations (square roots of the diagonal of ``P``) [rad/s]."""
+        return np.sqrt(np.diag(self.kf.P))
+
+    @property
+    def health_flag(self) -> bool:
+        """True while a run of NIS exceedances or an out-of-band NIS window is in progress."""
+        return self._last.health_flag if self._last is not None else False
+
+    # -- prediction -------------------------------------------------------------------
+
+    def _transition(self, inp: _StepInput) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``F`` and ``Q`` of one substep, linearised at the current estimate (Van Loan)."""
+        wh = np.concatenate([self.kf.x[:3], inp.h0])
+        a = self._a0 + (self._a_coeff @ wh).reshape((3, 3), order="F")
+        phi, q_rate = _van_loan(a, self._g_rate, inp.dt)
+        n = self.dim_x
+        f = np.eye(n)
+        f[:3, :3] = phi
+        q = np.zeros((n, n))
+        q[:3, :3] = 0.5 * (q_rate + q_rate.T)
+        if self.estimate_bias:
+            q[3:, 3:] = self.sigma_u**2 * inp.dt * np.eye(3)
+        return f, q
+
+    def _propagate(self, dt: float, torque: NDArray, h0: NDArray, hdot: NDArray) -> None:
+        n_sub = max(1, math.ceil(dt / self.max_step - 1e-9))
+        h = dt / n_sub
+        tau = (float(torque[0]), float(torque[1]), float(torque[2]))
+        hd = (float(hdot[0]), float(hdot[1]), float(hdot[2]))
+        kf = self.kf
+        for i in range(n_sub):
+            start = h0 + (i * h) * hdot
+            inp = _StepInput(tau, (float(start[0]), float(start[1]), float(start[2])), hd, h)
+            kf.F, kf.Q = self._transition(inp)  # filterpy's predict uses F and Q as they stand
+            kf.predict(u=inp)
+            kf.P = 0.5 * (kf.P + kf.P.T)
+
+    # -- update -----------------------------------------------------------------------
+
+    def _hx(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        return x[:3] + x[3:6] if self.estimate_bias else x[:3] + self.known_bias
+
+    def _update(self, z: NDArray[np.float64], t: float) -> tuple[float, NDArray, NDArray]:
+        kf = self.kf
+        h = self._H
+        r = kf.R
+        if self.noise_model == "farrenkopf" and self.estimate_bias and self.sigma_u > 0:
+            since = t - (self._t_start if self._t_last_update is None else self._t_last_update)
+            m_scalar = -0.5 * self.sigma_u**2 * min(self.gyro_period, since)
+            if m_scalar != 0.0:
+                # Equivalent decorrelated measurement: H' = H + L, R' = R - L M with L = M^T P^-1.
+                m = np.zeros((6, 3))
+                m[3:, :] = m_scalar * np.eye(3)
+                try:
+                    ell = np.linalg.solve(kf.P, m).T  # P is symmetric: (P^-1 M)^T = M^T P^-1
+                except np.linalg.LinAlgError as exc:
+                    raise ValueError(f"the prior covariance at t = {t!r} s is singular (numerical breakdown)") from exc
+                h = h + ell
+                r = r - ell @ m
+                r = 0.5 * (r + r.T)
+        h_eff = h
+        kf.update(z, HJacobian=lambda _x: h_eff, Hx=self._hx, R=r)
+        kf.P = 0.5 * (kf.P + kf.P.T)
+        nu = np.array(kf.y, dtype=np.float64)
+        s = np.array(kf.S, dtype=np.float64)
+        nis_value = float(nu @ kf.SI @ nu)  # filterpy keeps S^-1
+        return nis_value, nu, s
+
+    # -- public stepping ----------------------------------------------------------------
+
+    def _wheel_vector(self, value: Any, name: str, *, allow_nonfinite: bool) -> NDArray[np.float64]:
+        arr = as_float_array(value, name, allow_nonfinite=allow_nonfinite).reshape(-1)
+        if arr.size != self._n_wheels:
+            raise ValueError(f"{name} must hold one momentum per wheel ({self._n_wheels}) [N m s], got {arr.size}")
+        return arr.copy()
+
+    def step(
+        self,
+        t: float,
+        gyro: ArrayLike | None = None,
+        *,
+        torque: ArrayLike | None = None,
+        wheel_momentum: ArrayLike | None = None,
+    ) -> StepReport:
+        """Predict to ``t`` and update with a gyro sample taken at ``t``.
+
+        Parameters
+        ----------
+        t : float
+            Time [s] (not before the filter's time).
+        gyro : array_like (3,) or None
+            Gyro sample [rad/s]; None: no sample (predict only). A
+            non-finite sample is skipped and counted.
+        torque : array_like (3,), optional
+            Known body torque held over the interval ending at ``t`` [N m]
+            (default zero). With wheels and known momenta it is not used.
+        wheel_momentum : array_like (n_wheels,), optional
+            Wheel spin-axis momenta at ``t`` [N m s] (ignored without wheels;
+            non-finite: treated as missing and counted).
+
+        Returns
+        -------
+        StepReport
+
+        Raises
+        ------
+        ValueError
+            If ``t`` is not finite or earlier than the filter's time, the
+            torque is not a finite (3,) vector, a sample has the wrong shape,
+            or the covariance loses positive definiteness.
+        """
+        t = _time(t, "t")
+        if t < self.t:
+            raise ValueError(f"t must not go backwards: t = {t!r} s is before the filter time {self.t!r} s")
+        dt = t - self.t
+        tau = np.zeros(3) if torque is None else _vector3(torque, "torque")
+        # Validate every input before the state changes.
+        z = None
+        nan_skipped = False
+        if gyro is not None:
+            z = as_float_array(gyro, "gyro", allow_nonfinite=True)
+            if z.shape != (3,):
+                raise ValueError(f"gyro must have shape (3,) [rad/s], got shape {z.shape}")
+            if not np.all(np.isfinite(z)):
+                nan_skipped = True
+                z = None
+        hw = None
+        if self.wheels is not None and wheel_momentum is not None:
+            hw = self._wheel_vector(wheel_momentum, "wheel_momentum", allow_nonfinite=True)
+        h0 = hdot = np.zeros(3)
+        if self.wheels is not None:
+            h_new = None
+            if hw is not None:
+                if np.all(np.isfinite(hw)):
+                    h_new = hw
+                else:
+                    self.n_wheel_nan_skipped += 1
+            a = self.wheels.distribution
+            if h_new is not None and self._h_wheels is not None and dt > 0:
+                h0 = a @ self._h_wheels
+                hdot = a @ (h_new - self._h_wheels) / dt
+                tau = -hdot  # exact mean reaction torque over the interval
+            else:
+                known = self._h_wheels if self._h_wheels is not None else h_new
+                h0 = np.zeros(3) if known is None else a @ known
+            if h_new is not None:
+                self._h_wheels = h_new
+        if dt > 0:
+            self._propagate(dt, tau, h0, hdot)
+        self.t = t
+
+        if nan_skipped:
+            self.n_nan_skipped += 1
+        nu = np.full(3, np.nan)
+        s = np.full((3, 3), np.nan)
+        nis_value = float("nan")
+        exceeds = False
+        if z is not None:
+            nis_value, nu, s = self._update(z, t)
+            self._t_last_update = t
+            self.n_updates += 1
+            exceeds = nis_value > self.nis_threshold
+            self.n_nis_exceeds += int(exceeds)
+            self._run = self._run + 1 if exceeds else 0
+            self._recent_nis.append(nis_value)
+        else:
+            self.kf.x_post, self.kf.P_post = self.kf.x.copy(), self.kf.P.copy()
+        window_bad = False
+        if len(self._recent_nis) == self.nis_window:
+            mean = sum(self._recent_nis) / self.nis_window
+            window_bad = not (self.nis_window_band[0] <= mean <= self.nis_window_band[1])
+        report = StepReport(
+            t=t,
+            updated=z is not None,
+            nan_skipped=nan_skipped,
+            innovation=nu,
+            innovation_covariance=s,
+            nis=nis_value,
+            nis_exceeds=exceeds,
+            health_flag=self._run >= self.nis_run_length or window_bad,
+        )
+        self._last = report
+        return report
+
+    # -- engine protocol ----------------------------------------------------------------
+
+    def update(self, t: float, measurements: dict[str, Any]) -> Estimate:
+        """Engine protocol: one filter cycle at ``t`` [s] from the engine's ``measurements``; returns an Estimate.
+
+        ``measurements`` maps sensor names to their newest sample (None: no
+        sample) plus ``"torque_command"`` and ``"wheel_momentum"`` (see
+        :mod:`attitude.simulation`). The gyro is read under ``gyro_name``,
+        an attitude sample under ``attitude_name``. The returned
+        :class:`attitude.simulation.Estimate` carries the filtered rate,
+        the open-loop attitude (module docstring) and the covariance of
+        ``[omega, beta]``. A non-finite attitude sample is skipped and
+        counted (:attr:`n_attitude_nan_skipped`).
+
+        Raises
+        ------
+        ValueError
+            As :meth:`step`; also for a ``measurements`` that is not a
+            mapping or an attitude sample that is not (4,).
+        """
+        if not isinstance(measurements, dict):
+            raise ValueError(f"measurements must be a dict of sensor samples, got {type(measurements).__name__}")
+        t_prev = self.t
+        w_prev = self.kf.x[:3].copy()
+        report = self.step(
+            t,
+            measurements.get(self.gyro_name),
+            torque=measurements.get("torque_command"),
+            wheel_momentum=measurements.get("wheel_momentum") if self.wheels is not None else None,
+        )
+        dt = report.t - t_prev
+        if dt > 0:
+            w_mean = 0.5 * (w_prev + self.kf.x[:3])
+            self.q = quat.normalize(quat.multiply(self.q, quat.from_rotation_vector(w_mean * dt)))
+        if self.attitude_name is not None:
+            sample = measurements.get(self.attitude_name)
+            if sample is not None:
+                q_meas = as_float_array(sample, self.attitude_name, allow_nonfinite=True)
+                if q_meas.shape != (4,):
+                    raise ValueError(f"{self.attitude_name} sample must have shape (4,), got {q_meas.shape}")
+                if np.all(np.isfinite(q_meas)):
+                    self.q = quat.normalize(q_meas)
+                else:
+                    self.n_attitude_nan_skipped += 1
+        return Estimate(report.t, self.q.copy(), self.kf.x[:3].copy(), covariance=self.kf.P.copy())
+
+    def log(self) -> dict[str, Any]:
+        """Values the engine logs at each estimator sample (``estimator.<key>``).
+
+        ``bias`` (3) [rad/s], ``sigma`` (n) [rad/s], ``covariance`` (n*n,
+        row-major) [rad^2/s^2], ``nis`` (NaN without update), ``nis_exceeds``,
+        ``health_flag``, ``updated``, ``nan_skipped`` (0/1 this step) and the
+        running count ``n_nan_skipped``.
+        """
+        r = self._last
+        return {
+            "bias": self.bias,
+            "sigma": self.sigma,
+            "covariance": self.kf.P.ravel().copy(),
+            "nis": float("nan") if r is None else r.nis,
+            "nis_exceeds": float(r is not None and r.nis_exceeds),
+            "health_flag": float(r is not None and r.health_flag),
+            "updated": float(r is not None and r.updated),
+            "nan_skipped": float(r is not None and r.nan_skipped),
+            "n_nan_skipped": float(self.n_nan_skipped),
+        }
+
+
+def _open_unit(value: Any, name: str) -> float:
+    arr = as_float_array(value, name)
+    if arr.ndim != 0 or not 0.0 < float(arr) < 1.0:
+        raise ValueError(f"{name} must be a scalar in (0, 1), got {describe(arr)}")
+    return float(arr)
+
+
+def _count(value: Any, name: str) -> int:
+    if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or value < 1:
+        raise ValueError(f"{name} must be a positive integer, got {value!r}")
+    return int(value)
+
+
+# ---------------------------------------------------------------------------
+# Batch runs and their result
+
+
+@dataclass
+class RateEKFResult(ResultIO):
+    """History of a :func:`run_rate_ekf` run (one row per sample time).
+
+    Attributes
+    ----------
+    t : ndarray (n,)
+        Times [s].
+    omega, bias : ndarray (n, 3)
+        Estimated rate and bias [rad/s] after each step (the known bias for
+        a rate-only filter).
+    covariance : ndarray (n, d, d)
+        Error covariance of ``[omega, beta]`` (``d = 6``) or ``omega``
+        (``d = 3``) [rad^2/s^2].
+    innovation : ndarray (n, 3)
+        Innovations [rad/s] (NaN rows without an update).
+    innovation_covariance : ndarray (n, 3, 3)
+        Their covariances [rad^2/s^2] (NaN without an update).
+    nis : ndarray (n,)
+        NIS of each update (NaN without one).
+    nis_exceeds : ndarray (n,) of bool
+        NIS above the per-step chi-square threshold.
+    nis_flagged : ndarray (n,) of bool
+        Steps in a run of at least ``nis_run_length`` exceedances or in an
+        out-of-band NIS window (:func:`estimation.consistency.nis_health`).
+    updated, nan_skipped : ndarray (n,) of bool
+        A gyro sample was used / was non-finite and skipped.
+    omega_true, bias_true : ndarray (n, 3) or None
+        The truth, when known (simulation), for errors and NEES.
+    info : dict
+        Counts, thresholds, flagged intervals (indices and times), settings.
+    """
+
+    t: NDArray[np.float64]
+    omega: NDArray[np.float64]
+    bias: NDArray[np.float64]
+    covariance: NDArray[np.float64]
+    innovation: NDArray[np.float64]
+    innovation_covariance: NDArray[np.float64]
+    nis: NDArray[np.float64]
+    nis_exceeds: NDArray[np.bool_]
+    nis_flagged: NDArray[np.bool_]
+    updated: NDArray[np.bool_]
+    nan_skipped: NDArray[np.bool_]
+    omega_true: NDArray[np.float64] | None = None
+    bias_true: NDArray[np.float64] | None = None
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def healthy(self) -> bool:
+        """True when no step was flagged."""
+        return not bool(np.any(self.nis_flagged))
+
+    @property
+    def sigma(self) -> NDArray[np.float64]:
+        """Standard deviations (n, d) [rad/s] from the covariance diagonals."""
+        return np.sqrt(np.diagonal(self.covariance, axis1=-2, axis2=-1))
+
+    def errors(self) -> NDArray[np.float64]:
+        """Estimation errors ``truth - estimate`` (n, d) [rad/s]: rate, then bias when estimated.
+
+        Raises
+        ------
+        ValueError
+            Without the truth.
+        """
+        if self.omega_true is None:
+            raise ValueError("errors need omega_true (and bias_true when the bias is estimated)")
+        d = self.covariance.shape[-1]
+        if d == 3:
+            return self.omega_true - self.omega
+        if self.bias_true is None:
+            raise ValueError("errors of a bias-estimating filter need bias_true")
+        return np.concatenate([self.omega_true - self.omega, self.bias_true - self.bias], axis=-1)
+
+    def nees(self) -> NDArray[np.float64]:
+        """NEES of every step (n,): chi-square with ``d`` degrees of freedom for a consistent filter."""
+        return nees(self.errors(), self.covariance)
+
+    def plot(self, kind: str | None = None) -> Figure:
+        """``"errors"``: errors with +-3 sigma (needs the truth); ``"nis"``: NIS with its thresholds.
+
+        Default: errors when the truth is known, NIS otherwise.
+        """
+        if kind is None:
+            kind = "errors" if self.omega_true is not None else "nis"
+        if kind == "errors":
+            d = self.covariance.shape[-1]
+            labels = ["omega_x", "omega_y", "omega_z", "bias_x", "bias_y", "bias_z"][:d]
+            return plot_errors_with_bounds(
+                self.t,
+                self.errors(),
+                self.sigma,
+                labels,
+                "deg/h",
+                scale=180.0 / np.pi * 3600.0,
+                title=r"rate EKF errors with $\pm 3\sigma$ bounds",
+            )
+        if kind != "nis":
+            raise ValueError(f"kind must be 'errors', 'nis' or None, got {kind!r}")
+        fig = Figure(figsize=(9, 4), layout="constrained")
+        ax = fig.subplots()
+        ok = ~np.isnan(self.nis)
+        ax.semilogy(self.t[ok], self.nis[ok], ".", ms=2, color="tab:blue", label="NIS")
+        ax.axhline(self.info["nis_threshold"], color="tab:red", ls="--", lw=1, label="per-step threshold")
+        ax.axhline(_DIM_Z, color="k", ls=":", lw=1, label="expected value 3")
+        for start, stop in self.info.get("nis_interval_times", []):
+            ax.axvspan(start, stop, color="tab:red", alpha=0.2)
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel("NIS")
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="upper right")
+        state = "healthy" if self.healthy else f"{len(self.info.get('nis_intervals', []))} flagged stretch(es)"
+        ax.set_title(f"rate EKF innovation health: {state}, {self.info.get('n_nan_skipped', 0)} NaN samples skipped")
+        return fig
+
+
+def _runs(mask: NDArray[np.bool_], length: int) -> NDArray[np.bool_]:
+    """Entries of ``mask`` in a run of at least ``length`` consecutive True values."""
+    out = np.zeros(mask.size, dtype=bool)
+    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    for a, b in zip(np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]):
+        if b - a >= length:
+            out[a:b] = True
+    return out
+
+
+def run_rate_ekf(
+    ekf: RateEKF,
+    t: ArrayLike,
+    gyro: ArrayLike,
+    *,
+    torque: ArrayLike | None = None,
+    wheel_momentum: ArrayLike | None = None,
+    gyro_available: ArrayLike | None = None,
+    omega_true: ArrayLike | None = None,
+    bias_true: ArrayLike | None = None,
+) -> RateEKFResult:
+    """Run a filter over a recorded (or simulated) history.
+
+    Parameters
+    ----------
+    ekf : RateEKF
+        The filter, at a time not after ``t[0]`` (it is advanced in place).
+    t : array_like (n,)
+        Step times [s], non-decreasing (a filter step at each; the first may
+        equal the filter's time).
+    gyro : array_like (n, 3)
+        Gyro samples [rad/s]. Rows with NaN/inf are skipped and counted.
+    torque : array_like (n, 3), optional
+        Known body torque held over the interval *ending* at ``t[k]`` [N m]
+        (what the engine hands an estimator as ``"torque_command"``; a
+        ``SimulationResult.torque_command`` row is held *from* its time, so
+        shift it by one row). Default zero.
+    wheel_momentum : array_like (n, n_wheels), optional
+        Wheel momenta at each time [N m s] (filters with wheels).
+    gyro_available : array_like (n,) of bool, optional
+        False where the gyro did not sample (multi-rate; not counted as
+        NaN). Default: all samples present.
+    omega_true, bias_true : array_like (n, 3), optional
+        Truth at each time [rad/s], stored for errors, NEES and plots.
+
+    Returns
+    -------
+    RateEKFResult
+
+    Raises
+    ------
+    ValueError
+        For mismatched shapes, times that go backwards (also relative to
+        the filter's time), or non-finite torques or times.
+    """
+    if not isinstance(ekf, RateEKF):
+        raise ValueError(f"ekf must be a RateEKF, got {ekf!r}")
+    times = as_float_array(t, "t")
+    if times.ndim != 1 or times.size < 1:
+        raise ValueError(f"t must be a 1-D array of times [s], got shape {times.shape}")
+    n = times.size
+    if np.any(np.diff(times) < 0):
+        i = int(np.argmax(np.diff(times) < 0))
+        raise ValueError(f"t must not go backwards; t[{i + 1}] = {times[i + 1]!r} < t[{i}] = {times[i]!r}")
+    z = as_float_array(gyro, "gyro", allow_nonfinite=True)
+    if z.shape != (n, 3):
+        raise ValueError(f"gyro must have shape ({n}, 3), got {z.shape}")
+    tau = np.zeros((n, 3)) if torque is None else as_float_array(torque, "torque")
+    if tau.shape != (n, 3):
+        raise ValueError(f"torque must have shape ({n}, 3), got {tau.shape}")
+    hw = None
+    if wheel_momentum is not None:
+        hw = as_float_array(wheel_momentum, "wheel_momentum", allow_nonfinite=True)
+        if hw.ndim != 2 or hw.shape[0] != n:
+            raise ValueError(f"wheel_momentum must have shape ({n}, n_wheels), got {hw.shape}")
+    avail = np.ones(n, dtype=bool) if gyro_available is None else np.asarray(gyro_available)
+    if avail.shape != (n,) or avail.dtype != bool:
+        raise ValueError(f"gyro_available must be a boolean array of shape ({n},), got {avail.dtype} {avail.shape}")
+    truth = {}
+    for name, value in (("omega_true", omega_true), ("bias_true", bias_true)):
+        if value is not None:
+            arr = as_float_array(value, name)
+            if arr.shape != (n, 3):
+                raise ValueError(f"{name} must have shape ({n}, 3), got {arr.shape}")
+            truth[name] = arr
+    d = ekf.dim_x
+    out_w = np.empty((n, 3))
+    out_b = np.empty((n, 3))
+    out_p = np.empty((n, d, d))
+    out_nu = np.full((n, 3), np.nan)
+    out_s = np.full((n, 3, 3), np.nan)
+    out_nis = np.full(n, np.nan)
+    exceeds = np.zeros(n, dtype=bool)
+    updated = np.zeros(n, dtype=bool)
+    skipped = np.zeros(n, dtype=bool)
+    live_flag = np.zeros(n, dtype=bool)
+    for k in range(n):
+        report = ekf.step(
+            times[k],
+            z[k] if avail[k] else None,
+            torque=tau[k],
+            wheel_momentum=None if hw is None else hw[k],
+        )
+        out_w[k] = ekf.x[:3]
+        out_b[k] = ekf.bias
+        out_p[k] = ekf.P
+        out_nu[k], out_s[k], out_nis[k] = report.innovation, report.innovation_covariance, report.nis
+        exceeds[k], updated[k], skipped[k] = report.nis_exceeds, report.updated, report.nan_skipped
+        live_flag[k] = report.health_flag
+    flagged = _runs(exceeds[updated], ekf.nis_run_length)
+    flagged_all = np.zeros(n, dtype=bool)
+    flagged_all[np.nonzero(updated)[0]] = flagged
+    window_checked = int(updated.sum()) >= ekf.nis_window
+    if window_checked:
+        health = nis_health(out_nis, _DIM_Z, ekf.nis_window, ekf.health_confidence, t=times)
+        flagged_all |= health.flagged
+    intervals: list[list[int]] = []
+    edges = np.diff(np.concatenate([[0], flagged_all.astype(np.int8), [0]]))
+    for a, b in zip(np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]):
+        intervals.append([int(a), int(b)])
+    info = {
+        "n_steps": n,
+        "n_updates": int(updated.sum()),
+        "n_nan_skipped": int(skipped.sum()),
+        "n_nis_exceeds": int(exceeds.sum()),
+        "nis_threshold": ekf.nis_threshold,
+        "nis_confidence": ekf.nis_confidence,
+        "nis_run_length": ekf.nis_run_length,
+        "nis_window": ekf.nis_window,
+        "nis_window_band": list(ekf.nis_window_band),
+        "nis_window_checked": window_checked,
+        "nis_intervals": intervals,
+        "nis_interval_times": [[float(times[a]), float(times[b - 1])] for a, b in intervals],
+        "live_flag_steps": int(live_flag.sum()),
+        "healthy": not intervals,
+        "noise_model": ekf.noise_model,
+        "estimate_bias": ekf.estimate_bias,
+    }
+    return RateEKFResult(
+        t=times.copy(),
+        omega=out_w,
+        bias=out_b,
+        covariance=out_p,
+        innovation=out_nu,
+        innovation_covariance=out_s,
+        nis=out_nis,
+        nis_exceeds=exceeds,
+        nis_flagged=flagged_all,
+        updated=updated,
+        nan_skipped=skipped,
+        omega_true=truth.get("omega_true"),
+        bias_true=truth.get("bias_true"),
+        info=info,
+    )
