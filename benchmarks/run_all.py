@@ -14,9 +14,15 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from benchmarks import bench_closed_loop, bench_propagation, bench_slew
+from benchmarks import bench_closed_loop, bench_mekf, bench_propagation, bench_rate_ekf, bench_slew
 
-SUITES = {"propagation": bench_propagation.run, "closed_loop": bench_closed_loop.run, "slew": bench_slew.run}
+SUITES = {
+    "propagation": bench_propagation.run,
+    "closed_loop": bench_closed_loop.run,
+    "slew": bench_slew.run,
+    "rate_ekf": bench_rate_ekf.run,
+    "mekf": bench_mekf.run,
+}
 
 
 def main() -> None:
