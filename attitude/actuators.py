@@ -127,10 +127,22 @@ class ReactionWheels:
         self.coulomb_friction = _per_wheel(coulomb_friction, n, "coulomb_friction", allow_zero=True)
         self.coulomb_smoothing_speed = float(check_positive(coulomb_smoothing_speed, "coulomb_smoothing_speed"))
         self.null_space_gain = float(check_positive(null_space_gain, "null_space_gain", allow_zero=True))
-        self.bias_momentum = np.broadcast_to(as_float_array(bias_momentum, "bias_momentum"), (n,)).copy()
+        bias = as_float_array(bias_momentum, "bias_momentum")
+        if bias.shape not in ((), (1,), (n,)):
+            raise ValueError(f"bias_momentum must be a scalar or one value per wheel ({n}), got shape {bias.shape}")
+        self.bias_momentum = np.broadcast_to(bias, (n,)).astype(float)
         self.distribution = axes.T.copy()  # A, 3 x n: body torque = -A u
         self.allocation = np.linalg.pinv(self.distribution)  # A^+, n x 3, minimum-norm
         self.null_projector = np.eye(n) - self.allocation @ self.distribution
+        # Minimum-norm allocation with wheel i idle (None when the others lose rank 3).
+        self._allocation_without: list[NDArray[np.float64] | None] = []
+        for i in range(n):
+            others = np.delete(axes, i, axis=0)
+            sv = np.linalg.svd(others.T, compute_uv=False) if n > 3 else np.zeros(1)
+            if n > 3 and sv[-1] >= RANK_TOLERANCE * sv[0]:
+                self._allocation_without.append(np.insert(np.linalg.pinv(others.T), i, 0.0, axis=0))
+            else:
+                self._allocation_without.append(None)
 
     # -- construction helpers -------------------------------------------------
 
@@ -245,30 +257,57 @@ class ReactionWheels:
 
     # -- allocation ---------------------------------------------------------------
 
+    def _minimum_norm(self, matrix: NDArray[np.float64], torque_command: Components) -> Components:
+        """``u = -M tau_c`` on components for an (n x 3) allocation matrix ``M``."""
+        out = []
+        for row in matrix:
+            acc = 0.0 * torque_command[0]
+            for k in range(3):
+                if row[k] != 0.0:
+                    acc = acc - row[k] * torque_command[k]
+            out.append(acc)
+        return out
+
     def allocate_components(self, torque_command: Components, h: Components, omega: Components) -> Components:
         """Motor torques for a commanded body torque, with saturation.
 
-        The minimum-norm solution ``u = -A^+ tau_c`` (plus null-space momentum
-        management) is scaled by one common factor so that no wheel exceeds
-        its torque limit: the body torque keeps its direction and loses only
-        magnitude. A wheel at its speed limit then refuses torque that would
-        spin it faster.
+        1. The minimum-norm solution ``u = -A^+ tau_c`` (plus null-space
+           momentum management).
+        2. If a wheel sits at its speed limit and ``u`` would spin it faster,
+           the command is re-allocated to the other wheels (minimum norm with
+           that wheel's torque zero) when they still span three dimensions,
+           as in a four-wheel pyramid: the body torque keeps its direction.
+        3. One common scale factor keeps every wheel within its torque
+           limit, so the body torque keeps its direction and loses only
+           magnitude.
+        4. Any wheel still at its speed limit refuses torque that would spin
+           it faster (a motor driver at its back-EMF limit; this last cut can
+           change the torque direction when no re-allocation was possible).
+
+        The speed limit is checked when the command is computed (at the
+        controller sample) and held until the next one.
         """
         n = self.n_wheels
-        u = []
-        for i in range(n):
-            acc = 0.0 * torque_command[0]
-            for k in range(3):
-                acc = acc - self.allocation[i, k] * torque_command[k]
-            u.append(acc)
+        u = self._minimum_norm(self.allocation, torque_command)
+        speed = self.wheel_speed_components(h, omega)
         if self.null_space_gain > 0 and n > 3:
-            speed = self.wheel_speed_components(h, omega)
             rel = [self.spin_inertia[i] * speed[i] - self.bias_momentum[i] for i in range(n)]
             for i in range(n):
                 corr = 0.0 * rel[0]
                 for j in range(n):
                     corr = corr + self.null_projector[i, j] * rel[j]
                 u[i] = u[i] - self.null_space_gain * corr
+        limits = self.momentum_max / self.spin_inertia
+        # Re-allocate around the first blocked wheel (selection by 0/1 weights
+        # keeps the arithmetic backend-neutral).
+        for i in reversed(range(n)):
+            if self._allocation_without[i] is None:
+                continue
+            blocked = bk.if_else(speed[i] >= limits[i], bk.if_else(u[i] > 0, 1.0, 0.0), 0.0) + bk.if_else(
+                speed[i] <= -limits[i], bk.if_else(u[i] < 0, 1.0, 0.0), 0.0
+            )
+            alternative = self._minimum_norm(self._allocation_without[i], torque_command)
+            u = [blocked * a + (1.0 - blocked) * b for a, b in zip(alternative, u)]
         # Common scale so that max_i |u_i| / u_max_i <= 1 (direction preserved).
         ratio = None
         for i in range(n):
@@ -276,12 +315,10 @@ class ReactionWheels:
             ratio = r if ratio is None else bk.fmax(ratio, r)
         scale = 1.0 / bk.fmax(ratio, 1.0)
         u = [ui * scale for ui in u]
-        speed = self.wheel_speed_components(h, omega)
         out = []
         for i in range(n):
-            limit = self.momentum_max[i] / self.spin_inertia[i]
-            over = bk.if_else(speed[i] >= limit, bk.fmin(u[i], 0.0), u[i])
-            out.append(bk.if_else(speed[i] <= -limit, bk.fmax(over, 0.0), over))
+            over = bk.if_else(speed[i] >= limits[i], bk.fmin(u[i], 0.0), u[i])
+            out.append(bk.if_else(speed[i] <= -limits[i], bk.fmax(over, 0.0), over))
         return out
 
     def allocate(self, torque_command: ArrayLike, h: ArrayLike, omega: ArrayLike) -> NDArray[np.float64]:

@@ -59,7 +59,7 @@ from attitude.results import ResultIO
 from attitude.rigid_body import RigidBody, split_components
 from attitude.rng import as_generator
 
-__all__ = ["Estimate", "SimulationResult", "Truth", "simulate"]
+__all__ = ["Estimate", "SimulationDivergedError", "SimulationResult", "Truth", "simulate"]
 
 
 @dataclass(frozen=True)
@@ -253,15 +253,29 @@ def simulate(
         raise ValueError(f"substeps must be a positive integer, got {substeps!r}")
     if engine not in ("auto", "python", "compiled"):
         raise ValueError(f"engine must be 'auto', 'python' or 'compiled', got {engine!r}")
+    if wheels is not None and not isinstance(wheels, ReactionWheels):
+        raise ValueError(f"wheels must be a ReactionWheels or None, got {type(wheels).__name__}")
     n_w = 0 if wheels is None else wheels.n_wheels
     if h_wheels0 is None:
         h_wheels0 = np.zeros(n_w)
     h_wheels0 = as_float_array(h_wheels0, "h_wheels0").reshape(-1)
     if h_wheels0.size != n_w:
         raise ValueError(f"h_wheels0 must have one momentum per wheel ({n_w}), got {h_wheels0.size}")
+    if disturbance is not None and not callable(disturbance):
+        disturbance = check_vector(disturbance, "disturbance", 3)
+        if disturbance.shape != (3,):
+            raise ValueError(
+                f"disturbance must be a constant torque of shape (3,) or a callable, got shape {disturbance.shape}"
+            )
+    names = []
     for s in sensors:
         if not hasattr(s, "measure") or not hasattr(s, "name"):
             raise ValueError(f"sensor {s!r} must have 'name', 'period' and 'measure(t, truth, rng)'")
+        if s.name in names:
+            raise ValueError(
+                f"sensors must have distinct names; {s.name!r} appears twice (their samples would collide)"
+            )
+        names.append(s.name)
     if controller is not None and not hasattr(controller, "torque"):
         raise ValueError("controller must have a 'torque(t, estimate)' method")
     if estimator is not None and not hasattr(estimator, "update"):
@@ -282,7 +296,13 @@ def simulate(
     if abs(n_ticks * dt - duration) > 1e-9 * duration or n_ticks < 1:
         raise ValueError(f"duration = {duration!r} s must be a whole number (>= 1) of ticks dt = {dt!r} s")
 
-    plant = body if wheels is None else wheels.hub_body(body)
+    try:
+        plant = body if wheels is None else wheels.hub_body(body)
+    except ValueError as exc:
+        raise ValueError(
+            "wheels spin_inertia is too large for body: the hub inertia I - sum J a a^T (the spacecraft without "
+            f"the wheels' spin-axis inertia) must be a valid inertia: {exc}"
+        ) from exc
     model = _PlantModel(plant, wheels)
     compiled_ok = (
         controller is not None
@@ -406,12 +426,16 @@ def _run_compiled(
     tau_cmd = controller.torque_components(xc[:4], xc[4:7], _body_momentum(model, xc), split_components(p, m))
     u, tau_app = model.command(tau_cmd, xc)
     commands = ca.vertcat(*tau_cmd, *tau_app, *u)
-    tau_ext = [0.0, 0.0, 0.0] if disturbance is None else list(check_vector(disturbance, "disturbance", 3))
+    tau_ext = [0.0, 0.0, 0.0] if disturbance is None else [float(v) for v in disturbance]
     x_next = model.compiled_step(substeps)(x, ca.vertcat(*u), ca.DM(tau_ext), dt)
     loop = ca.Function("closed_loop", [x, p], [x_next, commands]).mapaccum(n_ticks)
     x_start = np.concatenate([q0, omega0, h0])
     x_hist, out = loop(x_start, inputs[:, :-1])
     x_all = np.concatenate([x_start[None], np.array(x_hist).T], axis=0)
+    finite = np.all(np.isfinite(x_all), axis=1)
+    if not np.all(finite):
+        k = int(np.argmin(finite))
+        _diverged(t[k], x_all[k - 1])
     # The command at the final time, as the Python path computes it.
     last = np.array(ca.Function("command", [x, p], [commands])(x_all[-1], inputs[:, -1])).T
     out = np.concatenate([np.array(out).T, last], axis=0)
@@ -419,6 +443,18 @@ def _run_compiled(
     tau_c, tau_a, uu = out[:, :3], out[:, 3:6], out[:, 6 : 6 + n_u]
     err = _error_angles(controller, t, x_all[:, :4])
     return _finish(model, t, x_all, tau_c, tau_a, uu, err, x_all[:, :4].copy(), x_all[:, 4:7].copy(), {})
+
+
+class SimulationDivergedError(FloatingPointError):
+    """The closed loop blew up (an unstable loop, or a tick too long for the rates)."""
+
+
+def _diverged(t: float, x_before: NDArray) -> None:
+    rate = float(np.linalg.norm(x_before[4:7])) if np.all(np.isfinite(x_before[4:7])) else float("inf")
+    raise SimulationDivergedError(
+        f"the closed-loop state became non-finite at t = {float(t):.6g} s (body rate {rate:.3g} rad/s one tick "
+        "before): check the controller gains and sample time, the torque limits, or use more substeps"
+    )
 
 
 def _body_momentum(model: _PlantModel, xc: list) -> list:
@@ -481,6 +517,11 @@ def _run_python(model, controller, sensors, estimator, disturbance, q0, omega0, 
             measurements[s.name] = sample
         if estimator is not None and k % every["estimator"] == 0:
             estimate = estimator.update(tk, measurements)
+            if not isinstance(estimate, Estimate):
+                raise ValueError(
+                    f"estimator.update(t, measurements) must return an attitude.simulation.Estimate, "
+                    f"got {type(estimate).__name__} at t = {tk:.6g} s"
+                )
             if hasattr(estimator, "log"):
                 record("estimator", k, estimator.log())
         elif estimator is None:
@@ -507,6 +548,8 @@ def _run_python(model, controller, sensors, estimator, disturbance, q0, omega0, 
         else:
             tau_ext = np.zeros(3)
         x_all[k + 1] = np.array(step(x, u, tau_ext, dt)).ravel()
+        if not np.all(np.isfinite(x_all[k + 1])):
+            _diverged(t[k + 1], x)
 
     err = _error_angles(controller, t, x_all[:, :4])
     packed = {}

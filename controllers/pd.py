@@ -66,6 +66,13 @@ def _rotate_ref_to_body(q_e: Components, v_r: Components) -> Components:
     return [v - 2.0 * w * a + 2.0 * b for v, a, b in zip(v_r, t, tt)]
 
 
+def _per_axis_gain(value: ArrayLike, name: str) -> NDArray[np.float64]:
+    arr = check_positive(value, name)
+    if arr.shape not in ((), (1,), (3,)):
+        raise ValueError(f"{name} must be a scalar or one value per axis (3), got shape {arr.shape}")
+    return np.broadcast_to(arr, (3,)).astype(float)
+
+
 def _matrix(value: ArrayLike, name: str) -> NDArray[np.float64]:
     arr = as_float_array(value, name)
     if arr.shape == (3,):
@@ -134,8 +141,10 @@ class QuaternionPD:
         a tenth of the sample rate ``2 pi / period``, where the continuous
         design no longer predicts the sampled loop.
         """
-        wn = np.broadcast_to(check_positive(wn, "wn"), (3,)).astype(float)
-        zeta = np.broadcast_to(check_positive(zeta, "zeta"), (3,)).astype(float)
+        if not isinstance(body, RigidBody) or body.batch_shape:
+            raise ValueError(f"body must be a single RigidBody, got {type(body).__name__}")
+        wn = _per_axis_gain(wn, "wn")
+        zeta = _per_axis_gain(zeta, "zeta")
         period = float(check_positive(period, "period"))
         sample_rate = 2.0 * np.pi / period
         if np.max(wn) > 0.1 * sample_rate:
@@ -196,7 +205,7 @@ class QuaternionPD:
     def torque(self, t: float, estimate: Any) -> NDArray[np.float64]:
         """Commanded body torque [N m] for an estimate with ``q``, ``omega`` (and ``h_wheels``)."""
         q_r, w_r = self.reference(t)
-        q = np.asarray(estimate.q, dtype=float)
+        q = quat.as_unit_quaternion(estimate.q, "estimate.q")
         w = np.asarray(estimate.omega, dtype=float)
         h_b = getattr(estimate, "h_body", None)
         h_b = np.zeros(3) if h_b is None else np.asarray(h_b, dtype=float)
@@ -472,8 +481,13 @@ class RateLimitedPD:
             self.limits = self.saturation_limits(q_ref, q_now)
 
     def prepare(self, t: float, q: ArrayLike, omega: ArrayLike) -> None:
-        """Engine hook before a run: latch the limits from the initial attitude if not set."""
-        if self.saturation == "initial" and self.limits is None:
+        """Engine hook before each run: latch the limits from that run's initial attitude.
+
+        A controller reused for a second run (another start attitude) must not
+        keep the first run's limits: they would hold the error at zero on the
+        axes the first slew did not use.
+        """
+        if self.saturation == "initial":
             self.limits = self.saturation_limits(self.q_ref, q)
 
     # -- reference (rest-to-rest: the target is at rest) ---------------------------

@@ -128,3 +128,25 @@ class TestMomentumExchange:
         wheels = ReactionWheels.orthogonal(0.01, 0.1, 1.0)
         hub = wheels.hub_body(SPACECRAFT)
         np.testing.assert_allclose(SPACECRAFT.inertia - hub.inertia, 0.01 * np.eye(3), atol=1e-15)
+
+
+def test_a_wheel_at_its_speed_limit_is_bypassed_and_the_torque_keeps_its_direction():
+    wheels = pyramid()  # 0.02 N m, 0.5 N m s
+    tau = np.array([0.005, -0.003, 0.004])
+    free = wheels.allocate(tau, np.zeros(4), np.zeros(3))
+    blocked = int(np.argmax(free))  # the wheel this command would spin up the most
+    h = np.zeros(4)
+    h[blocked] = 0.5  # at its momentum limit, body at rest
+    u = wheels.allocate(tau, h, np.zeros(3))
+    assert u[blocked] == 0.0
+    # The other three still span 3-D: the full command is delivered.
+    np.testing.assert_allclose(wheels.body_torque(u), tau, atol=1e-15)
+    # At the opposite limit the wheel may help: nothing is re-allocated.
+    h[blocked] = -0.5
+    np.testing.assert_allclose(wheels.allocate(tau, h, np.zeros(3)), free, atol=1e-18)
+
+
+def test_three_orthogonal_wheels_cannot_bypass_and_cut_instead():
+    wheels = ReactionWheels.orthogonal(0.01, 0.1, 1.0)
+    u = wheels.allocate([-0.05, 0.02, 0.0], [1.0, 0.0, 0.0], np.zeros(3))
+    np.testing.assert_allclose(u, [0.0, -0.02, 0.0], atol=1e-18)

@@ -223,6 +223,17 @@ class TestWieLu:
         np.testing.assert_allclose(fast.omega, slow.omega, atol=1e-12)
         np.testing.assert_allclose(fast.torque_command, slow.torque_command, atol=1e-12)
 
+    def test_a_reused_controller_relatches_for_each_run(self):
+        ctrl = rate_limited(q_start=None)
+        fly(ctrl)
+        first = ctrl.limits.copy()
+        # Second run from another start: the limits follow the new initial error.
+        start = quat.from_axis_angle([0.0, 1.0, 0.0], np.radians(50.0))
+        second = simulate(FULL, start, np.zeros(3), 250.0, controller=ctrl)
+        np.testing.assert_allclose(ctrl.limits, ctrl.saturation_limits(TARGET, start), rtol=1e-15)
+        assert not np.allclose(ctrl.limits, first)
+        assert np.degrees(second.error_angle[-1]) < 0.01
+
     def test_auto_engine_latches_from_the_initial_state_and_compiles(self):
         ctrl = rate_limited(q_start=None)
         result = fly(ctrl)

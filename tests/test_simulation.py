@@ -162,3 +162,47 @@ def test_review_figure_has_the_standard_panels():
     assert labels == ["attitude error [deg]", "body rate [deg/s]", "body torque [mN m]", "wheel speed [rpm]"]
     # The wheel speed limits (0.8 N m s / 0.005 kg m^2 = 160 rad/s = 1528 rpm) are drawn.
     assert result.info["wheel_speed_limit_rpm"][0] == pytest.approx(160.0 * 60 / (2 * np.pi))
+
+
+class TestMoreBadInput:
+    def test_duplicate_sensor_names_are_rejected(self):
+        with pytest.raises(ValueError, match="distinct names"):
+            simulate(
+                BODY,
+                quat.identity(),
+                np.zeros(3),
+                1.0,
+                sensors=[RecordingSensor("gyro", 0.1), RecordingSensor("gyro", 0.5)],
+            )
+
+    @pytest.mark.parametrize(
+        ("kwargs", "match"),
+        [
+            ({"disturbance": np.zeros((2, 3))}, r"disturbance must be a constant torque of shape \(3,\)"),
+            ({"wheels": "rw"}, "wheels must be a ReactionWheels"),
+            ({"wheels": ReactionWheels.orthogonal(20.0, 0.1, 1.0)}, "spin_inertia is too large"),
+        ],
+    )
+    def test_bad_plant_arguments(self, kwargs, match):
+        with pytest.raises(ValueError, match=match):
+            simulate(BODY, quat.identity(), np.zeros(3), 1.0, controller=pd(), **kwargs)
+
+    def test_estimator_must_return_an_estimate(self):
+        class Broken(PassThroughEstimator):
+            def update(self, t, measurements):
+                return measurements["gyro"]
+
+        with pytest.raises(ValueError, match=r"must return an attitude\.simulation\.Estimate"):
+            simulate(
+                BODY, quat.identity(), np.zeros(3), 1.0, sensors=[RecordingSensor("gyro", 0.1)], estimator=Broken()
+            )
+
+    @pytest.mark.parametrize("engine", ["compiled", "python"])
+    def test_an_unstable_loop_raises_with_the_time(self, engine):
+        from attitude.simulation import SimulationDivergedError
+
+        # Rate gain C dt / I = 1e6 * 0.1 / 12 ~ 1e4, far past the sampled stability
+        # limit of 2: each tick multiplies the rate by ~-1e4 until it overflows.
+        wild = QuaternionPD(K=1e6 * np.eye(3), C=1e6 * np.eye(3), period=0.1, q_ref=TARGET)
+        with pytest.raises(SimulationDivergedError, match="non-finite at t ="):
+            simulate(BODY, quat.identity(), np.zeros(3), 50.0, controller=wild, engine=engine)
