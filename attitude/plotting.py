@@ -575,8 +575,9 @@ def plot_simulation(result: SimulationResult) -> Figure:
     axes[0].set_title("error angle to the reference (shortest way; shown down to 1e-9 deg)", fontsize=10)
     for i, name in enumerate("xyz"):
         axes[1].plot(t, np.degrees(result.omega[:, i]), color=AXIS_COLORS[i], label=rf"$\omega_{name}$")
+    axes[1].plot(t, np.degrees(np.linalg.norm(result.omega, axis=1)), color="black", lw=1.0, label=r"$|\omega|$")
     axes[1].set_ylabel("body rate [deg/s]")
-    axes[1].legend(loc="upper right", ncols=3)
+    axes[1].legend(loc="upper right", ncols=4)
     for i, name in enumerate("xyz"):
         axes[2].plot(t, 1e3 * result.torque_applied[:, i], color=AXIS_COLORS[i], label=rf"applied $\tau_{name}$")
         axes[2].plot(

@@ -43,6 +43,7 @@ from controllers.analysis import (
     plot_bode,
     plot_step,
     sample_time_study,
+    sampled_loop,
     sweep_margins,
 )
 from controllers.lqr import LQRController, bryson_weights, design_lqr
@@ -108,6 +109,10 @@ def main() -> None:
             f"GM {20 * np.log10(gm):6.2f} dB"
         )
     plot_bode(loops).savefig(args.out / "pd_bode.png", dpi=110)
+    sampled = [sampled_loop(loop, PERIOD_S, COMPUTATION_DELAY_S) for loop in loops]
+    plot_bode(sampled, labels=[f"{a} axis, 10 Hz ZOH + 20 ms delay" for a in "xyz"]).savefig(
+        args.out / "pd_bode_sampled.png", dpi=110
+    )
     study.plot().savefig(args.out / "pd_sample_time_study.png", dpi=110)
 
     # 4. Discrete LQR (Bryson) ---------------------------------------------------------

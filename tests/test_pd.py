@@ -51,6 +51,23 @@ class TestBandwidthDesign:
         # Eigenvalues of a 6x6 matrix with entries ~0.1: accurate to ~1e-15.
         np.testing.assert_allclose(np.array(got), np.array(want), rtol=0, atol=1e-9)
 
+    @pytest.mark.parametrize("body", [DIAGONAL, FULL], ids=["diagonal", "full-tensor"])
+    def test_poles_on_the_plant_linearised_from_the_one_definition(self, body):
+        # Independent of attitude_closed_loop: the 6-state plant [q_v, omega]
+        # linearised by casadi from the equations of motion, closed with
+        # tau = -K q_v - C omega (the law itself, no half-angle bookkeeping).
+        from attitude.linearize import linearize
+
+        pd = QuaternionPD.from_bandwidth(body, WN, ZETA, 0.1)
+        plant = linearize(body)
+        a_cl = plant.A - plant.B @ np.hstack([pd.K, pd.C])
+        poles = np.linalg.eigvals(a_cl)
+        wn = np.abs(poles)
+        zeta = -poles.real / wn
+        got = sorted(zip(np.round(wn, 12), zeta))
+        want = sorted([(w, z) for w, z in zip(WN, ZETA)] * 2)
+        np.testing.assert_allclose(np.array(got), np.array(want), rtol=0, atol=1e-9)
+
     def test_forgetting_the_half_angle_gives_a_loop_sqrt2_too_slow(self):
         # Why from_bandwidth has K = 2 I wn^2: q_v is half the angle.
         naive = QuaternionPD(K=DIAGONAL.inertia * 0.1**2, C=2 * DIAGONAL.inertia * 0.7 * 0.1, period=0.1)
