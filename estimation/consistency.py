@@ -247,7 +247,7 @@ def nis_health(
     nis_sequence: ArrayLike,
     dof: int,
     window: int,
-    confidence: float = 0.999,
+    confidence: float = 0.99999,
     t: ArrayLike | None = None,
 ) -> NisHealth:
     """Flag stretches where the moving-window mean NIS leaves its chi-square band.
@@ -260,11 +260,12 @@ def nis_health(
     flagged window is flagged, so an interval can extend up to ``window - 1``
     samples beyond the offending stretch on each side.
 
-    ``confidence`` applies to each window; over a run of ``n`` samples there
-    are about ``n / window`` independent windows, so the chance of a false
-    alarm somewhere in a clean run is about ``(n / window) (1 - confidence)``.
-    Choose ``confidence`` accordingly (the default 0.999 gives about 4% over
-    2000 samples with a 50-sample window).
+    ``confidence`` applies to each window, and the windows slide one sample
+    at a time, so overlapping windows give many more chances of a false alarm
+    than ``n / window`` independent ones would. Measured on white
+    chi-square(3) NIS sequences of 2000 samples with a 50-sample window
+    (400 runs): a clean run is flagged somewhere 25% of the time at
+    confidence 0.999, 5% at 0.9999 and 0.5% at the default 0.99999.
 
     Parameters
     ----------
