@@ -216,7 +216,7 @@ def simulate(
     omega0 : array_like (3,)
         Initial body rate [rad/s].
     duration : float
-        Simulated time [s].
+        Simulated time [s]; the run ends at the first tick at or after it.
     controller : object, optional
         See the module docstring. None: no control torque.
     wheels : ReactionWheels, optional
@@ -292,9 +292,9 @@ def simulate(
         dt = min(periods.values()) if periods else 0.1
     dt = float(check_positive(dt, "dt"))
     every = {name: _multiple(p, dt, name) for name, p in periods.items()}
-    n_ticks = round(duration / dt)
-    if abs(n_ticks * dt - duration) > 1e-9 * duration or n_ticks < 1:
-        raise ValueError(f"duration = {duration!r} s must be a whole number (>= 1) of ticks dt = {dt!r} s")
+    # Whole ticks: the run ends at the first tick at or after `duration`
+    # (the 1e-9 slack keeps 600 s / 0.1 s at 6000 ticks despite rounding).
+    n_ticks = max(1, int(np.ceil(duration / dt - 1e-9)))
 
     try:
         plant = body if wheels is None else wheels.hub_body(body)
