@@ -22,7 +22,21 @@ __all__ = [
 
 
 def describe(value: Any, max_items: int = 6) -> str:
-    """Return a short printable description of ``value`` for error messages."""
+    """Return a short printable description of ``value`` for error messages.
+
+    Parameters
+    ----------
+    value : object
+        Anything ``numpy.asarray`` accepts.
+    max_items : int
+        Largest array size printed in full; bigger arrays are described by
+        their shape.
+
+    Returns
+    -------
+    str
+        The values (6 significant digits) or ``"array of shape (...)"``.
+    """
     arr = np.asarray(value)
     if arr.ndim == 0 or arr.size <= max_items:
         return np.array2string(arr, precision=6, threshold=max_items) if arr.ndim else repr(arr.item())
@@ -31,6 +45,20 @@ def describe(value: Any, max_items: int = 6) -> str:
 
 def as_float_array(value: ArrayLike, name: str, *, allow_nonfinite: bool = False) -> NDArray[np.float64]:
     """Convert ``value`` to a float64 array (a copy-free view when possible).
+
+    Parameters
+    ----------
+    value : array_like
+        Input of any shape.
+    name : str
+        Argument name used in error messages.
+    allow_nonfinite : bool
+        Accept NaN and inf.
+
+    Returns
+    -------
+    ndarray of float64
+        ``value`` with its shape; may share memory with ``value``.
 
     Raises
     ------
@@ -52,7 +80,28 @@ def as_float_array(value: ArrayLike, name: str, *, allow_nonfinite: bool = False
 
 
 def check_vector(value: ArrayLike, name: str, length: int) -> NDArray[np.float64]:
-    """Check that ``value`` is a finite array whose last axis has ``length`` entries."""
+    """Check that ``value`` is a finite array whose last axis has ``length`` entries.
+
+    Parameters
+    ----------
+    value : array_like, shape (..., length)
+        Vector(s) to check.
+    name : str
+        Argument name used in error messages.
+    length : int
+        Required size of the last axis.
+
+    Returns
+    -------
+    ndarray of float64, shape (..., length)
+        ``value`` as a float array (may share memory with it).
+
+    Raises
+    ------
+    ValueError
+        If ``value`` is non-numeric, holds NaN/inf, is a scalar, or its last
+        axis is not ``length`` long.
+    """
     arr = as_float_array(value, name)
     if arr.ndim == 0 or arr.shape[-1] != length:
         raise ValueError(f"{name} must have shape (..., {length}), got shape {arr.shape}")
@@ -60,7 +109,28 @@ def check_vector(value: ArrayLike, name: str, length: int) -> NDArray[np.float64
 
 
 def check_positive(value: ArrayLike, name: str, *, allow_zero: bool = False) -> NDArray[np.float64]:
-    """Check that every entry of ``value`` is finite and > 0 (>= 0 with ``allow_zero``)."""
+    """Check that every entry of ``value`` is finite and > 0 (>= 0 with ``allow_zero``).
+
+    Parameters
+    ----------
+    value : array_like
+        Value(s) of any shape.
+    name : str
+        Argument name used in error messages.
+    allow_zero : bool
+        Accept zero entries.
+
+    Returns
+    -------
+    ndarray of float64
+        ``value`` as a float array (may share memory with it).
+
+    Raises
+    ------
+    ValueError
+        If ``value`` is non-numeric, holds NaN/inf, or has an entry that is
+        negative (or zero without ``allow_zero``).
+    """
     arr = as_float_array(value, name)
     bad = arr < 0 if allow_zero else arr <= 0
     if np.any(bad):
@@ -70,7 +140,26 @@ def check_positive(value: ArrayLike, name: str, *, allow_zero: bool = False) -> 
 
 
 def check_time_grid(t: ArrayLike, name: str = "t") -> NDArray[np.float64]:
-    """Check a 1-D, finite, strictly increasing time grid with at least two points [s]."""
+    """Check a 1-D, finite, strictly increasing time grid with at least two points [s].
+
+    Parameters
+    ----------
+    t : array_like, shape (n,)
+        Time grid [s].
+    name : str
+        Argument name used in error messages.
+
+    Returns
+    -------
+    ndarray of float64, shape (n,)
+        The grid [s] (may share memory with ``t``).
+
+    Raises
+    ------
+    ValueError
+        If ``t`` is non-numeric, holds NaN/inf, is not 1-D with ``n >= 2``,
+        or is not strictly increasing.
+    """
     arr = as_float_array(t, name)
     if arr.ndim != 1 or arr.size < 2:
         raise ValueError(f"{name} must be a 1-D time grid with at least 2 points, got shape {arr.shape}")

@@ -26,7 +26,7 @@ Everything here is written on component lists with the neutral functions of
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -43,6 +43,7 @@ RANK_TOLERANCE = 1e-6
 
 
 def _per_wheel(value: ArrayLike, n: int, name: str, *, allow_zero: bool = False) -> NDArray[np.float64]:
+    """Check a scalar or per-wheel parameter and broadcast it to shape ``(n,)``."""
     arr = check_positive(value, name, allow_zero=allow_zero)
     if arr.ndim > 1 or (arr.ndim == 1 and arr.size not in (1, n)):
         raise ValueError(f"{name} must be a scalar or one value per wheel ({n}), got shape {arr.shape}")
@@ -147,8 +148,31 @@ class ReactionWheels:
     # -- construction helpers -------------------------------------------------
 
     @classmethod
-    def orthogonal(cls, spin_inertia: ArrayLike, torque_max: ArrayLike, momentum_max: ArrayLike, **kw: Any):
-        """Three wheels on the body x, y and z axes."""
+    def orthogonal(cls, spin_inertia: ArrayLike, torque_max: ArrayLike, momentum_max: ArrayLike, **kw: Any) -> Self:
+        """Three wheels on the body x, y and z axes.
+
+        Parameters
+        ----------
+        spin_inertia : float or array_like (3,)
+            Wheel spin-axis inertia ``J`` [kg m^2].
+        torque_max : float or array_like (3,)
+            Largest motor torque magnitude [N m].
+        momentum_max : float or array_like (3,)
+            Largest wheel momentum relative to the body [N m s].
+        **kw
+            Further keyword arguments of :class:`ReactionWheels`
+            (friction, null-space management).
+
+        Returns
+        -------
+        ReactionWheels
+            Wheels with ``axes_B = eye(3)`` (wheel ``i`` on body axis ``i``).
+
+        Raises
+        ------
+        ValueError
+            As :class:`ReactionWheels` for invalid parameters.
+        """
         return cls(np.eye(3), spin_inertia, torque_max, momentum_max, **kw)
 
     @classmethod
@@ -160,13 +184,39 @@ class ReactionWheels:
         *,
         elevation_deg: float = 35.26438968275466,
         **kw: Any,
-    ):
+    ) -> Self:
         """Four wheels in a pyramid about the body z axis.
 
         Wheel ``i`` has axis ``[cos(b) cos(az_i), cos(b) sin(az_i), sin(b)]``
         with azimuths 45, 135, 225, 315 deg and elevation ``b``; the default
         ``b = atan(1/sqrt(2))`` = 35.26 deg gives the same torque capacity
         about all three body axes.
+
+        Parameters
+        ----------
+        spin_inertia : float or array_like (4,)
+            Wheel spin-axis inertia ``J`` [kg m^2].
+        torque_max : float or array_like (4,)
+            Largest motor torque magnitude [N m].
+        momentum_max : float or array_like (4,)
+            Largest wheel momentum relative to the body [N m s].
+        elevation_deg : float
+            Elevation ``b`` of each axis above the body x-y plane [deg],
+            strictly between 0 and 90.
+        **kw
+            Further keyword arguments of :class:`ReactionWheels`
+            (friction, null-space management).
+
+        Returns
+        -------
+        ReactionWheels
+            Four wheels with the pyramid axes.
+
+        Raises
+        ------
+        ValueError
+            If ``elevation_deg`` is not strictly between 0 and 90 degrees, or
+            as :class:`ReactionWheels` for invalid parameters.
         """
         b = np.radians(float(as_float_array(elevation_deg, "elevation_deg")))
         if not 0.0 < b < np.pi / 2:
@@ -187,25 +237,80 @@ class ReactionWheels:
 
         ``body`` is the whole spacecraft (wheels included) as a user measures
         or computes it.
+
+        Parameters
+        ----------
+        body : RigidBody
+            Whole-spacecraft inertia in body components [kg m^2].
+
+        Returns
+        -------
+        RigidBody
+            The hub body ``I_s`` [kg m^2] used in the equations of motion.
+
+        Raises
+        ------
+        ValueError
+            If ``I_s`` is not a valid inertia (e.g. the wheels' spin inertia
+            exceeds the body's).
         """
         inertia = body.inertia - np.einsum("i,ij,ik->jk", self.spin_inertia, self.axes_B, self.axes_B)
         return RigidBody(inertia)
 
-    def wheel_speed(self, h: Any, omega: Any) -> Any:
-        """Wheel speeds relative to the body ``Omega = h/J - a . omega`` [rad/s] (numpy, (..., n))."""
+    def wheel_speed(self, h: ArrayLike, omega: ArrayLike) -> NDArray[np.float64]:
+        """Wheel speeds relative to the body ``Omega = h/J - a . omega`` [rad/s] (numpy).
+
+        Parameters
+        ----------
+        h : array_like, shape (..., n)
+            Absolute wheel spin-axis momenta [N m s].
+        omega : array_like, shape (..., 3)
+            Body rate ``omega_BN_B`` [rad/s].
+
+        Returns
+        -------
+        ndarray, shape (..., n)
+            Wheel speeds ``Omega`` relative to the body [rad/s].
+        """
         h = np.asarray(h, dtype=float)
         omega = np.asarray(omega, dtype=float)
         return h / self.spin_inertia - omega @ self.axes_B.T
 
     def wheel_speed_components(self, h: Components, omega: Components) -> Components:
-        """Wheel speeds on component lists (any backend)."""
+        """Wheel speeds ``Omega_i = h_i/J_i - a_i . omega`` on component lists (any backend).
+
+        Parameters
+        ----------
+        h : list of n
+            Absolute wheel spin-axis momenta [N m s].
+        omega : list of 3
+            Body rate ``omega_BN_B`` components [rad/s].
+
+        Returns
+        -------
+        list of n
+            Wheel speeds relative to the body [rad/s].
+        """
         return [
             h[i] / self.spin_inertia[i] - (a[0] * omega[0] + a[1] * omega[1] + a[2] * omega[2])
             for i, a in enumerate(self.axes_B)
         ]
 
     def friction_components(self, speed: Components) -> Components:
-        """Friction torque on each wheel [N m] (opposes its speed)."""
+        """Friction torque on each wheel [N m] (opposes its speed).
+
+        ``f_i = c_i Omega_i + f_c,i tanh(Omega_i / coulomb_smoothing_speed)``.
+
+        Parameters
+        ----------
+        speed : list of n
+            Wheel speeds relative to the body [rad/s] (any backend).
+
+        Returns
+        -------
+        list of n
+            Friction torques [N m], positive along the wheel speed.
+        """
         out = []
         for i, s in enumerate(speed):
             f = self.viscous_friction[i] * s
@@ -229,6 +334,12 @@ class ReactionWheels:
             Motor torques on the wheels [N m] (already limited).
         external_torque : list of 3, optional
             External torque on the spacecraft in body components [N m].
+
+        Returns
+        -------
+        list of 7 + n
+            ``[q_dot (4) [1/s], omega_dot (3) [rad/s^2], h_dot (n) [N m]]``,
+            same backend as ``x``.
         """
         from attitude.rigid_body import quaternion_rate
 
@@ -286,6 +397,20 @@ class ReactionWheels:
 
         The speed limit is checked when the command is computed (at the
         controller sample) and held until the next one.
+
+        Parameters
+        ----------
+        torque_command : list of 3
+            Commanded body torque in body components [N m] (any backend).
+        h : list of n
+            Absolute wheel spin-axis momenta [N m s].
+        omega : list of 3
+            Body rate ``omega_BN_B`` [rad/s].
+
+        Returns
+        -------
+        list of n
+            Motor torques on the wheels [N m], within ``torque_max``.
         """
         n = self.n_wheels
         u = self._minimum_norm(self.allocation, torque_command)
@@ -322,7 +447,27 @@ class ReactionWheels:
         return out
 
     def allocate(self, torque_command: ArrayLike, h: ArrayLike, omega: ArrayLike) -> NDArray[np.float64]:
-        """Numpy front end of :meth:`allocate_components`: motor torques (..., n) [N m]."""
+        """Numpy front end of :meth:`allocate_components`: motor torques (..., n) [N m].
+
+        Parameters
+        ----------
+        torque_command : array_like, shape (..., 3)
+            Commanded body torque in body components [N m].
+        h : array_like, shape (..., n)
+            Absolute wheel spin-axis momenta [N m s].
+        omega : array_like, shape (..., 3)
+            Body rate ``omega_BN_B`` [rad/s].
+
+        Returns
+        -------
+        ndarray, shape (..., n)
+            Motor torques [N m]; batch dimensions of the inputs broadcast.
+
+        Raises
+        ------
+        ValueError
+            If an input holds NaN/inf or has the wrong last dimension.
+        """
         tau = as_float_array(torque_command, "torque_command")
         h = as_float_array(h, "h")
         omega = as_float_array(omega, "omega")
@@ -339,7 +484,24 @@ class ReactionWheels:
         return np.stack(np.broadcast_arrays(*u), axis=-1)
 
     def body_torque(self, motor_torque: ArrayLike) -> NDArray[np.float64]:
-        """Reaction torque on the body ``-A u`` [N m] for motor torques (..., n)."""
+        """Reaction torque on the body ``-A u`` [N m] for motor torques (..., n).
+
+        Parameters
+        ----------
+        motor_torque : array_like, shape (..., n)
+            Motor torques ``u`` on the wheels [N m].
+
+        Returns
+        -------
+        ndarray, shape (..., 3)
+            Reaction torque on the body in body components [N m] (friction
+            not included).
+
+        Raises
+        ------
+        ValueError
+            If ``motor_torque`` holds NaN/inf or its last axis is not ``n``.
+        """
         u = as_float_array(motor_torque, "motor_torque")
         return -u @ self.distribution.T
 
@@ -348,6 +510,11 @@ class ReactionWheels:
 
         For axis ``e_k`` this is ``1 / max_i |(A^+ e_k)_i| / u_max_i``: the
         direction-preserving allocation saturates exactly there.
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            Largest torque magnitude about body x, y and z [N m].
         """
         ratios = np.abs(self.allocation) / self.torque_max[:, None]
         return 1.0 / ratios.max(axis=0)

@@ -21,42 +21,132 @@ _CASADI_TYPES = (ca.SX, ca.MX, ca.DM)
 
 
 def is_symbolic(*values: Any) -> bool:
-    """True if any value is a casadi object."""
+    """True if any value is a casadi object.
+
+    Parameters
+    ----------
+    *values : object
+        Values to inspect.
+
+    Returns
+    -------
+    bool
+        Whether any value is a casadi ``SX``, ``MX`` or ``DM``.
+    """
     return any(isinstance(v, _CASADI_TYPES) for v in values)
 
 
 def sqrt(x: Any) -> Any:
-    """Square root."""
+    """Square root.
+
+    Parameters
+    ----------
+    x : numpy array_like or casadi SX/MX/DM
+        Non-negative argument.
+
+    Returns
+    -------
+    ndarray or casadi object
+        ``sqrt(x)``, casadi if ``x`` is symbolic.
+    """
     return ca.sqrt(x) if is_symbolic(x) else np.sqrt(x)
 
 
 def tanh(x: Any) -> Any:
-    """Hyperbolic tangent (the smooth sign used for Coulomb friction)."""
+    """Hyperbolic tangent (the smooth sign used for Coulomb friction).
+
+    Parameters
+    ----------
+    x : numpy array_like or casadi SX/MX/DM
+        Dimensionless argument.
+
+    Returns
+    -------
+    ndarray or casadi object
+        ``tanh(x)`` in ``[-1, 1]``, casadi if ``x`` is symbolic.
+    """
     return ca.tanh(x) if is_symbolic(x) else np.tanh(x)
 
 
 def fabs(x: Any) -> Any:
-    """Absolute value."""
+    """Absolute value.
+
+    Parameters
+    ----------
+    x : numpy array_like or casadi SX/MX/DM
+        Argument (any units).
+
+    Returns
+    -------
+    ndarray or casadi object
+        ``|x|``, casadi if ``x`` is symbolic.
+    """
     return ca.fabs(x) if is_symbolic(x) else np.abs(x)
 
 
 def fmin(a: Any, b: Any) -> Any:
-    """Elementwise minimum."""
+    """Elementwise minimum.
+
+    Parameters
+    ----------
+    a, b : numpy array_like or casadi SX/MX/DM
+        Arguments in the same units (numpy arrays broadcast).
+
+    Returns
+    -------
+    ndarray or casadi object
+        ``min(a, b)``, casadi if either argument is symbolic.
+    """
     return ca.fmin(a, b) if is_symbolic(a, b) else np.minimum(a, b)
 
 
 def fmax(a: Any, b: Any) -> Any:
-    """Elementwise maximum."""
+    """Elementwise maximum.
+
+    Parameters
+    ----------
+    a, b : numpy array_like or casadi SX/MX/DM
+        Arguments in the same units (numpy arrays broadcast).
+
+    Returns
+    -------
+    ndarray or casadi object
+        ``max(a, b)``, casadi if either argument is symbolic.
+    """
     return ca.fmax(a, b) if is_symbolic(a, b) else np.maximum(a, b)
 
 
 def clip(x: Any, lower: Any, upper: Any) -> Any:
-    """Clamp ``x`` to ``[lower, upper]``."""
+    """Clamp ``x`` to ``[lower, upper]``.
+
+    Parameters
+    ----------
+    x, lower, upper : numpy array_like or casadi SX/MX/DM
+        Value and bounds in the same units, ``lower <= upper``.
+
+    Returns
+    -------
+    ndarray or casadi object
+        ``min(max(x, lower), upper)``, casadi if any argument is symbolic.
+    """
     return fmin(fmax(x, lower), upper)
 
 
 def if_else(condition: Any, if_true: Any, if_false: Any) -> Any:
-    """``if_true`` where ``condition`` holds, else ``if_false`` (both evaluated)."""
+    """``if_true`` where ``condition`` holds, else ``if_false`` (both evaluated).
+
+    Parameters
+    ----------
+    condition : numpy array_like of bool or casadi SX/MX/DM
+        Selector.
+    if_true, if_false : numpy array_like or casadi SX/MX/DM
+        Values selected where ``condition`` holds and where it does not.
+
+    Returns
+    -------
+    ndarray or casadi object
+        The selection, casadi if any argument is symbolic.
+    """
     if is_symbolic(condition, if_true, if_false):
         return ca.if_else(condition, if_true, if_false)
     return np.where(condition, if_true, if_false)

@@ -68,13 +68,36 @@ def rk4_step(derivative: Derivative, t: Any, x: Components, dt: Any) -> Componen
 
 
 def normalize_quaternion_components(x: Components) -> Components:
-    """Divide the first four components (the quaternion) by their norm."""
+    """Divide the first four components (the quaternion) by their norm.
+
+    Parameters
+    ----------
+    x : list of numpy arrays or casadi scalars
+        State components whose first four are a non-zero quaternion
+        ``[w, x, y, z]``; the rest (e.g. body rate [rad/s]) pass through.
+
+    Returns
+    -------
+    list
+        A new list: the unit quaternion followed by ``x[4:]`` unchanged.
+    """
     n = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2] + x[3] * x[3]) ** 0.5
     return [x[0] / n, x[1] / n, x[2] / n, x[3] / n, *x[4:]]
 
 
 def quaternion_multiply_components(p: Components, q: Components) -> Components:
-    """Hamilton product ``p ⊗ q`` on component lists."""
+    """Hamilton product ``p ⊗ q`` on component lists.
+
+    Parameters
+    ----------
+    p, q : list of 4 numpy arrays or casadi scalars
+        Quaternion components ``[w, x, y, z]`` (numpy entries broadcast).
+
+    Returns
+    -------
+    list of 4
+        Components of ``p ⊗ q``.
+    """
     pw, px, py, pz = p
     qw, qx, qy, qz = q
     return [
@@ -86,7 +109,21 @@ def quaternion_multiply_components(p: Components, q: Components) -> Components:
 
 
 def exp_rotation_vector_components(phi: Components) -> Components:
-    """Unit quaternion ``[cos(|phi|/2), sin(|phi|/2) phi/|phi|]`` of a rotation vector (numpy)."""
+    """Unit quaternion ``[cos(|phi|/2), sin(|phi|/2) phi/|phi|]`` of a rotation vector (numpy).
+
+    A series replaces ``sin(h)/h`` for half-angles ``h < 1e-4`` rad, so
+    ``phi = 0`` is exact.
+
+    Parameters
+    ----------
+    phi : list of 3 numpy arrays
+        Rotation vector components [rad] (numpy only: uses ``np.where``).
+
+    Returns
+    -------
+    list of 4 numpy arrays
+        Unit quaternion components ``[w, x, y, z]``.
+    """
     angle = np.sqrt(phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2])
     half = 0.5 * angle
     small = half < 1e-4
@@ -132,14 +169,15 @@ def rkmk4_step(
     t : float
         Time at the start of the step [s].
     q, omega : list of arrays
-        Attitude quaternion (4) and body rate (3) components.
+        Attitude quaternion ``q_BN`` (4) and body rate ``omega_BN_B`` (3)
+        [rad/s] components.
     dt : float
         Step size [s].
 
     Returns
     -------
     q, omega : lists of arrays
-        The state after the step.
+        Quaternion (4) and body rate (3) [rad/s] components after the step.
     """
     zero = [0.0 * omega[0]] * 3
     stages = ((0.0, None, 0.0), (0.5, 0, 0.5), (0.5, 1, 0.5), (1.0, 2, 1.0))
@@ -176,6 +214,17 @@ def casadi_rk4_step(body: RigidBody, substeps: int = 1) -> ca.Function:
         A single (not batched) body.
     substeps : int
         Equal RK4 sub-steps taken inside one call (each renormalised).
+
+    Returns
+    -------
+    casadi.Function
+        ``step(x[7], tau[3], dt) -> x_next[7]`` with
+        ``x = [q_BN (4), omega_BN_B (3) [rad/s]]``, ``tau`` [N m] and ``dt`` [s].
+
+    Raises
+    ------
+    ValueError
+        If ``body`` is a batch of inertias.
     """
     if body.batch_shape:
         raise ValueError("casadi_rk4_step needs a single body, not a batch of inertias")

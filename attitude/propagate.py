@@ -48,7 +48,7 @@ from attitude.integrators import (
     rkmk4_step,
 )
 from attitude.results import ResultIO
-from attitude.rigid_body import RigidBody
+from attitude.rigid_body import Components, RigidBody
 
 __all__ = ["METHODS", "Trajectory", "propagate"]
 
@@ -93,15 +93,34 @@ class Trajectory(ResultIO):
         return self.inertia[..., None, :, :]
 
     def angular_momentum_B(self) -> NDArray[np.float64]:
-        """Body-frame angular momentum ``I omega`` [N m s], shape batch + (n, 3)."""
+        """Body-frame angular momentum ``I omega`` along the trajectory.
+
+        Returns
+        -------
+        ndarray, shape batch + (n, 3)
+            ``H_B`` in body components [N m s].
+        """
         return np.einsum("...ij,...j->...i", self._inertia_b(), self.omega)
 
     def angular_momentum_N(self) -> NDArray[np.float64]:
-        """Inertial angular momentum [N m s], constant for torque-free motion."""
+        """Inertial angular momentum, constant for torque-free motion.
+
+        Returns
+        -------
+        ndarray, shape batch + (n, 3)
+            ``H_N = rotate(q_BN, I omega)`` in inertial components [N m s]
+            (``q`` is normalised first).
+        """
         return quat.rotate(quat.normalize(self.q), self.angular_momentum_B())
 
     def kinetic_energy(self) -> NDArray[np.float64]:
-        """Rotational kinetic energy [J], shape batch + (n,)."""
+        """Rotational kinetic energy ``0.5 omega . I omega`` along the trajectory.
+
+        Returns
+        -------
+        ndarray, shape batch + (n,)
+            Kinetic energy [J].
+        """
         return 0.5 * np.sum(self.omega * self.angular_momentum_B(), axis=-1)
 
     def invariant_drift(self) -> dict[str, float]:
@@ -128,14 +147,50 @@ class Trajectory(ResultIO):
         }
 
     def plot(self, index: tuple[int, ...] | int = ()) -> matplotlib.figure.Figure:
-        """Rates, attitude and invariants over time (one body of a batch by ``index``)."""
+        """Rates, attitude and invariants over time (one body of a batch by ``index``).
+
+        Parameters
+        ----------
+        index : int or tuple of int
+            Which body of a batch to show (ignored for a single body).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure (see :func:`attitude.plotting.plot_trajectory`).
+        """
         from attitude.plotting import plot_trajectory
 
         return plot_trajectory(self, index=index)
 
 
 def _torque_kind(torque: TorqueInput, n_t: int, batch: tuple[int, ...]) -> tuple[str, Any]:
-    """Classify and validate the torque argument."""
+    """Classify and validate the torque argument.
+
+    Parameters
+    ----------
+    torque : None, array_like or callable
+        Torque input of :func:`propagate` [N m].
+    n_t : int
+        Number of time-grid points.
+    batch : tuple of int
+        Broadcast batch shape of the initial states.
+
+    Returns
+    -------
+    kind : {"const", "grid", "callable"}
+        ``"const"`` for None (zeros) or a torque of shape ``(3,)``/``batch + (3,)``;
+        ``"grid"`` for a zero-order-hold torque of shape ``(n_t,) + batch + (3,)``;
+        ``"callable"`` for ``torque(t, q, omega)``.
+    value : ndarray or callable
+        The torque array [N m] (float64) or the callable itself.
+
+    Raises
+    ------
+    ValueError
+        If the array is non-finite, its last axis is not 3, its first axis
+        does not match ``n_t`` on a grid, or its batch does not broadcast.
+    """
     if torque is None:
         return "const", np.zeros(3)
     if callable(torque):
@@ -168,6 +223,25 @@ MAX_FIXED_STEPS = 10**9
 
 
 def _substeps(t: NDArray[np.float64], max_step: float | None) -> NDArray[np.int64]:
+    """Number of equal fixed steps per output interval.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Strictly increasing time grid [s].
+    max_step : float or None
+        Largest step [s]; None gives one step per interval.
+
+    Returns
+    -------
+    ndarray of int64, shape (n - 1,)
+        Sub-steps per interval ``[t[k], t[k+1]]`` (at least 1).
+
+    Raises
+    ------
+    ValueError
+        If the total exceeds :data:`MAX_FIXED_STEPS`.
+    """
     dt = np.diff(t)
     if max_step is None:
         return np.ones(dt.size, dtype=np.int64)
@@ -271,7 +345,24 @@ class PropagationDivergedError(FloatingPointError):
 
 
 def _check_finite(q: NDArray, omega: NDArray, t: NDArray, method: str, max_step: float | None) -> None:
-    """Raise instead of returning NaN/inf when a fixed-step run diverges."""
+    """Raise instead of returning NaN/inf when a fixed-step run diverges.
+
+    Parameters
+    ----------
+    q, omega : ndarray, shape batch + (n, 4) and batch + (n, 3)
+        Propagated quaternions and body rates [rad/s].
+    t : ndarray, shape (n,)
+        Time grid [s].
+    method : str
+        Integration method (for the message).
+    max_step : float or None
+        Largest fixed step [s] (for the message).
+
+    Raises
+    ------
+    PropagationDivergedError
+        If any state is non-finite; the message names the first such time.
+    """
     bad = ~(np.all(np.isfinite(q), axis=-1) & np.all(np.isfinite(omega), axis=-1))
     if not np.any(bad):
         return
@@ -286,7 +377,39 @@ def _check_finite(q: NDArray, omega: NDArray, t: NDArray, method: str, max_step:
     )
 
 
-def _call_torque(fun: Callable, t: float, q: NDArray, omega: NDArray, batch: tuple[int, ...]) -> NDArray:
+def _call_torque(
+    fun: Callable[..., ArrayLike],
+    t: float,
+    q: NDArray[np.float64],
+    omega: NDArray[np.float64],
+    batch: tuple[int, ...],
+) -> NDArray[np.float64]:
+    """Evaluate a user torque ``fun(t, q, omega)`` and check its shape.
+
+    Parameters
+    ----------
+    fun : callable
+        ``fun(t, q, omega) -> tau`` [N m] in body components.
+    t : float
+        Time [s].
+    q : ndarray, shape batch + (4,)
+        Unit attitude quaternions ``q_BN``.
+    omega : ndarray, shape batch + (3,)
+        Body rates ``omega_BN_B`` [rad/s].
+    batch : tuple of int
+        Batch shape the result is broadcast to.
+
+    Returns
+    -------
+    ndarray, shape batch + (3,)
+        Torque [N m] (a read-only broadcast view).
+
+    Raises
+    ------
+    ValueError
+        If the result is non-numeric, non-finite, its last axis is not 3, or
+        it does not broadcast to ``batch + (3,)``.
+    """
     out = as_float_array(fun(t, q, omega), "torque(t, q, omega)")
     if out.shape[-1:] != (3,):
         raise ValueError(f"torque(t, q, omega) must return shape batch + (3,), got {out.shape}")
@@ -301,6 +424,19 @@ _CASADI_CACHE: weakref.WeakKeyDictionary[RigidBody, ca.Function] = weakref.WeakK
 
 
 def _casadi_rk4_chunk(body: RigidBody) -> ca.Function:
+    """Cached ``casadi_rk4_step(body).mapaccum(CASADI_CHUNK)`` for a single body.
+
+    Parameters
+    ----------
+    body : RigidBody
+        A single (not batched) body; the cache holds it weakly.
+
+    Returns
+    -------
+    casadi.Function
+        ``(x[7], tau[3 x CASADI_CHUNK], dt[1 x CASADI_CHUNK]) -> x[7 x CASADI_CHUNK]``
+        (the states after each step; ``tau`` [N m], ``dt`` [s]).
+    """
     fun = _CASADI_CACHE.get(body)
     if fun is None:
         fun = casadi_rk4_step(body).mapaccum(CASADI_CHUNK)
@@ -308,7 +444,43 @@ def _casadi_rk4_chunk(body: RigidBody) -> ca.Function:
     return fun
 
 
-def _propagate_rk4_casadi(body, q0, omega0, t, kind, tq, max_step):
+def _propagate_rk4_casadi(
+    body: RigidBody,
+    q0: NDArray[np.float64],
+    omega0: NDArray[np.float64],
+    t: NDArray[np.float64],
+    kind: str,
+    tq: NDArray[np.float64],
+    max_step: float | None,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]:
+    """Fixed-step RK4 of a single body in compiled casadi code (``mapaccum``).
+
+    Parameters
+    ----------
+    body : RigidBody
+        A single (not batched) body.
+    q0 : ndarray, shape (4,)
+        Unit initial attitude ``q_BN``.
+    omega0 : ndarray, shape (3,)
+        Initial body rate [rad/s].
+    t : ndarray, shape (n,)
+        Output time grid [s].
+    kind : {"const", "grid"}
+        Torque kind from :func:`_torque_kind` (not ``"callable"``).
+    tq : ndarray, shape (3,) or (n, 3)
+        Constant torque, or torque on the time grid held over each interval [N m].
+    max_step : float or None
+        Largest fixed step [s].
+
+    Returns
+    -------
+    q : ndarray, shape (n, 4)
+        Attitude quaternions at ``t``.
+    omega : ndarray, shape (n, 3)
+        Body rates at ``t`` [rad/s].
+    info : dict
+        ``steps``, ``substeps_max`` and ``engine``.
+    """
     subs = _substeps(t, max_step)
     dt_fine = np.repeat(np.diff(t) / subs, subs)
     n_fine = dt_fine.size
@@ -339,7 +511,53 @@ def _propagate_rk4_casadi(body, q0, omega0, t, kind, tq, max_step):
 BATCH_CHUNK = 4096
 
 
-def _propagate_fixed_numpy(body, q0, omega0, t, kind, tq, batch, max_step, method):
+def _propagate_fixed_numpy(
+    body: RigidBody,
+    q0: NDArray[np.float64],
+    omega0: NDArray[np.float64],
+    t: NDArray[np.float64],
+    kind: str,
+    tq: Any,
+    batch: tuple[int, ...],
+    max_step: float | None,
+    method: str,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]:
+    """Fixed-step RK4 or RKMK4 in vectorised numpy.
+
+    Without a callable torque a batch is flattened, moved to the principal
+    frame when the inertia has products of inertia, and advanced in chunks of
+    at most :data:`BATCH_CHUNK` bodies.
+
+    Parameters
+    ----------
+    body : RigidBody
+        The plant (single or batched).
+    q0 : ndarray, shape batch + (4,)
+        Unit initial attitudes ``q_BN``.
+    omega0 : ndarray, shape batch + (3,)
+        Initial body rates [rad/s].
+    t : ndarray, shape (n,)
+        Output time grid [s].
+    kind : {"const", "grid", "callable"}
+        Torque kind from :func:`_torque_kind`.
+    tq : ndarray or callable
+        Torque [N m] of that kind.
+    batch : tuple of int
+        Batch shape.
+    max_step : float or None
+        Largest fixed step [s].
+    method : {"rk4", "geometric"}
+        RK4 with renormalisation, or RKMK4.
+
+    Returns
+    -------
+    q : ndarray, shape batch + (n, 4)
+        Attitude quaternions at ``t``.
+    omega : ndarray, shape batch + (n, 3)
+        Body rates at ``t`` [rad/s].
+    info : dict
+        ``steps``, ``substeps_max``, ``engine`` and ``batch_chunk``.
+    """
     subs = _substeps(t, max_step)
     if kind == "callable" or not batch:
         # A user's callable sees the whole batch at once, as documented.
@@ -392,11 +610,53 @@ def _propagate_fixed_numpy(body, q0, omega0, t, kind, tq, batch, max_step, metho
 
 
 def _fixed_info(steps: int, subs: NDArray[np.int64]) -> dict[str, Any]:
+    """Trajectory ``info`` of the numpy fixed-step engine (step count, largest sub-step count)."""
     return {"steps": steps, "substeps_max": int(subs.max()), "engine": "numpy", "batch_chunk": BATCH_CHUNK}
 
 
-def _run_fixed(body, q0, omega0, t, subs, kind, tq, batch, method):
-    """Fixed-step time loop on structure-of-arrays components; outputs are time-first."""
+def _run_fixed(
+    body: RigidBody,
+    q0: NDArray[np.float64],
+    omega0: NDArray[np.float64],
+    t: NDArray[np.float64],
+    subs: NDArray[np.int64],
+    kind: str,
+    tq: Any,
+    batch: tuple[int, ...],
+    method: str,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
+    """Fixed-step time loop on structure-of-arrays components; outputs are time-first.
+
+    Parameters
+    ----------
+    body : RigidBody
+        The plant, batch compatible with ``batch``.
+    q0 : ndarray, shape batch + (4,)
+        Unit initial attitudes ``q_BN``.
+    omega0 : ndarray, shape batch + (3,)
+        Initial body rates [rad/s].
+    t : ndarray, shape (n,)
+        Output time grid [s].
+    subs : ndarray of int, shape (n - 1,)
+        Equal sub-steps per output interval (:func:`_substeps`).
+    kind : {"const", "grid", "callable"}
+        Torque kind from :func:`_torque_kind`.
+    tq : ndarray or callable
+        Torque [N m] of that kind.
+    batch : tuple of int
+        Batch shape.
+    method : {"rk4", "geometric"}
+        RK4 with renormalisation, or RKMK4.
+
+    Returns
+    -------
+    q : ndarray, shape (n,) + batch + (4,)
+        Attitude quaternions at ``t``.
+    omega : ndarray, shape (n,) + batch + (3,)
+        Body rates at ``t`` [rad/s].
+    steps : int
+        Number of integrator steps taken.
+    """
     n = t.size
     q_out = np.empty((n, *batch, 4))
     w_out = np.empty((n, *batch, 3))
@@ -405,10 +665,10 @@ def _run_fixed(body, q0, omega0, t, subs, kind, tq, batch, method):
     qc = [np.array(q0[..., i]) for i in range(4)]
     wc = [np.array(omega0[..., i]) for i in range(3)]
 
-    def torque_components(k: int) -> Callable:
+    def torque_components(k: int) -> Callable[[float, Components, Components], Components | None]:
         if kind == "callable":
 
-            def fun(ts, qs, ws):
+            def fun(ts: float, qs: Components, ws: Components) -> Components:
                 q_arr = np.stack(np.broadcast_arrays(*qs), axis=-1)
                 q_arr = q_arr / np.linalg.norm(q_arr, axis=-1, keepdims=True)
                 w_arr = np.stack(np.broadcast_arrays(*ws), axis=-1)
@@ -430,7 +690,11 @@ def _run_fixed(body, q0, omega0, t, subs, kind, tq, batch, method):
                 qc, wc = rkmk4_step(body, tau_fun, ts, qc, wc, h)
             else:
 
-                def derivative(tt, xc, tau_fun=tau_fun):
+                def derivative(
+                    tt: float,
+                    xc: Components,
+                    tau_fun: Callable[[float, Components, Components], Components | None] = tau_fun,
+                ) -> Components:
                     return body.state_derivative_components(xc, tau_fun(tt, xc[:4], xc[4:]))
 
                 xc = normalize_quaternion_components(rk4_step(derivative, ts, [*qc, *wc], h))
@@ -441,7 +705,55 @@ def _run_fixed(body, q0, omega0, t, subs, kind, tq, batch, method):
     return q_out, w_out, steps
 
 
-def _propagate_adaptive(body, q0, omega0, t, kind, tq, batch, rtol, atol):
+def _propagate_adaptive(
+    body: RigidBody,
+    q0: NDArray[np.float64],
+    omega0: NDArray[np.float64],
+    t: NDArray[np.float64],
+    kind: str,
+    tq: Any,
+    batch: tuple[int, ...],
+    rtol: float,
+    atol: float,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]:
+    """Adaptive reference propagation with scipy ``solve_ivp`` (DOP853).
+
+    A torque on the time grid is integrated interval by interval so that
+    the zero-order hold's jumps fall on segment boundaries.
+
+    Parameters
+    ----------
+    body : RigidBody
+        The plant (single or batched).
+    q0 : ndarray, shape batch + (4,)
+        Unit initial attitudes ``q_BN``.
+    omega0 : ndarray, shape batch + (3,)
+        Initial body rates [rad/s].
+    t : ndarray, shape (n,)
+        Output time grid [s].
+    kind : {"const", "grid", "callable"}
+        Torque kind from :func:`_torque_kind`.
+    tq : ndarray or callable
+        Torque [N m] of that kind.
+    batch : tuple of int
+        Batch shape.
+    rtol, atol : float
+        Relative and absolute tolerances of ``solve_ivp``.
+
+    Returns
+    -------
+    q : ndarray, shape batch + (n, 4)
+        Attitude quaternions at ``t`` (not renormalised).
+    omega : ndarray, shape batch + (n, 3)
+        Body rates at ``t`` [rad/s].
+    info : dict
+        ``nfev``, ``rtol``, ``atol`` and ``engine``.
+
+    Raises
+    ------
+    RuntimeError
+        If ``solve_ivp`` fails.
+    """
     x0 = np.concatenate([q0, omega0], axis=-1).reshape(-1)
 
     def rhs_factory(tau_value: Callable[[float, NDArray], NDArray]) -> Callable:
@@ -453,7 +765,7 @@ def _propagate_adaptive(body, q0, omega0, t, kind, tq, batch, rtol, atol):
 
     if kind == "callable":
 
-        def tau_callable(ts, x):
+        def tau_callable(ts: float, x: NDArray[np.float64]) -> NDArray[np.float64]:
             q = x[..., :4] / np.linalg.norm(x[..., :4], axis=-1, keepdims=True)
             return _call_torque(tq, ts, q, x[..., 4:], batch)
 

@@ -119,6 +119,7 @@ def as_unit_quaternion(q: ArrayLike, name: str = "q", *, tolerance: float = UNIT
 
 
 def _nonzero_quaternion(q: ArrayLike, name: str) -> NDArray[np.float64]:
+    """Check ``q`` is a finite ``(..., 4)`` quaternion of non-zero norm; raise ValueError otherwise."""
     arr = check_vector(q, name, 4)
     n = _norm(arr)
     if np.any(n == 0):
@@ -127,7 +128,18 @@ def _nonzero_quaternion(q: ArrayLike, name: str) -> NDArray[np.float64]:
 
 
 def identity(shape: tuple[int, ...] = ()) -> NDArray[np.float64]:
-    """Return identity quaternion(s) ``[1, 0, 0, 0]`` with batch ``shape``."""
+    """Return identity quaternion(s) ``[1, 0, 0, 0]`` with batch ``shape``.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        Batch shape; ``()`` gives a single quaternion.
+
+    Returns
+    -------
+    ndarray, shape shape + (4,)
+        Identity attitude(s), scalar first.
+    """
     out = np.zeros((*shape, 4))
     out[..., 0] = 1.0
     return out
@@ -138,6 +150,21 @@ def multiply(p: ArrayLike, q: ArrayLike) -> NDArray[np.float64]:
 
     ``q_CN = multiply(q_BN, q_CB)`` composes attitudes: C relative to B,
     then B relative to N.
+
+    Parameters
+    ----------
+    p, q : array_like, shape (..., 4)
+        Left and right factors ``[w, x, y, z]``; batch dimensions broadcast.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        The product ``p ⊗ q``.
+
+    Raises
+    ------
+    ValueError
+        If ``p`` or ``q`` is not of shape ``(..., 4)`` or holds NaN/inf.
     """
     p = check_vector(p, "p", 4)
     q = check_vector(q, "q", 4)
@@ -155,25 +182,90 @@ def multiply(p: ArrayLike, q: ArrayLike) -> NDArray[np.float64]:
 
 
 def conjugate(q: ArrayLike) -> NDArray[np.float64]:
-    """Quaternion conjugate ``[w, -x, -y, -z]`` (the inverse rotation for unit ``q``)."""
+    """Quaternion conjugate ``[w, -x, -y, -z]`` (the inverse rotation for unit ``q``).
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Any quaternion ``[w, x, y, z]``.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        ``q*``; for an attitude ``q_BN`` this is ``q_NB``.
+
+    Raises
+    ------
+    ValueError
+        If ``q`` is not of shape ``(..., 4)`` or holds NaN/inf.
+    """
     q = check_vector(q, "q", 4)
     return q * np.array([1.0, -1.0, -1.0, -1.0])
 
 
 def norm(q: ArrayLike) -> NDArray[np.float64]:
-    """Euclidean norm ``|q|``, shape ``(...)``."""
+    """Euclidean norm ``|q|`` (computed without overflow or underflow).
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Any quaternion ``[w, x, y, z]``.
+
+    Returns
+    -------
+    ndarray, shape (...)
+        ``|q|`` (dimensionless).
+
+    Raises
+    ------
+    ValueError
+        If ``q`` is not of shape ``(..., 4)`` or holds NaN/inf.
+    """
     return _norm(check_vector(q, "q", 4))
 
 
 def inverse(q: ArrayLike) -> NDArray[np.float64]:
-    """Multiplicative inverse ``q* / |q|^2`` of a non-zero quaternion."""
+    """Multiplicative inverse ``q* / |q|^2`` of a non-zero quaternion.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Non-zero quaternion ``[w, x, y, z]`` (not required to be unit).
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        ``q^-1`` with ``q ⊗ q^-1 = [1, 0, 0, 0]``; equal to :func:`conjugate`
+        for a unit quaternion.
+
+    Raises
+    ------
+    ValueError
+        If ``q`` is not of shape ``(..., 4)``, holds NaN/inf, or has zero norm.
+    """
     q = _nonzero_quaternion(q, "q")
     n = _norm(q, keepdims=True)
     return conjugate(q) / n / n
 
 
 def normalize(q: ArrayLike) -> NDArray[np.float64]:
-    """Return ``q / |q|`` for any non-zero quaternion (raises for zero norm)."""
+    """Return ``q / |q|`` for any non-zero quaternion.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Non-zero quaternion ``[w, x, y, z]``.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        Unit quaternion (the sign of ``q`` is kept).
+
+    Raises
+    ------
+    ValueError
+        If ``q`` is not of shape ``(..., 4)``, holds NaN/inf, or has zero norm.
+    """
     q = _nonzero_quaternion(q, "q")
     return q / _norm(q, keepdims=True)
 
@@ -186,7 +278,19 @@ def rotate(q: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
     q : array_like, shape (..., 4)
         Unit attitude quaternion ``q_BN``.
     v : array_like, shape (..., 3)
-        Vector(s) in body components.
+        Vector(s) in body components (any unit; the result has the same).
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        ``v_N``, the same vector(s) in inertial components; batch dimensions
+        of ``q`` and ``v`` broadcast.
+
+    Raises
+    ------
+    ValueError
+        If ``q`` is not a unit quaternion of shape ``(..., 4)``, or ``v`` is
+        not of shape ``(..., 3)``, or either holds NaN/inf.
     """
     q = as_unit_quaternion(q, "q")
     v = check_vector(v, "v", 3)
@@ -197,7 +301,26 @@ def rotate(q: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
 
 
 def rotate_inverse(q: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
-    """Express inertial vectors in body components: ``v_B = q* ⊗ v_N ⊗ q``."""
+    """Express inertial vectors in body components: ``v_B = q* ⊗ v_N ⊗ q``.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Unit attitude quaternion ``q_BN``.
+    v : array_like, shape (..., 3)
+        Vector(s) in inertial components (any unit; the result has the same).
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        ``v_B = C_BN v_N``; batch dimensions of ``q`` and ``v`` broadcast.
+
+    Raises
+    ------
+    ValueError
+        If ``q`` is not a unit quaternion of shape ``(..., 4)``, or ``v`` is
+        not of shape ``(..., 3)``, or either holds NaN/inf.
+    """
     return rotate(conjugate(as_unit_quaternion(q, "q")), v)
 
 
@@ -207,6 +330,22 @@ def exp(q: ArrayLike) -> NDArray[np.float64]:
     ``exp([s, v]) = e^s [cos|v|, sin|v| v/|v|]``. For a pure quaternion
     ``[0, phi/2]`` this is the unit quaternion of the rotation vector ``phi``
     (see :func:`from_rotation_vector`).
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Any quaternion ``[s, v]``; ``|v|`` is an angle [rad].
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        ``exp(q)``, of norm ``e^s``.
+
+    Raises
+    ------
+    ValueError
+        If ``q`` is not of shape ``(..., 4)``, holds NaN/inf, or has a scalar
+        part above 709 (``e^s`` would overflow).
     """
     q = check_vector(q, "q", 4)
     s = q[..., 0]
@@ -229,6 +368,22 @@ def log(q: ArrayLike) -> NDArray[np.float64]:
     ``theta = atan2(|v|, w)`` lies in ``[0, pi]``, so ``exp(log(q)) == q``. For a
     unit quaternion the result is the pure quaternion ``[0, phi/2]`` with
     ``phi`` the rotation vector taken the way ``q`` (not ``-q``) points.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Non-zero quaternion ``[w, x, y, z]`` (not required to be unit).
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        ``[ln|q|, theta v/|v|]``; the vector part has length ``theta`` [rad],
+        half the rotation angle. For ``v = 0`` and ``w < 0`` the axis is x.
+
+    Raises
+    ------
+    ValueError
+        If ``q`` is not of shape ``(..., 4)``, holds NaN/inf, or has zero norm.
     """
     q = _nonzero_quaternion(q, "q")
     qn = _norm(q)
@@ -247,7 +402,26 @@ def log(q: ArrayLike) -> NDArray[np.float64]:
 
 
 def shortest(q: ArrayLike) -> NDArray[np.float64]:
-    """Return ``q`` or ``-q``, whichever has a non-negative scalar part."""
+    """Return ``q`` or ``-q``, whichever has a non-negative scalar part.
+
+    Both represent the same attitude; the one with ``w >= 0`` rotates by at
+    most pi.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Any quaternion ``[w, x, y, z]``.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        ``-q`` where ``w < 0``, else ``q`` (new array).
+
+    Raises
+    ------
+    ValueError
+        If ``q`` is not of shape ``(..., 4)`` or holds NaN/inf.
+    """
     q = check_vector(q, "q", 4)
     return np.where(q[..., :1] < 0, -q, q)
 
@@ -257,6 +431,24 @@ def error_quaternion(q_ref: ArrayLike, q: ArrayLike) -> NDArray[np.float64]:
 
     ``q_err`` is the attitude of the body relative to the reference frame; its
     vector part is about half the rotation-vector error for small errors.
+
+    Parameters
+    ----------
+    q_ref : array_like, shape (..., 4)
+        Unit reference attitude ``q_RN``.
+    q : array_like, shape (..., 4)
+        Unit attitude ``q_BN``; batch dimensions broadcast with ``q_ref``.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        ``q_BR`` with scalar part ``w_err >= 0``.
+
+    Raises
+    ------
+    ValueError
+        If either quaternion is not unit, not of shape ``(..., 4)``, or holds
+        NaN/inf.
     """
     q_ref = as_unit_quaternion(q_ref, "q_ref")
     q = as_unit_quaternion(q, "q")
@@ -268,6 +460,24 @@ def error_angle(q_ref: ArrayLike, q: ArrayLike) -> NDArray[np.float64]:
 
     Equal to ``2 * arccos(|w_err|)`` but computed as
     ``2 * atan2(|v_err|, |w_err|)``, which keeps full precision for tiny errors.
+
+    Parameters
+    ----------
+    q_ref : array_like, shape (..., 4)
+        Unit reference attitude ``q_RN``.
+    q : array_like, shape (..., 4)
+        Unit attitude ``q_BN``; batch dimensions broadcast with ``q_ref``.
+
+    Returns
+    -------
+    ndarray, shape (...)
+        Error angle [rad] in ``[0, pi]``.
+
+    Raises
+    ------
+    ValueError
+        If either quaternion is not unit, not of shape ``(..., 4)``, or holds
+        NaN/inf.
     """
     e = multiply(conjugate(as_unit_quaternion(q_ref, "q_ref")), as_unit_quaternion(q, "q"))
     return 2.0 * np.arctan2(_norm(e[..., 1:]), np.abs(e[..., 0]))
@@ -281,7 +491,20 @@ def slerp(q0: ArrayLike, q1: ArrayLike, fraction: ArrayLike) -> NDArray[np.float
     q0, q1 : array_like, shape (..., 4)
         Unit quaternions at ``fraction = 0`` and ``fraction = 1``.
     fraction : array_like, shape (...)
-        Interpolation parameter (0 gives ``q0``, 1 gives ``q1`` or ``-q1``).
+        Interpolation parameter (0 gives ``q0``, 1 gives ``q1`` or ``-q1``);
+        broadcast against the batch of ``q0`` and ``q1``.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        Unit quaternion(s) a fraction of the way along the shortest rotation
+        from ``q0`` to ``q1`` (constant angular rate in ``fraction``).
+
+    Raises
+    ------
+    ValueError
+        If ``q0`` or ``q1`` is not a unit quaternion of shape ``(..., 4)``,
+        or an input holds NaN/inf.
     """
     q0 = as_unit_quaternion(q0, "q0")
     q1 = as_unit_quaternion(q1, "q1")
@@ -299,6 +522,17 @@ def derivative(q: ArrayLike, omega: ArrayLike) -> NDArray[np.float64]:
         Attitude ``q_BN`` (not required to be exactly unit).
     omega : array_like, shape (..., 3)
         Angular velocity of B relative to N in B components [rad/s].
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        ``q_dot`` [1/s]; batch dimensions of ``q`` and ``omega`` broadcast.
+
+    Raises
+    ------
+    ValueError
+        If ``q`` is not ``(..., 4)``, ``omega`` not ``(..., 3)``, or either
+        holds NaN/inf.
     """
     q = check_vector(q, "q", 4)
     omega = check_vector(omega, "omega", 3)
@@ -311,6 +545,21 @@ def to_dcm(q: ArrayLike) -> NDArray[np.float64]:
 
     ``C_BN @ v_N`` gives body components of an inertial vector; its transpose
     rotates body vectors into N (it is scipy's ``Rotation.as_matrix()``).
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Unit attitude quaternion ``q_BN``.
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
+        ``C_BN`` (orthonormal, ``det = +1``).
+
+    Raises
+    ------
+    ValueError
+        If ``q`` is not a unit quaternion of shape ``(..., 4)`` or holds NaN/inf.
     """
     q = as_unit_quaternion(q, "q")
     w, x, y, z = np.moveaxis(q, -1, 0)
@@ -334,6 +583,16 @@ def from_dcm(dcm: ArrayLike) -> NDArray[np.float64]:
 
     Uses Shepperd's method (largest of the four squared components) so that no
     attitude loses precision.
+
+    Parameters
+    ----------
+    dcm : array_like, shape (..., 3, 3)
+        Direction cosine matrix ``C_BN`` (maps N components to B components).
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        Unit quaternion ``q_BN`` with scalar part ``>= 0``.
 
     Raises
     ------
@@ -393,13 +652,47 @@ def from_dcm(dcm: ArrayLike) -> NDArray[np.float64]:
 
 
 def to_rotation_vector(q: ArrayLike) -> NDArray[np.float64]:
-    """Rotation vector ``phi`` [rad] of ``q`` on the shortest way (``|phi| <= pi``)."""
+    """Rotation vector ``phi`` [rad] of ``q`` on the shortest way (``|phi| <= pi``).
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Unit attitude quaternion ``q_BN``.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        ``phi = angle * axis`` [rad] of ``q`` or ``-q`` (whichever has
+        ``w >= 0``), so ``|phi| <= pi``.
+
+    Raises
+    ------
+    ValueError
+        If ``q`` is not a unit quaternion of shape ``(..., 4)`` or holds NaN/inf.
+    """
     q = shortest(as_unit_quaternion(q, "q"))
     return 2.0 * log(q)[..., 1:]
 
 
 def from_rotation_vector(rotvec: ArrayLike) -> NDArray[np.float64]:
-    """Unit quaternion of the rotation vector ``rotvec`` [rad]: ``exp([0, rotvec/2])``."""
+    """Unit quaternion of the rotation vector ``rotvec`` [rad]: ``exp([0, rotvec/2])``.
+
+    Parameters
+    ----------
+    rotvec : array_like, shape (..., 3)
+        Rotation vector ``angle * axis`` [rad]; any length (no wrapping).
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        Unit quaternion ``[cos(|rotvec|/2), sin(|rotvec|/2) rotvec/|rotvec|]``;
+        its scalar part is negative for ``|rotvec| > pi``.
+
+    Raises
+    ------
+    ValueError
+        If ``rotvec`` is not of shape ``(..., 3)`` or holds NaN/inf.
+    """
     rotvec = check_vector(rotvec, "rotvec", 3)
     pure = np.concatenate([np.zeros((*rotvec.shape[:-1], 1)), 0.5 * rotvec], axis=-1)
     return exp(pure)
@@ -409,6 +702,23 @@ def to_axis_angle(q: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64
     """Unit axis and angle [rad] of ``q`` on the shortest way, angle in ``[0, pi]``.
 
     For a zero rotation the axis is undefined; ``[1, 0, 0]`` is returned.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Unit attitude quaternion ``q_BN``.
+
+    Returns
+    -------
+    axis : ndarray, shape (..., 3)
+        Unit rotation axis (the same in B and N components).
+    angle : ndarray, shape (...)
+        Rotation angle [rad] in ``[0, pi]``.
+
+    Raises
+    ------
+    ValueError
+        If ``q`` is not a unit quaternion of shape ``(..., 4)`` or holds NaN/inf.
     """
     phi = to_rotation_vector(q)
     angle = _norm(phi)
@@ -420,10 +730,24 @@ def to_axis_angle(q: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64
 def from_axis_angle(axis: ArrayLike, angle: ArrayLike) -> NDArray[np.float64]:
     """Unit quaternion rotating by ``angle`` [rad] about ``axis`` (normalised here).
 
+    Parameters
+    ----------
+    axis : array_like, shape (..., 3)
+        Rotation axis of any non-zero length.
+    angle : array_like, shape (...)
+        Rotation angle [rad] (right-handed about ``axis``); broadcast against
+        the batch of ``axis``.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        ``[cos(angle/2), sin(angle/2) axis/|axis|]``.
+
     Raises
     ------
     ValueError
-        If ``axis`` has zero length.
+        If ``axis`` has zero length or is not of shape ``(..., 3)``, or an
+        input holds NaN/inf.
     """
     axis = check_vector(axis, "axis", 3)
     angle = as_float_array(angle, "angle")
@@ -445,13 +769,45 @@ def to_mrp(q: ArrayLike) -> NDArray[np.float64]:
 
     The shadow set is chosen automatically: using ``q`` or ``-q`` with
     ``w >= 0`` gives the MRP of the short rotation (``|sigma| <= 1``).
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Unit attitude quaternion ``q_BN``.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        ``sigma = axis tan(angle/4)`` (dimensionless), ``|sigma| <= 1``.
+
+    Raises
+    ------
+    ValueError
+        If ``q`` is not a unit quaternion of shape ``(..., 4)`` or holds NaN/inf.
     """
     q = shortest(as_unit_quaternion(q, "q"))
     return q[..., 1:] / (1.0 + q[..., :1])
 
 
 def mrp_shadow(sigma: ArrayLike) -> NDArray[np.float64]:
-    """Shadow MRP set ``-sigma / |sigma|^2`` (same attitude; raises for ``sigma = 0``)."""
+    """Shadow MRP set ``-sigma / |sigma|^2`` (the same attitude).
+
+    Parameters
+    ----------
+    sigma : array_like, shape (..., 3)
+        Modified Rodrigues parameters (dimensionless), non-zero.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        The shadow set; ``|shadow| = 1 / |sigma|``.
+
+    Raises
+    ------
+    ValueError
+        If ``sigma`` is zero (its shadow is at infinity), not of shape
+        ``(..., 3)``, or holds NaN/inf.
+    """
     sigma = check_vector(sigma, "sigma", 3)
     n = _norm(sigma, keepdims=True)
     if np.any(n == 0):
@@ -464,6 +820,21 @@ def from_mrp(sigma: ArrayLike) -> NDArray[np.float64]:
 
     A set with ``|sigma| > 1`` is first replaced by its shadow (the same
     attitude), which keeps ``|sigma|^2`` from overflowing for huge inputs.
+
+    Parameters
+    ----------
+    sigma : array_like, shape (..., 3)
+        Modified Rodrigues parameters (dimensionless), any length.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        Unit quaternion ``q_BN`` with scalar part ``>= 0``.
+
+    Raises
+    ------
+    ValueError
+        If ``sigma`` is not of shape ``(..., 3)`` or holds NaN/inf.
     """
     sigma = check_vector(sigma, "sigma", 3)
     n = _norm(sigma, keepdims=True)
@@ -486,7 +857,17 @@ def random(shape: int | tuple[int, ...] = (), rng: object = None) -> NDArray[np.
     shape : int or tuple of int
         Batch shape.
     rng : numpy.random.Generator, int or None
-        Random source or seed.
+        Random source or seed (see :func:`attitude.rng.as_generator`).
+
+    Returns
+    -------
+    ndarray, shape shape + (4,)
+        Unit quaternions (either sign of the scalar part).
+
+    Raises
+    ------
+    ValueError
+        If ``rng`` is not a generator, seed sequence, non-negative int or None.
     """
     gen = as_generator(rng)
     shape = (shape,) if isinstance(shape, int) else tuple(shape)

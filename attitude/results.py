@@ -27,7 +27,26 @@ class ResultIO:
     """Mixin giving a dataclass ``save(path)`` and ``load(path)``."""
 
     def save(self, path: str | Path) -> Path:
-        """Write the result to ``path`` (``.npz`` is appended if missing) and return the path."""
+        """Write the result to ``path`` (``.npz`` is appended if missing) and return the path.
+
+        Parent directories are created as needed.
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            Target file.
+
+        Returns
+        -------
+        pathlib.Path
+            The path written (ending in ``.npz``).
+
+        Raises
+        ------
+        TypeError
+            If the object is not a dataclass, or a field holds a value that is
+            neither a numpy array nor JSON-representable.
+        """
         if not dataclasses.is_dataclass(self):
             raise TypeError(f"{type(self).__name__} must be a dataclass to be saved")
         path = Path(path)
@@ -59,6 +78,16 @@ class ResultIO:
     @classmethod
     def load(cls: type[T], path: str | Path) -> T:
         """Read a result written by :meth:`save`.
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            File written by :meth:`save` (the full name, with ``.npz``).
+
+        Returns
+        -------
+        ResultIO
+            A new instance of ``cls`` with the stored fields.
 
         Raises
         ------

@@ -74,7 +74,18 @@ def _join(parts: Components, like: Any) -> Any:
 
 
 def cross(a: Components, b: Components) -> Components:
-    """Cross product ``a x b`` of two 3-component lists."""
+    """Cross product ``a x b`` of two 3-component lists.
+
+    Parameters
+    ----------
+    a, b : list of 3 numpy arrays or casadi scalars
+        Vector components (any units; numpy entries broadcast).
+
+    Returns
+    -------
+    list of 3
+        Components of ``a x b`` (units of ``a`` times units of ``b``).
+    """
     return [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
@@ -96,7 +107,20 @@ def _matvec(entries: list[list[Any]], v: Components) -> Components:
 
 
 def quaternion_rate(q: Components, omega: Components) -> Components:
-    """Quaternion kinematics ``0.5 q ⊗ [0, omega]`` on components."""
+    """Quaternion kinematics ``0.5 q ⊗ [0, omega]`` on components.
+
+    Parameters
+    ----------
+    q : list of 4 numpy arrays or casadi scalars
+        Attitude ``q_BN`` components ``[w, x, y, z]``.
+    omega : list of 3 numpy arrays or casadi scalars
+        Body rate ``omega_BN_B`` [rad/s].
+
+    Returns
+    -------
+    list of 4
+        ``q_dot`` components [1/s].
+    """
     qw, qx, qy, qz = q
     wx, wy, wz = omega
     return [
@@ -147,7 +171,7 @@ class PrincipalAxes:
 
     @property
     def axes_B(self) -> NDArray[np.float64]:
-        """Principal axes as the columns of a matrix in body components."""
+        """Principal axes as the columns of a matrix in body components, shape ``(..., 3, 3)``."""
         return np.swapaxes(self.C_PB, -1, -2)
 
 
@@ -236,7 +260,7 @@ class RigidBody:
 
     @property
     def inertia_inv(self) -> NDArray[np.float64]:
-        """Inverse inertia tensor [1/(kg m^2)]."""
+        """Inverse inertia tensor [1/(kg m^2)], shape ``batch_shape + (3, 3)``."""
         return self._inertia_inv.copy()
 
     @property
@@ -269,17 +293,69 @@ class RigidBody:
     # -- physics on numpy arrays --------------------------------------------
 
     def angular_momentum(self, omega: ArrayLike) -> NDArray[np.float64]:
-        """Body angular momentum ``H_B = I omega`` [N m s] for body rates ``omega`` [rad/s]."""
+        """Body angular momentum ``H_B = I omega`` [N m s] for body rates ``omega`` [rad/s].
+
+        Parameters
+        ----------
+        omega : array_like, shape (..., 3)
+            Body rate ``omega_BN_B`` [rad/s]; broadcast against ``batch_shape``.
+
+        Returns
+        -------
+        ndarray, shape (..., 3)
+            ``H_B`` in body components [N m s].
+
+        Raises
+        ------
+        ValueError
+            If ``omega`` is not of shape ``(..., 3)`` or holds NaN/inf.
+        """
         omega = check_vector(omega, "omega", 3)
         return np.einsum("...ij,...j->...i", self._inertia, omega)
 
     def kinetic_energy(self, omega: ArrayLike) -> NDArray[np.float64]:
-        """Rotational kinetic energy ``0.5 omega . I omega`` [J]."""
+        """Rotational kinetic energy ``0.5 omega . I omega`` [J].
+
+        Parameters
+        ----------
+        omega : array_like, shape (..., 3)
+            Body rate ``omega_BN_B`` [rad/s]; broadcast against ``batch_shape``.
+
+        Returns
+        -------
+        ndarray, shape (...)
+            Kinetic energy [J].
+
+        Raises
+        ------
+        ValueError
+            If ``omega`` is not of shape ``(..., 3)`` or holds NaN/inf.
+        """
         omega = check_vector(omega, "omega", 3)
         return 0.5 * np.sum(omega * self.angular_momentum(omega), axis=-1)
 
     def inertial_angular_momentum(self, q: ArrayLike, omega: ArrayLike) -> NDArray[np.float64]:
-        """Angular momentum in inertial components ``H_N = rotate(q_BN, I omega)`` [N m s]."""
+        """Angular momentum in inertial components ``H_N = rotate(q_BN, I omega)`` [N m s].
+
+        Parameters
+        ----------
+        q : array_like, shape (..., 4)
+            Unit attitude quaternion ``q_BN`` (scalar first).
+        omega : array_like, shape (..., 3)
+            Body rate ``omega_BN_B`` [rad/s]; batch dimensions broadcast with
+            ``q`` and ``batch_shape``.
+
+        Returns
+        -------
+        ndarray, shape (..., 3)
+            ``H_N`` in inertial components [N m s] (constant in torque-free motion).
+
+        Raises
+        ------
+        ValueError
+            If ``q`` is not a unit quaternion of shape ``(..., 4)``, ``omega`` is
+            not of shape ``(..., 3)``, or either holds NaN/inf.
+        """
         return quat.rotate(q, self.angular_momentum(omega))
 
     # -- the one definition (numpy or casadi) --------------------------------
@@ -295,6 +371,12 @@ class RigidBody:
             Body rate [rad/s], torque [N m] and internal momentum [N m s], all
             in body components. ``torque`` None means torque-free and ``h``
             None means no internal momentum (both skip the arithmetic).
+
+        Returns
+        -------
+        list of 3
+            Body angular acceleration ``omega_dot`` [rad/s^2], same backend as
+            ``omega``.
         """
         h_total = _matvec(self._I, omega)
         if h is not None:
@@ -320,6 +402,13 @@ class RigidBody:
         -------
         ndarray (..., 3) or casadi vector
             ``I^-1 (tau - omega x (I omega + h))``, same backend as ``omega``.
+
+        Raises
+        ------
+        ValueError
+            If a numpy input is not of shape ``(..., 3)`` or holds NaN/inf, a
+            casadi input does not have 3 entries, or a batched body is
+            evaluated on casadi symbols.
         """
         symbolic = isinstance(omega, (ca.SX, ca.MX, ca.DM))
         if symbolic and self.batch_shape:
@@ -336,7 +425,22 @@ class RigidBody:
     def state_derivative_components(
         self, x: Components, torque: Components | None, h: Components | None = None
     ) -> Components:
-        """Time derivative of the state components ``[q (4), omega (3)]``."""
+        """Time derivative of the state components ``[q (4), omega (3)]``.
+
+        Parameters
+        ----------
+        x : list of 7 numpy arrays or casadi scalars
+            Attitude ``q_BN`` (scalar first) and body rate ``omega_BN_B`` [rad/s].
+        torque : list of 3 or None
+            Torque in body components [N m]; None for torque-free motion.
+        h : list of 3, optional
+            Internal (wheel) angular momentum in body components [N m s].
+
+        Returns
+        -------
+        list of 7
+            ``[q_dot (4) [1/s], omega_dot (3) [rad/s^2]]``, same backend as ``x``.
+        """
         q, w = x[:4], x[4:7]
         return quaternion_rate(q, w) + self.omega_dot_components(w, torque, h)
 
@@ -354,6 +458,18 @@ class RigidBody:
             Torque in body components [N m]; zero if omitted.
         h : array_like (..., 3) or casadi vector (3), optional
             Internal angular momentum in body components [N m s].
+
+        Returns
+        -------
+        ndarray (..., 7) or casadi vector (7)
+            ``[q_dot (4) [1/s], omega_dot (3) [rad/s^2]]``, same backend as ``x``.
+
+        Raises
+        ------
+        ValueError
+            If a numpy input has the wrong last dimension or holds NaN/inf, a
+            casadi input has the wrong number of entries, or a batched body is
+            evaluated on casadi symbols.
         """
         symbolic = isinstance(x, (ca.SX, ca.MX, ca.DM))
         if symbolic and self.batch_shape:
@@ -376,13 +492,38 @@ class RigidBody:
         ----------
         symbol : casadi.SX or casadi.MX
             Symbol class used to build the expression graph.
+
+        Returns
+        -------
+        casadi.Function
+            ``f(x, tau) -> x_dot`` with ``x = [q_BN (4), omega_BN_B (3) [rad/s]]``,
+            ``tau`` in body components [N m] and ``x_dot`` as in
+            :meth:`state_derivative`.
+
+        Raises
+        ------
+        ValueError
+            If the body is a batch of inertias.
         """
         x = symbol.sym("x", 7)
         tau = symbol.sym("tau", 3)
         return ca.Function("rigid_body_dynamics", [x, tau], [self.state_derivative(x, tau)], ["x", "tau"], ["x_dot"])
 
     def casadi_jacobian(self) -> ca.Function:
-        """Exact Jacobians ``(A, B) = (d x_dot/d x, d x_dot/d tau)`` as a casadi Function."""
+        """Exact Jacobians ``(A, B) = (d x_dot/d x, d x_dot/d tau)`` as a casadi Function.
+
+        Returns
+        -------
+        casadi.Function
+            ``jac(x[7], tau[3]) -> (A[7x7], B[7x3])`` evaluated at the state
+            ``x = [q_BN, omega_BN_B [rad/s]]`` and torque ``tau`` [N m], with
+            ``x_dot`` as in :meth:`state_derivative`.
+
+        Raises
+        ------
+        ValueError
+            If the body is a batch of inertias.
+        """
         x = ca.SX.sym("x", 7)
         tau = ca.SX.sym("tau", 3)
         f = self.state_derivative(x, tau)
@@ -392,10 +533,42 @@ class RigidBody:
 
 
 def split_components(x: Any, n: int) -> Components:
-    """Public alias of the backend-neutral split used by the integrators."""
+    """Public alias of the backend-neutral split used by the integrators.
+
+    Parameters
+    ----------
+    x : ndarray (..., n) or casadi vector (n)
+        State or vector to split.
+    n : int
+        Number of components.
+
+    Returns
+    -------
+    list of n
+        numpy: the slices ``x[..., i]`` (views); casadi: the entries ``x[i]``.
+
+    Raises
+    ------
+    ValueError
+        If a casadi ``x`` does not have ``n`` entries.
+    """
     return _split(x, n)
 
 
 def join_components(parts: Sequence[Any], like: Any) -> Any:
-    """Public alias of the backend-neutral join used by the integrators."""
+    """Public alias of the backend-neutral join used by the integrators.
+
+    Parameters
+    ----------
+    parts : sequence of numpy arrays or casadi scalars
+        Components to join.
+    like : ndarray or casadi object
+        Selects the backend of the result.
+
+    Returns
+    -------
+    ndarray (..., n) or casadi vector (n)
+        numpy: the broadcast components stacked on a new last axis; casadi:
+        their ``vertcat``.
+    """
     return _join(list(parts), like)

@@ -17,6 +17,11 @@ def as_generator(rng: object = None) -> np.random.Generator:
         seed (a new PCG64 generator; the same seed reproduces a run bit for
         bit), or None (fresh OS entropy).
 
+    Returns
+    -------
+    numpy.random.Generator
+        ``rng`` itself if it is a generator, else a new one.
+
     Raises
     ------
     ValueError
