@@ -658,10 +658,12 @@ def _run_fixed(
         Number of integrator steps taken.
     """
     n = t.size
-    q_out = np.empty((n, *batch, 4))
-    w_out = np.empty((n, *batch, 3))
-    q_out[0] = q0
-    w_out[0] = omega0
+    # Outputs are filled component by component (contiguous rows, no
+    # per-step temporaries) and transposed once at the end.
+    q_soa = np.empty((n, 4, *batch))
+    w_soa = np.empty((n, 3, *batch))
+    q_soa[0] = np.moveaxis(q0, -1, 0)
+    w_soa[0] = np.moveaxis(omega0, -1, 0)
     qc = [np.array(q0[..., i]) for i in range(4)]
     wc = [np.array(omega0[..., i]) for i in range(3)]
 
@@ -700,9 +702,11 @@ def _run_fixed(
                 xc = normalize_quaternion_components(rk4_step(derivative, ts, [*qc, *wc], h))
                 qc, wc = xc[:4], xc[4:]
             steps += 1
-        q_out[k + 1] = np.stack(np.broadcast_arrays(*qc), axis=-1)
-        w_out[k + 1] = np.stack(np.broadcast_arrays(*wc), axis=-1)
-    return q_out, w_out, steps
+        for i in range(4):
+            q_soa[k + 1, i] = qc[i]
+        for i in range(3):
+            w_soa[k + 1, i] = wc[i]
+    return np.moveaxis(q_soa, 1, -1), np.moveaxis(w_soa, 1, -1), steps
 
 
 def _propagate_adaptive(
