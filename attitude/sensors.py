@@ -254,6 +254,10 @@ def _misalignment_matrix(value: ArrayLike) -> NDArray[np.float64]:
 # Gyro
 
 
+#: Gyro sampling models (see :class:`Gyro`).
+GYRO_SAMPLING = ("instantaneous", "mean")
+
+
 class Gyro:
     """A three-axis rate gyro: Farrenkopf noise, bias, scale factor, misalignment, quantisation, saturation.
 
@@ -289,11 +293,20 @@ class Gyro:
         Largest reported rate magnitude per axis [rad/s] (inf: none).
     name : str
         Sensor name (key in the estimator's measurements and the logs).
+    sampling : {"instantaneous", "mean"}
+        What the true part of a sample is: the body rate at the sample time
+        (a rate gyro read at that instant), or the mean rate over the
+        interval since the previous sample, ``rotvec(q_prev* ⊗ q) / dt`` (a
+        rate-integrating gyro's angle increment, as fibre-optic and
+        ring-laser gyros deliver). :class:`estimation.rate_ekf.RateEKF`
+        models the first, :class:`estimation.mekf.MEKF` the second (its
+        propagation holds each sample as the mean rate over the interval).
+        The first sample of a run reports the instantaneous rate.
 
     Raises
     ------
     ValueError
-        For negative or non-finite noise figures, a period <= 0, a
+        For an unknown ``sampling``, negative or non-finite noise figures, a period <= 0, a
         saturation <= 0 or NaN, a scale factor <= -1, a misalignment of the
         wrong shape or with a non-zero diagonal.
     """
@@ -310,7 +323,11 @@ class Gyro:
         quantization: float = 0.0,
         saturation: float = np.inf,
         name: str = "gyro",
+        sampling: str = "instantaneous",
     ) -> None:
+        if sampling not in GYRO_SAMPLING:
+            raise ValueError(f"sampling must be one of {GYRO_SAMPLING}, got {sampling!r}")
+        self.sampling = sampling
         self.sigma_v = _nonnegative_scalar(sigma_v, "sigma_v")
         self.sigma_u = _nonnegative_scalar(sigma_u, "sigma_u")
         self.period = _positive_scalar(period, "period")
@@ -358,6 +375,7 @@ class Gyro:
         quantization_deg_per_s: float = 0.0,
         saturation_deg_per_s: float = np.inf,
         name: str = "gyro",
+        sampling: str = "instantaneous",
     ) -> Gyro:
         """Build a gyro from datasheet figures.
 
@@ -398,6 +416,8 @@ class Gyro:
             Measurement range [deg/s] (inf: none).
         name : str
             Sensor name.
+        sampling : {"instantaneous", "mean"}
+            Instantaneous rate or interval-mean rate samples (see :class:`Gyro`).
 
         Raises
         ------
@@ -436,6 +456,7 @@ class Gyro:
             quantization=_nonnegative_scalar(quantization_deg_per_s, "quantization_deg_per_s") * _DEG,
             saturation=float(saturation) * _DEG,
             name=name,
+            sampling=sampling,
         )
 
     @classmethod
@@ -540,6 +561,7 @@ class Gyro:
         """Forget the sample history: the bias returns to its initial value, the next sample is a first one."""
         self._bias = np.array(self.initial_bias, dtype=np.float64)
         self._t_last: float | None = None
+        self._q_last: NDArray[np.float64] | None = None
 
     def _errors(
         self,
@@ -604,6 +626,12 @@ class Gyro:
         gen = as_generator(rng)
         t = float(as_float_array(t, "t"))
         omega = check_vector(truth.omega, "truth.omega", 3)
+        if self.sampling == "mean":
+            q = quat.as_unit_quaternion(truth.q, "truth.q")
+            if self._q_last is not None and t > self._t_last:
+                increment = quat.multiply(quat.conjugate(self._q_last), q)
+                omega = quat.to_rotation_vector(increment) / (t - self._t_last)
+            self._q_last = q
         if self._t_last is None:
             dt_bias, dt_noise = 0.0, self.period
         else:

@@ -24,7 +24,7 @@ Propagation (gyro)
 ------------------
 A gyro sample ``omega_meas[k]`` at ``t[k]`` is taken as the *mean* rate over
 ``(t[k-1], t[k]]`` (the angle increment divided by the interval, what
-:class:`attitude.sensors.Gyro` models), held constant over the interval
+:class:`attitude.sensors.Gyro` delivers with ``sampling="mean"``), held constant over the interval
 (zeroth order: no coning correction). With ``w = omega_meas - b_hat``:
 
 - ``q_hat <- q_hat ⊗ exp(w dt / 2)`` (:func:`attitude.quaternion.from_rotation_vector`

@@ -504,3 +504,29 @@ class TestInSimulation:
         # Outside simulate, measuring twice at the same time still needs a reset.
         with pytest.raises(ValueError, match="reset"):
             gyro.measure(0.0, truth(t=0.0), np.random.default_rng(0))
+
+
+class TestMeanRateSampling:
+    def test_a_mean_rate_gyro_reports_the_attitude_increment_over_the_interval(self):
+        # Noise-free gyro on a body accelerating about z: the mean rate over
+        # [t0, t1] is the angle increment / dt, not the rate at t1.
+        gyro = Gyro(0.0, 0.0, period=0.1, sampling="mean")
+        alpha = 0.2  # rad/s^2
+        t0, t1 = 1.0, 1.1
+
+        def state(t):
+            angle = 0.5 * alpha * t * t
+            return truth(omega=(0.0, 0.0, alpha * t), q=quat.from_axis_angle([0, 0, 1], angle), t=t)
+
+        first = gyro.measure(t0, state(t0), 0)
+        np.testing.assert_allclose(first, [0.0, 0.0, alpha * t0], atol=1e-15)  # first sample: instantaneous
+        second = gyro.measure(t1, state(t1), 0)
+        mean_rate = 0.5 * alpha * (t1**2 - t0**2) / (t1 - t0)
+        np.testing.assert_allclose(second, [0.0, 0.0, mean_rate], atol=1e-12)
+        assert abs(second[2] - alpha * t1) > 1e-3  # distinguishable from the instantaneous rate
+
+    def test_sampling_is_validated_and_passed_by_the_datasheet_constructor(self):
+        with pytest.raises(ValueError, match="sampling must be one of"):
+            Gyro(1e-5, period=0.1, sampling="average")
+        assert Gyro.from_datasheet(0.07, period=0.1, sampling="mean").sampling == "mean"
+        assert Gyro.preset("tactical", sampling="mean").sampling == "mean"
