@@ -392,7 +392,7 @@ def plot_nees(
     ax.set_ylim(bottom=0)
     ax.grid(True, alpha=0.3)
     ax.margins(x=0)
-    ax.legend(loc="upper right")
+    ax.legend(loc="lower right")
     ax.set_title(title or f"{quantity} consistency: {100 * inside:.1f}% of samples inside the band")
     return fig
 

@@ -1011,7 +1011,8 @@ class RateEKFResult(ResultIO):
             kind = "errors" if self.omega_true is not None else "nis"
         if kind == "errors":
             d = self.covariance.shape[-1]
-            labels = ["omega_x", "omega_y", "omega_z", "bias_x", "bias_y", "bias_z"][:d]
+            labels = [f"rate error {a}" for a in "xyz"] + [f"bias error {a}" for a in "xyz"]
+            labels = labels[:d]
             return plot_errors_with_bounds(
                 self.t,
                 self.errors(),
