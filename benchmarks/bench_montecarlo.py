@@ -1,0 +1,129 @@
+"""Monte Carlo campaign speed (issue: Monte Carlo campaigns).
+
+Figures:
+
+* runs per minute of the default closed-loop scenario (the built-in 12U
+  spacecraft: 600 s, 10 Hz control, 4 wheels, gyro + star tracker + MEKF in
+  the loop, all ``[montecarlo]`` dispersions) with 1 worker (in process),
+  2 local worker processes, and a 2-worker Dask ``LocalCluster`` on loopback;
+* the same for the PD-with-wheels scenario (controller on the truth) per run
+  (compiled engine) and vectorised (all runs as one batched numpy state);
+* spacecraft-simulated seconds per CPU second of a 1,000-run vectorised
+  PD-with-wheels campaign, against the target of 30 x 9,000 = 270,000 per
+  core (9,000: a compiled C++ peer's simplest closed loop, per run).
+
+CPU accounting. In one process, ``time.process_time`` (honest CPU). With
+worker processes the parent's process time misses the workers, so two
+figures are given: ``cpu_s_in_runs`` (the sum of each run's own
+``process_time``, measured inside its worker, plus the parent's: the CPU the
+simulation work took, without worker start-up and idle time) and
+``wall_x_workers`` (wall time times workers: an upper bound, what the
+machine was reserved for). Runs per minute are always wall-clock, start-up
+of the pool (or the cluster's first tasks) included; the cluster's own
+start-up is reported apart.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from typing import Any
+
+import numpy as np
+
+from attitude.config import default_config
+from attitude.montecarlo import Campaign, run_campaign
+from attitude.montecarlo_dispersions import dispersions_from_config
+from attitude.scenarios import ClosedLoopScenario, PDWheelsScenario
+
+CONFIG = default_config()
+DISPERSIONS = dispersions_from_config(CONFIG.montecarlo, CONFIG.body().inertia, CONFIG.requirements.slew.q_start())
+DURATION_S = 600.0
+PEER_SIM_S_PER_CPU_S = 9_000
+TARGET_FACTOR = 30
+
+
+def _measure(campaign: Campaign, **kwargs: Any) -> dict[str, Any]:
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    result = run_campaign(campaign, progress=False, **kwargs)
+    wall = time.perf_counter() - wall0
+    parent_cpu = time.process_time() - cpu0
+    ok = int(np.sum(result.status == "ok"))
+    workers = kwargs.get("workers") or 2
+    out: dict[str, Any] = {
+        "runs": campaign.runs,
+        "completed": ok,
+        "executor": result.info["executor"],
+        "wall_s": wall,
+        "runs_per_minute": 60.0 * campaign.runs / wall,
+        # Other processes on the machine slow the wall-clock figures (not the CPU ones): say how busy it was.
+        "load_average_1min_before": load,
+    }
+    if result.info["executor"] == "serial":
+        out["cpu_s"] = parent_cpu
+        out["runs_per_cpu_minute"] = 60.0 * campaign.runs / parent_cpu
+    else:
+        out["cpu_s_in_runs"] = float(np.nansum(result.cpu_s)) + parent_cpu
+        out["wall_x_workers_s"] = wall * workers
+    out["sim_s_per_cpu_s"] = campaign.runs * DURATION_S / out.get("cpu_s", out.get("cpu_s_in_runs"))
+    return out
+
+
+def closed_loop_ekf(serial_runs: int = 3, parallel_runs: int = 8) -> dict[str, Any]:
+    def campaign(runs: int) -> Campaign:
+        return Campaign(ClosedLoopScenario(CONFIG, duration=DURATION_S), DISPERSIONS, runs=runs, seed=1)
+
+    out: dict[str, Any] = {
+        "case": "default spacecraft file: 600 s at 10 Hz, 4-wheel pyramid, MEMS gyro + star tracker + MEKF, "
+        "Wie-Lu PD, all [montecarlo] dispersions",
+        "one_worker": _measure(campaign(serial_runs), workers=1),
+        "two_local_processes": _measure(campaign(parallel_runs), workers=2),
+    }
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:  # the optional 'cluster' extra
+        out["local_cluster_2_workers"] = "skipped: dask.distributed is not installed"
+        return out
+    start = time.perf_counter()
+    cluster = LocalCluster(n_workers=2, processes=True, threads_per_worker=1, dashboard_address=None)
+    client = Client(cluster)
+    startup = time.perf_counter() - start
+    try:
+        figures = _measure(campaign(parallel_runs), scheduler=client)
+        figures["cluster_startup_s"] = startup
+        out["local_cluster_2_workers"] = figures
+    finally:
+        client.close()
+        cluster.close()
+    return out
+
+
+def pd_wheels(per_run_runs: int = 20, vectorised_runs: int = 1000) -> dict[str, Any]:
+    dispersions = {k: DISPERSIONS[k] for k in ("inertia", "initial_rate", "initial_attitude")}
+    scenario = PDWheelsScenario.from_config(CONFIG, duration=DURATION_S)
+    per_run = _measure(Campaign(scenario, dispersions, runs=per_run_runs, seed=1), workers=1)
+    vectorised = _measure(Campaign(scenario, dispersions, runs=vectorised_runs, seed=1), vectorized=True)
+    rate = vectorised["sim_s_per_cpu_s"]
+    return {
+        "case": "quaternion PD (truth) + 4-wheel pyramid, default spacecraft, 600 s at 10 Hz, dispersed inertia, "
+        "initial attitude and rate",
+        "per_run_compiled_one_worker": per_run,
+        "vectorised_1000_runs": vectorised,
+        "spacecraft_sim_s_per_cpu_s_per_core": rate,
+        "peer_sim_s_per_cpu_s": PEER_SIM_S_PER_CPU_S,
+        "ratio_to_peer": rate / PEER_SIM_S_PER_CPU_S,
+        "target_sim_s_per_cpu_s": TARGET_FACTOR * PEER_SIM_S_PER_CPU_S,
+        "target_met": rate >= TARGET_FACTOR * PEER_SIM_S_PER_CPU_S,
+        "speedup_vectorised_vs_per_run_cpu": rate / per_run["sim_s_per_cpu_s"],
+    }
+
+
+def run() -> dict[str, Any]:
+    return {"closed_loop_ekf": closed_loop_ekf(), "pd_wheels": pd_wheels()}
+
+
+if __name__ == "__main__":
+    import json
+
+    print(json.dumps(run(), indent=2))
