@@ -14,7 +14,14 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from benchmarks import bench_closed_loop, bench_mekf, bench_propagation, bench_rate_ekf, bench_slew
+from benchmarks import (
+    bench_closed_loop,
+    bench_mekf,
+    bench_montecarlo,
+    bench_propagation,
+    bench_rate_ekf,
+    bench_slew,
+)
 
 SUITES = {
     "propagation": bench_propagation.run,
@@ -22,6 +29,7 @@ SUITES = {
     "slew": bench_slew.run,
     "rate_ekf": bench_rate_ekf.run,
     "mekf": bench_mekf.run,
+    "montecarlo": bench_montecarlo.run,
 }
 
 
