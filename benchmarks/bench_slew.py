@@ -9,6 +9,12 @@ Times are CPU seconds (``time.process_time``) of the whole ``plan_slew``
 call: building the NLP, IPOPT, the switch-time refinement and the open-loop
 re-simulation that verifies the plan. ``ipopt_s`` is the wall time inside
 IPOPT alone.
+
+Also measured: what the between-checkpoint keep-out margin costs on a
+coarse grid against checkpoints only (and how far the latter cuts into the
+cone on an independent fine re-simulation), a rate-limited slew on coarse
+grids against its eigenaxis reference, and how fast cones that block every
+path are rejected.
 """
 
 from __future__ import annotations
@@ -21,7 +27,8 @@ import numpy as np
 from attitude import RigidBody
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
-from controllers.slew import PUBLISHED_BILIMORIA_WIE, KeepOutCone, SlewPlan, plan_slew
+from attitude.propagate import propagate
+from controllers.slew import PUBLISHED_BILIMORIA_WIE, InfeasibleSlewError, KeepOutCone, SlewPlan, plan_slew
 
 try:
     from benchmarks._timing import cpu_time_median
@@ -52,10 +59,22 @@ def _figures(plan: SlewPlan) -> dict[str, Any]:
         "grid_iterations": plan.info["grid_iterations"],
         "refine_iterations": ref.get("iterations"),
         "refine_status": ref.get("status"),
+        "refine_grid_converged": ref.get("grid_converged"),
         "ipopt_s": plan.solve_time,
         "final_attitude_error_deg": plan.final_attitude_error_deg,
         "final_rate_error_rad_s": plan.final_rate_error,
+        "warnings": plan.warnings,
     }
+
+
+def _fine_min_separation_deg(plan: SlewPlan, cone: KeepOutCone, per_interval: int = 20) -> float:
+    """Smallest separation [deg] on an adaptive re-simulation, ``per_interval`` samples per plan interval."""
+    frac = np.arange(per_interval) / per_interval
+    t = np.concatenate([(plan.t[:-1, None] + frac * np.diff(plan.t)[:, None]).ravel(), plan.t[-1:]])
+    tau = np.repeat(plan.torque[:-1], per_interval, axis=0)
+    tau = np.vstack([tau, tau[-1:]])
+    traj = propagate(RigidBody(plan.inertia), Q_ID, np.zeros(3), t, tau, method="adaptive", rtol=1e-11, atol=1e-13)
+    return float(np.degrees(np.min(cone.separation(quat.normalize(traj.q)))))
 
 
 def published_benchmark(repeats: int = 3) -> dict[str, Any]:
@@ -121,6 +140,7 @@ def small_satellite(repeats: int = 3) -> dict[str, Any]:
             "duration_s": plan.duration,
             "objective_value": plan.objective_value,
             "eigenaxis_s": plan.eigenaxis_duration,
+            "eigenaxis_enters_keep_out": plan.info.get("eigenaxis_enters_keep_out"),
             **_figures(plan),
             "max_rate_deg_s": math.degrees(plan.max_rate),
         }
@@ -130,8 +150,88 @@ def small_satellite(repeats: int = 3) -> dict[str, Any]:
     return {"case": "small satellite, inertia [[10,1.2,-0.5],[1.2,12,0.3],[-0.5,0.3,8]] kg m^2", **out}
 
 
+def keep_out_margin() -> dict[str, Any]:
+    """Cost of the between-checkpoint keep-out margin on coarse grids, against checkpoints only."""
+    q90 = quat.from_axis_angle([0.0, 0.0, 1.0], math.pi / 2)
+    cases = {
+        "unit body, +y past the Sun (review case)": (
+            UNIT,
+            1.0,
+            KeepOutCone.from_degrees([0, 1, 0], [-1, 1, 0.15], 30.0),
+        ),
+        "small satellite, no rate limit": (SMALLSAT, 0.05, KeepOutCone.from_degrees([0, 1, 0], SUN_N, 30.0)),
+    }
+    out = {}
+    for name, (body, tau, cone) in cases.items():
+        rows = []
+        for nodes, substeps in ((10, 1), (10, 2), (20, 2), (50, 2)):
+            kw = {"torque_max": tau, "keep_out": [cone], "nodes": nodes, "substeps": substeps, "refine": False}
+            margin = plan_slew(body, Q_ID, q90, **kw)
+            bare = plan_slew(body, Q_ID, q90, keep_out_margin=False, verify_tolerance=0.1, **kw)
+            rows.append(
+                {
+                    "nodes": nodes,
+                    "substeps": substeps,
+                    "duration_s": margin.duration,
+                    "duration_checkpoints_only_s": bare.duration,
+                    "margin_cost_rel": margin.duration / bare.duration - 1.0,
+                    "min_separation_deg": _fine_min_separation_deg(margin, cone),
+                    "min_separation_checkpoints_only_deg": _fine_min_separation_deg(bare, cone),
+                }
+            )
+        out[name] = rows
+    return {"case": "90 deg about z, 30 deg cone, minimum time, no refinement; separations re-simulated", **out}
+
+
+def rate_limited_coarse_grids() -> dict[str, Any]:
+    """A rate-limited slew on coarse grids: grid and refined time against the eigenaxis slew."""
+    q90 = quat.from_axis_angle([0.0, 0.0, 1.0], math.pi / 2)
+    rows = []
+    for nodes in (20, 30, 50):
+        plan = plan_slew(SMALLSAT, Q_ID, q90, torque_max=0.05, rate_max=math.radians(1.0), nodes=nodes)
+        rows.append(
+            {
+                "nodes": nodes,
+                "grid_duration_s": plan.grid_duration,
+                "duration_s": plan.duration,
+                "eigenaxis_s": plan.eigenaxis_duration,
+                "faster_than_eigenaxis": 1.0 - plan.duration / plan.eigenaxis_duration,
+                "refine_modes": plan.info["refinement"].get("modes"),
+                "refine_grid_converged": plan.info["refinement"].get("grid_converged"),
+                "warnings": plan.warnings,
+            }
+        )
+    return {"case": "small satellite, 90 deg about z, 0.05 N m, 1 deg/s limit, minimum time", "per_nodes": rows}
+
+
+def blocked_keep_out(repeats: int = 3) -> dict[str, Any]:
+    """Four 89 deg cones that leave the boresight two disconnected caps: time to reject."""
+    cones = [KeepOutCone.from_degrees([0, 1, 0], d, 89.0) for d in ([1, 0, 0], [-1, 0, 0], [0, 0, 1], [0, 0, -1])]
+    errors: list[InfeasibleSlewError] = []
+
+    def attempt() -> None:
+        try:
+            plan_slew(UNIT, Q_ID, Q_180X, torque_max=1.0, keep_out=cones, nodes=30)
+        except InfeasibleSlewError as exc:
+            errors.append(exc)
+
+    timing = cpu_time_median(attempt, repeats=repeats)
+    return {
+        "case": "unit body, 180 deg about x, boresight +y, 89 deg cones on +-x and +-z",
+        "cpu_s": timing,
+        "status": errors[-1].status if errors else None,
+        "cause": errors[-1].cause if errors else None,
+    }
+
+
 def run() -> dict[str, Any]:
-    return {"bilimoria_wie": published_benchmark(), "small_satellite": small_satellite()}
+    return {
+        "bilimoria_wie": published_benchmark(),
+        "small_satellite": small_satellite(),
+        "keep_out_margin": keep_out_margin(),
+        "rate_limited_coarse_grids": rate_limited_coarse_grids(),
+        "blocked_keep_out": blocked_keep_out(),
+    }
 
 
 if __name__ == "__main__":

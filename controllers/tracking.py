@@ -13,8 +13,12 @@ same natural-frequency/damping design as :class:`controllers.pd.QuaternionPD`.
 
 The reference is sampled at the controller period: attitude by slerp between
 plan nodes, rate linearly, torque held over each plan interval (the plan's own
-zero-order hold). Past the end of the plan the reference holds the final
-attitude at rest with no feedforward.
+zero-order hold). At the last node the reference is that node's attitude and
+rate; after it the reference holds the final attitude at rest with no
+feedforward. That is the right continuation of a rest-to-rest slew; a plan
+that ends with a nonzero rate (e.g. ``omegaf`` matching a scan) needs a
+following reference, otherwise the feedback brakes the body to rest on the
+final attitude.
 """
 
 from __future__ import annotations
@@ -48,6 +52,13 @@ class ReferenceTrajectory:
     torque : ndarray (n, 3)
         Feedforward torque [N m] held over ``[t[k], t[k+1])``; the last row is
         not used.
+
+    Notes
+    -----
+    :meth:`sample` at ``t[-1]`` returns the last node's attitude and rate;
+    after ``t[-1]`` it holds the final attitude at rest (zero rate, zero
+    feedforward), so a trajectory ending with a nonzero rate must be
+    followed by another reference.
     """
 
     t: NDArray[np.float64]
@@ -98,6 +109,24 @@ class ReferenceTrajectory:
         ``[t, t + window)``: held by a controller of that period it delivers
         exactly the plan's angular impulse per sample even where a plan
         switch falls between samples.
+
+        Before ``t[0]`` the reference is the first node (its attitude and
+        rate, no torque). At ``t[-1]`` it is the last node's attitude and
+        rate with no torque (the plan's torque is held over
+        ``[t[k], t[k+1])`` only); after ``t[-1]`` it is the final attitude
+        at rest: zero rate and torque (class Notes).
+
+        Parameters
+        ----------
+        t : array_like (n,)
+            Times [s] on the plan's clock.
+        window : float, optional
+            Averaging window of the torque [s].
+
+        Returns
+        -------
+        (ndarray (n, 4), ndarray (n, 3), ndarray (n, 3))
+            Attitude ``q_RN``, rate [rad/s] and torque [N m].
         """
         t = np.atleast_1d(as_float_array(t, "t"))
         if window is not None:
@@ -110,11 +139,13 @@ class ReferenceTrajectory:
         q = quat.slerp(self.q[k], self.q[k + 1], frac)
         omega = self.omega[k] + frac[:, None] * (self.omega[k + 1] - self.omega[k])
         torque = self.torque[k].copy()
-        after = t >= self.t[-1]
+        end = t >= self.t[-1]
+        after = t > self.t[-1]
         before = t < self.t[0]
-        q[after] = self.q[-1]
+        q[end] = self.q[-1]
+        omega[end] = self.omega[-1]
         omega[after] = 0.0
-        torque[after | before] = 0.0
+        torque[end | before] = 0.0
         q[before] = self.q[0]
         omega[before] = self.omega[0]
         return q, omega, torque
@@ -166,7 +197,8 @@ class TrackingController:
         self.feedback = QuaternionPD.from_bandwidth(body, wn, zeta, period, reference_fn=self.reference)
         self.period = self.feedback.period
 
-    def _samples(self, t: ArrayLike):
+    def _samples(self, t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Reference attitudes (n, 4), rates (n, 3) [rad/s] and period-averaged feedforward (n, 3) [N m]."""
         t_plan = np.atleast_1d(np.asarray(t, dtype=float)) - self.t_start
         q, omega, _ = self.trajectory.sample(t_plan)
         # Feedforward averaged over each controller period (ReferenceTrajectory.sample).

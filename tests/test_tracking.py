@@ -45,13 +45,29 @@ class TestReferenceTrajectory:
 
     def test_sampling_reproduces_nodes_and_holds_the_end(self):
         ref = open_loop_plan()
-        q, w, tau = ref.sample(ref.t[:-1])
-        np.testing.assert_allclose(np.abs(np.sum(q * ref.q[:-1], axis=1)), 1.0, atol=1e-12)
-        np.testing.assert_allclose(w, ref.omega[:-1], atol=1e-15)
-        np.testing.assert_array_equal(tau, ref.torque[:-1])
+        q, w, tau = ref.sample(ref.t)
+        np.testing.assert_allclose(np.abs(np.sum(q * ref.q, axis=1)), 1.0, atol=1e-12)
+        np.testing.assert_allclose(w, ref.omega, atol=1e-15)  # the last node included
+        np.testing.assert_array_equal(tau[:-1], ref.torque[:-1])
+        np.testing.assert_array_equal(tau[-1], np.zeros(3))  # no torque is held from the last node
         q_end, w_end, tau_end = ref.sample([ref.t[-1] + 10.0])
         assert quat.error_angle(q_end[0], ref.q[-1]) < 1e-12
         assert np.all(w_end == 0) and np.all(tau_end == 0)
+
+    def test_last_node_keeps_its_rate_and_the_hold_after_it_is_at_rest(self):
+        # A plan that ends spinning (0.1 rad/s about z): at its last node the reference is
+        # that node, rate included; after it the reference holds the final attitude at rest.
+        t = np.linspace(0.0, 2.0, 5)
+        w = np.array([0.0, 0.0, 0.1])
+        q = quat.from_axis_angle([0.0, 0.0, 1.0], 0.1 * t)
+        ref = ReferenceTrajectory(t=t, q=q, omega=np.tile(w, (5, 1)), torque=np.zeros((5, 3)))
+        q_s, w_s, tau_s = ref.sample([1.0, 2.0, 2.5])
+        np.testing.assert_array_equal(w_s[1], w)  # at t[-1]: the last node's rate, not 0
+        assert quat.error_angle(q_s[1], q[-1]) < 1e-12
+        np.testing.assert_allclose(w_s[0], w, atol=1e-15)
+        np.testing.assert_array_equal(w_s[2], np.zeros(3))  # after the end: at rest
+        assert quat.error_angle(q_s[2], q[-1]) < 1e-12
+        np.testing.assert_array_equal(tau_s, np.zeros((3, 3)))
 
     def test_mismatched_rows_are_rejected(self):
         ref = open_loop_plan()
