@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml | $(PY)
 	touch $(STAMP)
 
 demo: $(STAMP)
-	MPLBACKEND=Agg $(PY) examples/torque_free_cases.py --out figures/torque_free
+	MPLBACKEND=Agg $(VENV)/bin/attitude design --out attitude-report
 
 test: $(STAMP)
 	$(PY) -m ruff check .
