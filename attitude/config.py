@@ -653,13 +653,18 @@ class GyroConfig:
                 out[name] = np.array(value) if isinstance(value, tuple) else value
         return out
 
-    def build(self) -> Gyro:
-        """The :class:`Gyro` (converted to SI by :meth:`Gyro.from_datasheet`)."""
+    def build(self, sampling: str = "instantaneous") -> Gyro:
+        """The :class:`Gyro` (converted to SI by :meth:`Gyro.from_datasheet`).
+
+        ``sampling`` ("instantaneous" or "mean") chooses what a sample is:
+        the rate at the sample time (what the rate EKF models) or the mean
+        rate over the interval (an integrating gyro; what the MEKF models).
+        """
         if self.preset is not None:
-            return Gyro.preset(self.preset, period=self.period_s, **self.figures())
+            return Gyro.preset(self.preset, period=self.period_s, sampling=sampling, **self.figures())
         figures = self.figures()
         arw = figures.pop("arw_deg_per_sqrt_h")
-        return Gyro.from_datasheet(arw, period=self.period_s, **figures)
+        return Gyro.from_datasheet(arw, period=self.period_s, sampling=sampling, **figures)
 
 
 @dataclass(frozen=True)
@@ -931,9 +936,9 @@ class SpacecraftConfig:
         """The :class:`ReactionWheels`."""
         return self.wheels_config.build()
 
-    def gyro(self) -> Gyro:
-        """A fresh :class:`Gyro` (stateful: build one per run)."""
-        return self.gyro_config.build()
+    def gyro(self, sampling: str = "instantaneous") -> Gyro:
+        """A fresh :class:`Gyro` (stateful: build one per run); ``sampling`` as in :class:`Gyro`."""
+        return self.gyro_config.build(sampling)
 
     def star_tracker(self) -> StarTracker:
         """The :class:`StarTracker`, blinded by ``environment.sun_direction_N`` when given."""

@@ -149,7 +149,8 @@ def estimation_study(
         bias[r] = biases
         y[r, mask] = tracker.add_noise(q_true[mask], rng)
         q0[r] = quat.multiply(q_true[0], quat.from_rotation_vector(rng.standard_normal(3) * sig_a0))
-    mekf = MEKF.from_sensors(gyro, tracker, q0=q_true[0], P0=initial_covariance(sig_a0, sig_b0))
+    # The samples above are interval means (angle increments): the MEKF's gyro model.
+    mekf = MEKF.from_sensors(config.gyro(sampling="mean"), tracker, q0=q_true[0], P0=initial_covariance(sig_a0, sig_b0))
     res = run_mekf(mekf, t, g, y, tracker_mask=np.broadcast_to(mask, (runs, n)), q0=q0)
     mekf_nees = res.nees(q_true, bias)
     mekf_out, mekf_avg = _consistency("MEKF (attitude and gyro bias)", mekf_nees, runs)

@@ -327,7 +327,8 @@ def fly_slew(
     duration = math.ceil((slew_end + req.settling_time_s + hold) / tick) * tick
     reference = ref.resample(c.period_s) if hasattr(ref, "resample") else ref
     controller = TrackingController(reference, body, c.bandwidth_rad_per_s, c.damping, c.period_s, feedforward=ref)
-    gyro, tracker = config.gyro(), config.star_tracker()
+    # An integrating gyro (interval-mean samples): what the MEKF's propagation models.
+    gyro, tracker = config.gyro(sampling="mean"), config.star_tracker()
     q0 = req.slew.q_start()
     sig_a0 = math.radians(ATTITUDE_SIGMA0_DEG)
     sig_b0 = math.radians(gyro_bias_sigma_deg_per_h(config) / 3600.0)

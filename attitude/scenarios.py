@@ -213,10 +213,11 @@ class ClosedLoopScenario:
         figures = g.figures()
         if misalignment is not None:
             figures["misalignment_rad"] = np.asarray(figures.get("misalignment_rad", np.zeros(3))) + misalignment
+        # Interval-mean samples (an integrating gyro): what the MEKF models.
         if g.preset is not None:
-            return Gyro.preset(g.preset, period=g.period_s, **figures)
+            return Gyro.preset(g.preset, period=g.period_s, sampling="mean", **figures)
         arw = figures.pop("arw_deg_per_sqrt_h")
-        return Gyro.from_datasheet(arw, period=g.period_s, **figures)
+        return Gyro.from_datasheet(arw, period=g.period_s, sampling="mean", **figures)
 
     def __call__(self, params: Mapping[str, Any], rng: np.random.Generator) -> RunOutput:
         body = RigidBody(params["inertia"]) if "inertia" in params else self._nominal
