@@ -64,7 +64,7 @@ def rk4_step(derivative: Derivative, t: Any, x: Components, dt: Any) -> Componen
     k3 = derivative(t + half, [a + half * k for a, k in zip(x, k2)])
     k4 = derivative(t + dt, [a + dt * k for a, k in zip(x, k3)])
     sixth = dt / 6.0
-    return [a + sixth * (p + 2.0 * q + 2.0 * r + s) for a, p, q, r, s in zip(x, k1, k2, k3, k4)]
+    return [a + sixth * (p + 2.0 * (q + r) + s) for a, p, q, r, s in zip(x, k1, k2, k3, k4)]
 
 
 def normalize_quaternion_components(x: Components) -> Components:
@@ -81,8 +81,8 @@ def normalize_quaternion_components(x: Components) -> Components:
     list
         A new list: the unit quaternion followed by ``x[4:]`` unchanged.
     """
-    n = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2] + x[3] * x[3]) ** 0.5
-    return [x[0] / n, x[1] / n, x[2] / n, x[3] / n, *x[4:]]
+    inv = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2] + x[3] * x[3]) ** -0.5
+    return [x[0] * inv, x[1] * inv, x[2] * inv, x[3] * inv, *x[4:]]
 
 
 def quaternion_multiply_components(p: Components, q: Components) -> Components:

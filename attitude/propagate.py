@@ -44,6 +44,7 @@ from attitude._validation import as_float_array, check_positive, check_time_grid
 from attitude.integrators import (
     casadi_rk4_step,
     normalize_quaternion_components,
+    quaternion_multiply_components,
     rk4_step,
     rkmk4_step,
 )
@@ -548,6 +549,11 @@ def _propagate_fixed_numpy(
         Largest fixed step [s].
     method : {"rk4", "geometric"}
         RK4 with renormalisation, or RKMK4.
+    output_frame : (q_PB (..., 4), C_PB (..., 3, 3)), optional
+        When the state is propagated in the principal frame P: each stored
+        sample is mapped back to the body frame (``q_BN = q_PN ⊗ q_PB*``,
+        ``omega_B = C_PB^T omega_P``) while it is still in cache (the
+        initial row too: ``q0`` and ``omega0`` are then in P).
 
     Returns
     -------
@@ -597,13 +603,10 @@ def _propagate_fixed_numpy(
         chunk_body = body if inertia is None else RigidBody(inertia[sl])
         chunk_tq = tqf[sl] if kind == "const" else tqf[:, sl]
         n = sl.stop - sl.start
+        frame = None if principal is None else (principal[0][sl], principal[1][sl])
         q_out[:, sl], w_out[:, sl], steps = _run_fixed(
-            chunk_body, q0f[sl], w0f[sl], t, subs, kind, chunk_tq, (n,), method
+            chunk_body, q0f[sl], w0f[sl], t, subs, kind, chunk_tq, (n,), method, output_frame=frame
         )
-    if principal is not None:
-        q_pb, c_pb = principal
-        q_out = quat.multiply(q_out, quat.conjugate(q_pb))
-        w_out = np.einsum("nji,tnj->tni", c_pb, w_out)
     q = np.moveaxis(q_out.reshape(t.size, *batch, 4), 0, -2)
     w = np.moveaxis(w_out.reshape(t.size, *batch, 3), 0, -2)
     return q, w, _fixed_info(steps, subs)
@@ -624,6 +627,7 @@ def _run_fixed(
     tq: Any,
     batch: tuple[int, ...],
     method: str,
+    output_frame: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
     """Fixed-step time loop on structure-of-arrays components; outputs are time-first.
 
@@ -647,6 +651,11 @@ def _run_fixed(
         Batch shape.
     method : {"rk4", "geometric"}
         RK4 with renormalisation, or RKMK4.
+    output_frame : (q_PB (..., 4), C_PB (..., 3, 3)), optional
+        When the state is propagated in the principal frame P: each stored
+        sample is mapped back to the body frame (``q_BN = q_PN ⊗ q_PB*``,
+        ``omega_B = C_PB^T omega_P``) while it is still in cache (the
+        initial row too: ``q0`` and ``omega0`` are then in P).
 
     Returns
     -------
@@ -664,6 +673,16 @@ def _run_fixed(
     w_soa = np.empty((n, 3, *batch))
     q_soa[0] = np.moveaxis(q0, -1, 0)
     w_soa[0] = np.moveaxis(omega0, -1, 0)
+    if output_frame is not None:
+        q_pb, c_pb = output_frame
+        conj = [q_pb[..., 0], -q_pb[..., 1], -q_pb[..., 2], -q_pb[..., 3]]
+        c = [[np.ascontiguousarray(c_pb[..., i, j]) for j in range(3)] for i in range(3)]
+        row0 = quaternion_multiply_components([q_soa[0, i] for i in range(4)], conj)
+        for i in range(4):
+            q_soa[0, i] = row0[i]
+        w0_b = [c[0][j] * w_soa[0, 0] + c[1][j] * w_soa[0, 1] + c[2][j] * w_soa[0, 2] for j in range(3)]
+        for j in range(3):
+            w_soa[0, j] = w0_b[j]
     qc = [np.array(q0[..., i]) for i in range(4)]
     wc = [np.array(omega0[..., i]) for i in range(3)]
 
@@ -702,10 +721,14 @@ def _run_fixed(
                 xc = normalize_quaternion_components(rk4_step(derivative, ts, [*qc, *wc], h))
                 qc, wc = xc[:4], xc[4:]
             steps += 1
+        q_store, w_store = qc, wc
+        if output_frame is not None:
+            q_store = quaternion_multiply_components(qc, conj)
+            w_store = [c[0][j] * wc[0] + c[1][j] * wc[1] + c[2][j] * wc[2] for j in range(3)]
         for i in range(4):
-            q_soa[k + 1, i] = qc[i]
+            q_soa[k + 1, i] = q_store[i]
         for i in range(3):
-            w_soa[k + 1, i] = wc[i]
+            w_soa[k + 1, i] = w_store[i]
     return np.moveaxis(q_soa, 1, -1), np.moveaxis(w_soa, 1, -1), steps
 
 

@@ -381,9 +381,11 @@ class RigidBody:
         h_total = _matvec(self._I, omega)
         if h is not None:
             h_total = [a + b for a, b in zip(h_total, h)]
+        if torque is None:
+            # -omega x H written as H x omega: no separate negation.
+            return _matvec(self._I_inv, cross(h_total, omega))
         gyro = cross(omega, h_total)
-        net = [-g for g in gyro] if torque is None else [t - g for t, g in zip(torque, gyro)]
-        return _matvec(self._I_inv, net)
+        return _matvec(self._I_inv, [t - g for t, g in zip(torque, gyro)])
 
     def omega_dot(self, omega: Any, torque: Any = None, h: Any = None) -> Any:
         """Body angular acceleration [rad/s^2] from Euler's equations.
