@@ -57,9 +57,17 @@ integrated angle increments carries its quantisation residue over to the
 next sample; that is not modelled). Quantising before clipping keeps every
 output within ``+-saturation``.
 
-The true rate used is the engine's instantaneous rate at the sample time
-(the engine hands sensors the state at ``t``); the average of the true rate
-over the interval differs from it by ``O(dt * d omega/dt)``.
+The true part of a sample depends on :attr:`Gyro.sampling`. With
+``"instantaneous"`` (the default) it is the engine's rate at the sample time
+(the engine hands sensors the state at ``t``); with ``"mean"`` it is the mean
+rate over the interval since the previous sample, formed exactly from the
+attitude increment ``rotvec(q_prev* ⊗ q) / dt`` (a rate-integrating gyro's
+angle increment). The two differ by ``O(dt * d omega/dt)``: about ``dt/2``
+times the angular acceleration. :class:`estimation.rate_ekf.RateEKF` models
+the first, :class:`estimation.mekf.MEKF` the second, and their constructors
+from a :class:`Gyro` check it. :meth:`Gyro.measure_history` reproduces
+:meth:`Gyro.measure` bit for bit in both modes (it needs the attitude history
+for ``"mean"``).
 
 Star tracker model
 ------------------
@@ -81,6 +89,7 @@ half-angle about the boresight.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from typing import Any
 
@@ -95,8 +104,11 @@ __all__ = [
     "ARCSEC",
     "BIAS_INSTABILITY_FLOOR_FACTOR",
     "GYRO_PRESETS",
+    "GYRO_SAMPLING",
+    "SAMPLING_CHECKS",
     "STAR_TRACKER_PRESETS",
     "Gyro",
+    "GyroSamplingWarning",
     "StarTracker",
     "arw_from_sigma_v",
     "arw_to_sigma_v",
@@ -256,6 +268,12 @@ def _misalignment_matrix(value: ArrayLike) -> NDArray[np.float64]:
 
 #: Gyro sampling models (see :class:`Gyro`).
 GYRO_SAMPLING = ("instantaneous", "mean")
+#: What :meth:`Gyro.check_sampling` does on a mismatch.
+SAMPLING_CHECKS = ("raise", "warn", "ignore")
+
+
+class GyroSamplingWarning(UserWarning):
+    """A filter was built for a gyro whose ``sampling`` is not the one its model assumes."""
 
 
 class Gyro:
@@ -300,7 +318,8 @@ class Gyro:
         rate-integrating gyro's angle increment, as fibre-optic and
         ring-laser gyros deliver). :class:`estimation.rate_ekf.RateEKF`
         models the first, :class:`estimation.mekf.MEKF` the second (its
-        propagation holds each sample as the mean rate over the interval).
+        propagation holds each sample as the mean rate over the interval);
+        ``RateEKF.from_gyro`` and ``MEKF.from_sensors`` check the match.
         The first sample of a run reports the instantaneous rate.
 
     Raises
@@ -550,6 +569,53 @@ class Gyro:
             ]
         )
 
+    def check_sampling(self, expected: str, *, consumer: str, action: str = "raise") -> bool:
+        """Check that :attr:`sampling` is ``expected`` (what a filter's measurement model assumes).
+
+        Parameters
+        ----------
+        expected : {"instantaneous", "mean"}
+            The sampling the consumer models.
+        consumer : str
+            Who asks (named in the message), e.g. ``"RateEKF.from_gyro"``.
+        action : {"raise", "warn", "ignore"}
+            On a mismatch: raise ValueError, emit a :class:`GyroSamplingWarning`,
+            or do nothing.
+
+        Returns
+        -------
+        bool
+            True when the sampling matches.
+
+        Raises
+        ------
+        ValueError
+            On a mismatch with ``action="raise"``, or for an unknown
+            ``expected`` or ``action``.
+        """
+        if expected not in GYRO_SAMPLING:
+            raise ValueError(f"expected must be one of {GYRO_SAMPLING}, got {expected!r}")
+        if action not in SAMPLING_CHECKS:
+            raise ValueError(f"sampling_check must be one of {SAMPLING_CHECKS}, got {action!r}")
+        if self.sampling == expected:
+            return True
+        meaning = {
+            "instantaneous": "the rate at the sample time",
+            "mean": "the mean rate over the interval since the previous sample (an angle increment / dt)",
+        }
+        message = (
+            f"gyro.sampling must be {expected!r} for {consumer}, got {self.sampling!r} (gyro {self.name!r}): "
+            f"its measurement model takes a sample as {meaning[expected]}, while this gyro reports "
+            f"{meaning[self.sampling]}; they differ by about dt/2 times the angular acceleration, which the filter "
+            f"does not model. Build the gyro with sampling={expected!r}, or pass sampling_check='ignore' if the "
+            "samples you feed are not this gyro's own"
+        )
+        if action == "raise":
+            raise ValueError(message)
+        if action == "warn":
+            warnings.warn(message, GyroSamplingWarning, stacklevel=3)
+        return False
+
     # -- sampling -------------------------------------------------------------------
 
     @property
@@ -572,16 +638,19 @@ class Gyro:
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Farrenkopf errors of ``n`` consecutive samples (the one code path).
 
-        ``normals`` (n, 2, 3) holds ``N_u`` and ``N_v`` of each step;
-        ``dt_bias`` the bias propagation interval (0 for a first sample) and
-        ``dt_noise`` the averaging interval. Returns the rate errors (n, 3)
-        and the biases (n + 1, 3) starting with ``bias0``. Sequential sums
-        (``cumsum``) make a batch bit-identical to one-at-a-time calls.
+        ``normals`` (..., n, 2, 3) holds ``N_u`` and ``N_v`` of each step (a
+        leading runs axis is allowed, with ``bias0`` (..., 3));
+        ``dt_bias`` (n,) the bias propagation interval (0 for a first sample)
+        and ``dt_noise`` (n,) the averaging interval. Returns the rate errors
+        (..., n, 3) and the biases (..., n + 1, 3) starting with ``bias0``.
+        Sequential sums (``cumsum`` along the steps) make a batch bit-identical
+        to one-at-a-time calls.
         """
-        steps = (self.sigma_u * np.sqrt(dt_bias))[:, None] * normals[:, 0, :]
-        biases = np.cumsum(np.concatenate([bias0[None, :], steps], axis=0), axis=0)
+        steps = (self.sigma_u * np.sqrt(dt_bias))[:, None] * normals[..., 0, :]
+        start = np.broadcast_to(bias0[..., None, :], (*steps.shape[:-2], 1, 3))
+        biases = np.cumsum(np.concatenate([start, steps], axis=-2), axis=-2)
         white = np.sqrt(self.sigma_v**2 / dt_noise + self.sigma_u**2 * dt_noise / 12.0)
-        errors = 0.5 * (biases[:-1] + biases[1:]) + white[:, None] * normals[:, 1, :]
+        errors = 0.5 * (biases[..., :-1, :] + biases[..., 1:, :]) + white[:, None] * normals[..., 1, :]
         return errors, biases
 
     def ideal_output(self, omega_BN_B: ArrayLike) -> NDArray[np.float64]:
@@ -655,6 +724,7 @@ class Gyro:
         *,
         dt: float | None = None,
         bias0: ArrayLike | None = None,
+        n_runs: int | None = None,
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Rate errors of ``n_steps`` consecutive samples of a running gyro, vectorised.
 
@@ -669,30 +739,56 @@ class Gyro:
             Random source.
         dt : float, optional
             Sample interval [s] (default :attr:`period`).
-        bias0 : array_like (3,), optional
-            Bias before the first step [rad/s] (default the initial bias).
+        bias0 : array_like (3,) or (n_runs, 3), optional
+            Bias before the first step [rad/s] (default the initial bias); one
+            per run with ``n_runs``.
+        n_runs : int, optional
+            Number of independent runs drawn at once (a leading runs axis on
+            the outputs). Run ``r`` is bit-identical to the ``r``-th of
+            ``n_runs`` consecutive single-run calls with the same Generator
+            (and that run's ``bias0``): the normals are drawn in the same order.
 
         Returns
         -------
-        errors : ndarray (n_steps, 3)
+        errors : ndarray (n_steps, 3) or (n_runs, n_steps, 3)
             ``omega_meas - omega`` of each sample before scale factor,
             misalignment, quantisation and saturation [rad/s].
-        biases : ndarray (n_steps + 1, 3)
+        biases : ndarray (n_steps + 1, 3) or (n_runs, n_steps + 1, 3)
             Bias at the start and at each sample time [rad/s].
         """
         if not isinstance(n_steps, (int, np.integer)) or isinstance(n_steps, bool) or n_steps < 1:
             raise ValueError(f"n_steps must be a positive integer, got {n_steps!r}")
+        if n_runs is not None and (not isinstance(n_runs, (int, np.integer)) or isinstance(n_runs, bool) or n_runs < 1):
+            raise ValueError(f"n_runs must be a positive integer or None, got {n_runs!r}")
         dt = self._dt(dt)
-        b0 = self.initial_bias if bias0 is None else _per_axis(bias0, "bias0")
-        normals = as_generator(rng).standard_normal((int(n_steps), 2, 3))
+        if bias0 is None:
+            b0 = np.array(self.initial_bias, dtype=np.float64)
+        elif n_runs is None:
+            b0 = np.array(_per_axis(bias0, "bias0"), dtype=np.float64)
+        else:
+            b0 = as_float_array(bias0, "bias0")
+            if b0.shape not in ((), (3,), (int(n_runs), 3)):
+                raise ValueError(f"bias0 must be a scalar or have shape (3,) or ({n_runs}, 3), got shape {b0.shape}")
+            b0 = np.array(np.broadcast_to(b0, (int(n_runs), 3)), dtype=np.float64)
+        lead = () if n_runs is None else (int(n_runs),)
+        normals = as_generator(rng).standard_normal((*lead, int(n_steps), 2, 3))
         dts = np.full(int(n_steps), dt)
-        return self._errors(np.array(b0, dtype=np.float64), dts, dts, normals)
+        return self._errors(b0, dts, dts, normals)
 
-    def measure_history(self, t: ArrayLike, omega_BN_B: ArrayLike, rng: Any = None) -> NDArray[np.float64]:
+    def measure_history(
+        self, t: ArrayLike, omega_BN_B: ArrayLike, rng: Any = None, *, q_BN: ArrayLike | None = None
+    ) -> NDArray[np.float64]:
         """Samples [rad/s] of a whole true-rate history at once (a fresh run).
 
         Bit-identical to calling :meth:`measure` at each ``t[k]`` on a freshly
-        reset gyro with the same Generator; does not touch the gyro's state.
+        reset gyro with the same Generator (and, for ``sampling="mean"``, the
+        attitudes ``q_BN[k]``); does not touch the gyro's state.
+
+        With ``sampling="mean"`` the true part of sample ``k >= 1`` is the
+        mean rate over ``(t[k-1], t[k]]``, ``rotvec(q_BN[k-1]* ⊗ q_BN[k]) /
+        (t[k] - t[k-1])``, as :meth:`measure` computes it, so the attitude
+        history is required; the first sample is the instantaneous rate
+        ``omega_BN_B[0]``.
 
         Parameters
         ----------
@@ -702,6 +798,18 @@ class Gyro:
             True body rates at those times [rad/s].
         rng : Generator, int or None
             Random source.
+        q_BN : array_like (n, 4), optional
+            True attitudes at those times (unit quaternions). Required for
+            ``sampling="mean"``; checked and otherwise unused for
+            ``sampling="instantaneous"``.
+
+        Raises
+        ------
+        ValueError
+            For non-increasing times, mismatched shapes, non-finite input, a
+            non-unit ``q_BN``, or ``sampling="mean"`` without ``q_BN`` (the
+            interval-mean rate cannot be formed from the rates at the sample
+            times).
         """
         t = as_float_array(t, "t")
         if t.ndim != 1 or t.size < 1:
@@ -711,7 +819,23 @@ class Gyro:
         omega = check_vector(omega_BN_B, "omega_BN_B", 3)
         if omega.shape != (t.size, 3):
             raise ValueError(f"omega_BN_B must have shape ({t.size}, 3), got {omega.shape}")
+        q = None
+        if q_BN is not None:
+            q = quat.as_unit_quaternion(q_BN, "q_BN")
+            if q.shape != (t.size, 4):
+                raise ValueError(f"q_BN must have shape ({t.size}, 4), got {q.shape}")
         steps = np.diff(t)
+        if self.sampling == "mean":
+            if q is None:
+                raise ValueError(
+                    f"q_BN is required: gyro {self.name!r} has sampling='mean', whose samples are the mean rate "
+                    "rotvec(q[k-1]* ⊗ q[k]) / dt over each interval (what measure() reports), not the rate at the "
+                    "sample time; pass the attitude history q_BN (n, 4), or use a gyro with sampling='instantaneous'"
+                )
+            omega = omega.copy()
+            if t.size > 1:
+                increment = quat.multiply(quat.conjugate(q[:-1]), q[1:])
+                omega[1:] = quat.to_rotation_vector(increment) / steps[:, None]
         dt_bias = np.concatenate([[0.0], steps])
         dt_noise = np.concatenate([[self.period], steps])
         normals = as_generator(rng).standard_normal((t.size, 2, 3))

@@ -61,6 +61,38 @@ right Jacobian of SO(3) at ``delta_theta_hat``, differs from ``G`` by
 ``|delta_theta_hat|^2 / 6``). With an arcsecond tracker the two options
 differ by a relative ``|delta_theta_hat| / 2`` ~ 1e-5.
 
+Outliers: the innovation gate
+-----------------------------
+Before a tracker sample is applied, its NIS ``z^T S^-1 z`` (``S = P_att +
+R``) is compared with the gate ``chi2.ppf(gate_probability, 3)`` (default
+``gate_probability = 1 - 1e-9``: NIS 44.8, one good sample in 10^9
+rejected). Above it the sample is *rejected*: not applied (the step is the
+same as without a tracker sample), counted (``tracker_gated``), and its NIS
+is still recorded (:attr:`MEKF.nis_history`, ``MEKFResult.nis`` with
+``updated`` False, :attr:`MEKFResult.gated`) so the NIS health check sees
+it. A tracker quaternion 180 deg off (a sign or frame error in the sensor
+software) has a NIS of order ``pi**2 / sigma**2``, 1e8 and more, and would otherwise
+be pulled in through the linearised update (its residual is at the edge of
+the shortest-way rotation vector). ``gate_probability=None`` disables the
+gate. A filter that has truly lost track (a far too small ``P0``, a tracker
+misalignment of many sigmas) rejects every sample from then on; the NIS
+history shows it.
+
+A gyro sample with a component larger than ``max_gyro_rate`` (default
+``pi / period``: half a turn per sample, beyond which the attitude increment
+is ambiguous) cannot be a rate the filter can integrate: it is rejected
+like a NaN sample (the last valid sample is held) and counted
+(``gyro_rejected``). (Without this check a 1e200 rad/s sample crashed the
+propagation with "math domain error".)
+
+Gyro sampling: the propagation takes each gyro sample as the interval-mean
+rate, so :meth:`MEKF.from_sensors` checks that the
+:class:`attitude.sensors.Gyro` has ``sampling="mean"``: by default a
+:class:`attitude.sensors.GyroSamplingWarning`, with ``sampling_check="raise"``
+a ValueError, with ``"ignore"`` nothing. A point-sampled rate lags the
+interval mean by about ``dt/2`` times the angular acceleration, which the
+filter does not model.
+
 filterpy
 --------
 :class:`filterpy.kalman.KalmanFilter` carries the error state of one filter
@@ -106,6 +138,7 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
+from scipy import stats
 
 from attitude import quaternion as quat
 from attitude._validation import as_float_array, check_positive
@@ -115,6 +148,7 @@ from attitude.simulation import Estimate
 from estimation.consistency import NisHealth, nees, nis_health, plot_errors_with_bounds
 
 __all__ = [
+    "GATE_PROBABILITY",
     "MEKF",
     "MEKFResult",
     "initial_covariance",
@@ -131,6 +165,20 @@ _RESETS = ("first_order", "second_order")
 #: Accepted deviation of a tracker quaternion's norm from 1 (that of attitude.quaternion).
 _UNIT_TOL = quat.UNIT_NORM_TOLERANCE
 _DEG_PER_H = np.pi / 180.0 / 3600.0  # [rad/s] in one deg/h
+#: Default probability of the innovation gate (module docstring): chi-square(3) gate at NIS 44.8.
+GATE_PROBABILITY = 1.0 - 1e-9
+#: NIS recorded for a rejected sample whose NIS is not finite in float64.
+_NIS_CAP = 1e300
+_COUNT_KEYS = (
+    "steps",
+    "updates",
+    "tracker_missing",
+    "tracker_nan",
+    "tracker_gated",
+    "gyro_missing",
+    "gyro_nan",
+    "gyro_rejected",
+)
 
 
 # ---------------------------------------------------------------------------
@@ -370,11 +418,15 @@ class MEKF:
       than the gyro): propagate only;
     - a tracker sample with any NaN: skipped (no update), counted as
       ``tracker_nan``; it never reaches the state;
+    - a tracker sample whose NIS exceeds the innovation gate: rejected (no
+      update), counted as ``tracker_gated``, its NIS kept in the history
+      (module docstring);
     - a missing (None) or NaN gyro sample: the last valid gyro sample is held
       over the interval (zero rate before the first one); NaN samples are
-      counted as ``gyro_nan``. The held rate's error is not in ``Q``: a long
-      gyro outage makes the filter over-confident, which the counts and the
-      NIS reveal;
+      counted as ``gyro_nan``, samples with a component above
+      ``max_gyro_rate`` as ``gyro_rejected``. The held rate's error is not in
+      ``Q``: a long gyro outage makes the filter over-confident, which the
+      counts and the NIS reveal;
     - a time that goes backwards raises ValueError (a repeated time
       propagates nothing and may still update);
     - a finite tracker quaternion whose norm differs from 1 by more than
@@ -411,13 +463,19 @@ class MEKF:
     gyro_name, tracker_name : str
         Keys of the gyro and tracker samples in the measurements (the
         sensors' ``name``).
+    gate_probability : float or None
+        Probability of the innovation gate, in (0, 1) (module docstring);
+        default ``1 - 1e-9``; None disables the gate.
+    max_gyro_rate : float, optional
+        Largest plausible gyro component [rad/s] (> 0); default
+        ``pi / period``. Larger samples are rejected like NaN ones.
 
     Raises
     ------
     ValueError
         For non-positive or non-finite noise figures or period, a covariance
         that is not symmetric positive definite, a non-unit ``q0``, an
-        unknown reset option or empty names.
+        unknown reset option, empty names or invalid gate settings.
     """
 
     def __init__(
@@ -434,6 +492,8 @@ class MEKF:
         covariance_reset: str = "first_order",
         gyro_name: str = "gyro",
         tracker_name: str = "star_tracker",
+        gate_probability: float | None = GATE_PROBABILITY,
+        max_gyro_rate: float | None = None,
     ) -> None:
         self.sigma_v = _positive_scalar(sigma_v, "sigma_v")
         su = as_float_array(sigma_u, "sigma_u")
@@ -460,6 +520,20 @@ class MEKF:
         self.tracker_name = _check_name(tracker_name, "tracker_name")
         if t0 is not None:
             t0 = float(as_float_array(t0, "t0"))
+        if gate_probability is None:
+            self.gate_probability = None
+            #: The NIS gate ``chi2.ppf(gate_probability, 3)`` (inf when disabled).
+            self.gate_threshold = math.inf
+        else:
+            gp = as_float_array(gate_probability, "gate_probability")
+            if gp.ndim != 0 or not 0.0 < float(gp) < 1.0:
+                raise ValueError(f"gate_probability must be a scalar in (0, 1) or None, got {gp.tolist()!r}")
+            self.gate_probability = float(gp)
+            self.gate_threshold = float(stats.chi2.ppf(self.gate_probability, 3))
+        #: Largest accepted gyro component [rad/s].
+        self.max_gyro_rate = (
+            math.pi / self.period if max_gyro_rate is None else _positive_scalar(max_gyro_rate, "max_gyro_rate")
+        )
 
         self._q = q.copy()
         self._b = np.array(np.broadcast_to(b, (3,)), dtype=np.float64)
@@ -472,11 +546,12 @@ class MEKF:
         self._t: float | None = t0
         self._last_gyro: NDArray[np.float64] | None = None
         self._last_nis = np.nan
+        self._last_gated = False
+        self._last_innovation = np.full(3, np.nan)
+        self._last_S = np.full((3, 3), np.nan)
         self._nis_t: list[float] = []
         self._nis: list[float] = []
-        self._counts = dict.fromkeys(
-            ("steps", "updates", "tracker_missing", "tracker_nan", "gyro_missing", "gyro_nan"), 0
-        )
+        self._counts = dict.fromkeys(_COUNT_KEYS, 0)
 
     @classmethod
     def from_sensors(
@@ -487,6 +562,7 @@ class MEKF:
         q0: ArrayLike,
         P0: ArrayLike,
         bias0: ArrayLike = 0.0,
+        sampling_check: str = "warn",
         **kwargs: Any,
     ) -> MEKF:
         """A filter matched to a gyro and a tracker: their noise figures, period and names.
@@ -496,7 +572,20 @@ class MEKF:
         and ``tracker_name`` from ``tracker``; other keywords go to the
         constructor. A gyro with ``sigma_u = 0`` (constant bias) is refused
         (see the class); build the filter with a small ``sigma_u`` instead.
+
+        The propagation takes a gyro sample as the mean rate over the
+        interval, so ``gyro.sampling`` must be ``"mean"``; on a mismatch
+        ``sampling_check`` ``"warn"`` (default) emits a
+        :class:`attitude.sensors.GyroSamplingWarning`, ``"raise"`` raises
+        ValueError and ``"ignore"`` accepts it (for samples that are not
+        this gyro's own, e.g. interval-mean rates generated separately).
+        Another object with ``sigma_v``, ``sigma_u``, ``period`` and ``name``
+        is accepted unchecked, as before.
         """
+        if isinstance(gyro, Gyro):
+            gyro.check_sampling("mean", consumer="MEKF.from_sensors", action=sampling_check)
+        elif not all(hasattr(gyro, a) for a in ("sigma_v", "sigma_u", "period", "name")):
+            raise ValueError(f"gyro must be an attitude.sensors.Gyro (or have its noise figures), got {gyro!r}")
         return cls(
             gyro.sigma_v,
             gyro.sigma_u,
@@ -547,12 +636,12 @@ class MEKF:
 
     @property
     def counts(self) -> dict[str, int]:
-        """Steps, updates, missing tracker samples, skipped NaN tracker/gyro samples, missing gyro samples."""
+        """Steps, updates, missing/NaN/gated tracker samples, missing/NaN/rejected gyro samples."""
         return dict(self._counts)
 
     @property
     def nis_history(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Times [s] and NIS values of every tracker update so far."""
+        """Times [s] and NIS values of every tracker sample tested so far (applied or gated)."""
         return np.array(self._nis_t), np.array(self._nis)
 
     def copy(self) -> MEKF:
@@ -596,7 +685,8 @@ class MEKF:
             Gyro sample at ``t`` [rad/s]: the mean rate since the previous
             step (class docstring for None and NaN).
         tracker : array_like (4,), optional
-            Star tracker attitude ``q_BN`` at ``t`` (None: no sample; NaN: skipped).
+            Star tracker attitude ``q_BN`` at ``t`` (None: no sample; NaN:
+            skipped; above the innovation gate: rejected and counted).
 
         Returns
         -------
@@ -621,6 +711,7 @@ class MEKF:
         if rate is not None:
             self._last_gyro = rate
         self._last_nis = np.nan
+        self._last_gated = False
         if q_meas is not None:
             self._correct(q_meas, t)
         self._counts["steps"] += 1
@@ -635,6 +726,9 @@ class MEKF:
             raise ValueError(f"gyro sample must have shape (3,) [rad/s], got shape {g.shape}")
         if not np.all(np.isfinite(g)):
             self._counts["gyro_nan"] += 1
+            return None
+        if np.abs(g).max() > self.max_gyro_rate:
+            self._counts["gyro_rejected"] += 1
             return None
         return g.copy()
 
@@ -666,8 +760,20 @@ class MEKF:
     def _correct(self, q_meas: NDArray[np.float64], t: float) -> None:
         kf = self._kf
         z = _log_rotvec(_qmul(_conj(self._q), q_meas))
+        # The gate, before anything is applied (the S filterpy's update would form: H P H^T + R).
+        s = kf.P[:3, :3] + kf.R
+        nis_gate = float(z @ np.linalg.inv(s) @ z)
+        if not nis_gate <= self.gate_threshold:
+            nis_gate = nis_gate if nis_gate <= _NIS_CAP else _NIS_CAP
+            self._last_nis, self._last_gated = nis_gate, True
+            self._last_innovation, self._last_S = z, s
+            self._nis_t.append(t)
+            self._nis.append(nis_gate)
+            self._counts["tracker_gated"] += 1
+            return
         kf.update(z)
         nis_value = float(kf.y @ kf.SI @ kf.y)
+        self._last_innovation, self._last_S = np.array(kf.y, dtype=np.float64), np.array(kf.S, dtype=np.float64)
         dtheta, db = kf.x[:3].copy(), kf.x[3:].copy()
         self._q = _compose_one(self._q, dtheta)
         self._b = self._b + db
@@ -688,17 +794,35 @@ class MEKF:
     def log(self) -> dict[str, Any]:
         """Values the engine logs at each estimator step.
 
-        ``bias`` (3,) [rad/s], ``P_diag`` (6,), ``nis`` (NaN without an
-        update at this step) and the running counts (``updates``,
-        ``tracker_nan``, ``gyro_nan``, ``tracker_missing``, ``gyro_missing``).
+        ``bias`` (3,) [rad/s], ``P_diag`` (6,), ``nis`` (NaN without a
+        tracker sample at this step; the rejected value for a gated one),
+        ``gated`` (0/1 this step) and the running counts (``updates``,
+        ``tracker_nan``, ``tracker_gated``, ``gyro_nan``, ``gyro_rejected``,
+        ``tracker_missing``, ``gyro_missing``).
         """
-        out: dict[str, Any] = {"bias": self._b.copy(), "P_diag": np.diag(self._kf.P).copy(), "nis": self._last_nis}
-        for key in ("updates", "tracker_nan", "gyro_nan", "tracker_missing", "gyro_missing"):
+        out: dict[str, Any] = {
+            "bias": self._b.copy(),
+            "P_diag": np.diag(self._kf.P).copy(),
+            "nis": self._last_nis,
+            "gated": float(self._last_gated),
+        }
+        for key in (
+            "updates",
+            "tracker_nan",
+            "tracker_gated",
+            "gyro_nan",
+            "gyro_rejected",
+            "tracker_missing",
+            "gyro_missing",
+        ):
             out[key] = float(self._counts[key])
         return out
 
     def nis_health(self, window: int = 50, confidence: float = 0.999) -> NisHealth:
-        """Moving-window NIS check of the updates so far (:func:`estimation.consistency.nis_health`, 3 dof)."""
+        """Moving-window NIS check of the tracker samples so far, gated ones included (3 dof).
+
+        See :func:`estimation.consistency.nis_health`.
+        """
         t, values = self.nis_history
         return nis_health(values, 3, window, confidence, t=t)
 
@@ -727,13 +851,16 @@ class MEKFResult(ResultIO):
     P : ndarray (n, 6, 6)
         Error covariances of ``[delta_theta, delta_b]`` after each step.
     innovation : ndarray (n, 3)
-        Tracker residuals ``rotvec(q_hat_prior* ⊗ q_meas)`` [rad] (NaN without update).
+        Tracker residuals ``rotvec(q_hat_prior* ⊗ q_meas)`` [rad] (NaN
+        without a tracker sample; present for a gated one).
     innovation_covariance : ndarray (n, 3, 3)
-        Their covariances ``S = H P_prior H^T + R`` [rad^2] (NaN without update).
+        Their covariances ``S = H P_prior H^T + R`` [rad^2] (NaN without a sample).
     nis : ndarray (n,)
-        Normalised innovation squared (NaN without update).
+        Normalised innovation squared of each tracker sample, applied or
+        gated (NaN without one).
     updated : ndarray (n,) of bool
-        A tracker update happened at the step.
+        A tracker update happened at the step (see :attr:`gated` for the
+        samples the innovation gate rejected).
     tracker_nan, gyro_nan : ndarray (n,) of bool
         A NaN tracker (gyro) sample was skipped at the step.
     info : dict
@@ -757,6 +884,11 @@ class MEKFResult(ResultIO):
     def n_runs(self) -> int | None:
         """Number of runs of a batch result (None for a single run)."""
         return None if self.q.ndim == 2 else int(self.q.shape[0])
+
+    @property
+    def gated(self) -> NDArray[np.bool_]:
+        """Steps (..., n) whose tracker sample the innovation gate rejected (a NIS but no update)."""
+        return ~np.isnan(self.nis) & ~self.updated
 
     @property
     def sigma(self) -> NDArray[np.float64]:
@@ -856,9 +988,12 @@ def run_mekf(
     gyro_meas : array_like (n, 3) or (n_runs, n, 3)
         Gyro samples [rad/s]; ``gyro_meas[..., k, :]`` is the mean rate over
         ``(t[k-1], t[k]]`` (row 0 only sets the first rate estimate). Rows
-        with NaN are skipped, counted, and the last valid sample is held.
+        with NaN, or with a component above the filter's ``max_gyro_rate``,
+        are skipped, counted, and the last valid sample is held.
     tracker_meas : array_like (n, 4) or (n_runs, n, 4)
-        Tracker quaternions ``q_BN``; all-NaN rows mean "no sample".
+        Tracker quaternions ``q_BN``; all-NaN rows mean "no sample". Samples
+        above the innovation gate are rejected and counted (``info["gated"]``,
+        :attr:`MEKFResult.gated`).
     tracker_mask : array_like (n,) or (n_runs, n) of bool, optional
         True where the tracker sampled; a NaN anywhere in such a row is a
         skipped (counted) NaN sample. Default: the rows that are not all NaN.
@@ -940,10 +1075,13 @@ def run_mekf(
     wall = time.perf_counter() - start
     if not batch:
         out = {k: v[0] for k, v in out.items()}
+    gyro_rejected = out.pop("gyro_rejected")
     counts = {
         "updates": np.sum(out["updated"], axis=-1),
         "tracker_nan": np.sum(out["tracker_nan"], axis=-1),
         "gyro_nan": np.sum(out["gyro_nan"], axis=-1),
+        "gated": np.sum(~np.isnan(out["nis"]) & ~out["updated"], axis=-1),
+        "gyro_rejected": np.sum(gyro_rejected, axis=-1),
     }
     info: dict[str, Any] = {k: v.tolist() for k, v in counts.items()}
     info.update(
@@ -954,6 +1092,9 @@ def run_mekf(
             "covariance_reset": mekf.covariance_reset,
             "sigma_v": mekf.sigma_v,
             "sigma_u": mekf.sigma_u,
+            "gate_probability": mekf.gate_probability,
+            "gate_threshold": None if mekf.gate_probability is None else mekf.gate_threshold,
+            "max_gyro_rate": mekf.max_gyro_rate,
             "wall_time_s": wall,
             "filter_steps_per_s": runs * n / wall if wall > 0 else float("inf"),
         }
@@ -973,6 +1114,7 @@ def _empty_histories(runs: int, n: int) -> dict[str, NDArray]:
         "updated": np.zeros((runs, n), dtype=bool),
         "tracker_nan": np.zeros((runs, n), dtype=bool),
         "gyro_nan": np.zeros((runs, n), dtype=bool),
+        "gyro_rejected": np.zeros((runs, n), dtype=bool),
     }
 
 
@@ -990,16 +1132,18 @@ def _run_steps(mekf, t, g, y, mask, qs, bs) -> dict[str, NDArray]:
             tracker = y[r, k] if mask[r, k] else None
             if tracker is not None and not np.all(np.isfinite(tracker)):
                 out["tracker_nan"][r, k] = True
-            updates_before = f._counts["updates"]
+            before = (f._counts["updates"], f._counts["tracker_gated"], f._counts["gyro_rejected"])
             est = f.step(float(t[k]), gk, tracker)
             out["q"][r, k] = est.q
             out["bias"][r, k] = f._b
             out["omega"][r, k] = est.omega
             out["P"][r, k] = f._kf.P
-            if f._counts["updates"] > updates_before:
-                out["updated"][r, k] = True
-                out["innovation"][r, k] = f._kf.y
-                out["innovation_covariance"][r, k] = f._kf.S
+            out["gyro_rejected"][r, k] = f._counts["gyro_rejected"] > before[2]
+            applied = f._counts["updates"] > before[0]
+            if applied or f._counts["tracker_gated"] > before[1]:
+                out["updated"][r, k] = applied
+                out["innovation"][r, k] = f._last_innovation
+                out["innovation_covariance"][r, k] = f._last_S
                 out["nis"][r, k] = f._last_nis
     return out
 
@@ -1015,8 +1159,11 @@ def _run_vectorized(mekf, t, g, y, mask, qs, bs) -> dict[str, NDArray]:
     last = np.zeros((runs, 3)) if mekf._last_gyro is None else np.broadcast_to(mekf._last_gyro, (runs, 3)).copy()
     t_prev = mekf.t
     second = mekf.covariance_reset == "second_order"
-    gyro_ok = np.all(np.isfinite(g), axis=-1)
-    out["gyro_nan"][:] = ~gyro_ok
+    finite = np.all(np.isfinite(g), axis=-1)
+    out["gyro_nan"][:] = ~finite
+    largest = np.max(np.abs(np.where(finite[..., None], g, 0.0)), axis=-1)
+    out["gyro_rejected"][:] = finite & (largest > mekf.max_gyro_rate)
+    gyro_ok = finite & ~out["gyro_rejected"]
     y_ok = np.all(np.isfinite(y), axis=-1)
     do_update = mask & y_ok
     out["tracker_nan"][:] = mask & ~y_ok
@@ -1032,14 +1179,23 @@ def _run_vectorized(mekf, t, g, y, mask, qs, bs) -> dict[str, NDArray]:
             P = phi @ P @ np.swapaxes(phi, -1, -2) + _process_noise(mekf.sigma_v**2, mekf.sigma_u**2, dt)
         t_prev = tk
         last = rate
-        sel = np.nonzero(do_update[:, k])[0]
+        tested = np.nonzero(do_update[:, k])[0]
+        if tested.size:
+            qm = y[tested, k] / np.sqrt(np.sum(y[tested, k] ** 2, axis=-1, keepdims=True))
+            z_all = _log_rotvec(_qmul(_conj(q[tested]), qm))
+            S_all = P[tested, :3, :3] + R
+            SI_all = np.linalg.inv(S_all)
+            nis_all = np.einsum("ri,rij,rj->r", z_all, SI_all, z_all)
+            out["innovation"][tested, k] = z_all
+            out["innovation_covariance"][tested, k] = S_all
+            out["nis"][tested, k] = np.where(nis_all <= _NIS_CAP, nis_all, _NIS_CAP)
+            accept = nis_all <= mekf.gate_threshold  # the innovation gate (NaN is rejected too)
+            sel, z, SI = tested[accept], z_all[accept], SI_all[accept]
+        else:
+            sel = tested
         if sel.size:
-            qm = y[sel, k] / np.sqrt(np.sum(y[sel, k] ** 2, axis=-1, keepdims=True))
-            z = _log_rotvec(_qmul(_conj(q[sel]), qm))
             Ps = P[sel]
             pht = Ps[:, :, :3]
-            S = Ps[:, :3, :3] + R
-            SI = np.linalg.inv(S)
             K = pht @ SI
             x = (K @ z[..., None])[..., 0]
             ikh = eye6 - K @ _H
@@ -1052,9 +1208,6 @@ def _run_vectorized(mekf, t, g, y, mask, qs, bs) -> dict[str, NDArray]:
                 gm[:, :3, :3] -= 0.5 * _skew(dtheta)
                 Pn = gm @ Pn @ np.swapaxes(gm, -1, -2)
             P[sel] = 0.5 * (Pn + np.swapaxes(Pn, -1, -2))
-            out["innovation"][sel, k] = z
-            out["innovation_covariance"][sel, k] = S
-            out["nis"][sel, k] = np.einsum("ri,rij,rj->r", z, SI, z)
             out["updated"][sel, k] = True
         out["q"][:, k] = q
         out["bias"][:, k] = b

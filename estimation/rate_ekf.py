@@ -73,8 +73,42 @@ dominates at its sample rate (the tests show the uncorrelated filter is then
 over-confident and the exact one is not).
 
 The gyro's scale factor, misalignment, quantisation and saturation are not
-modelled (calibrate them out first); the simulated gyro samples the
-instantaneous true rate, as the filter assumes.
+modelled (calibrate them out first). The model takes a sample as the rate at
+the sample time: :meth:`RateEKF.from_gyro` checks that the
+:class:`attitude.sensors.Gyro` has ``sampling="instantaneous"`` (an
+interval-mean sample lags it by about ``dt/2`` times the angular
+acceleration, which the filter does not model: on the 5 deg/s tumble of
+``examples/test_estimator.py`` that lag is as large as the white noise of
+one sample, and the average NEES grows from 6 to about 500). The
+check warns (:class:`attitude.sensors.GyroSamplingWarning`) by default,
+raises with ``sampling_check="raise"`` and is silenced with ``"ignore"``.
+
+Outliers: the innovation gate
+-----------------------------
+Before a sample is applied, its NIS ``nu^T S^-1 nu`` is compared with the
+gate ``chi2.ppf(gate_probability, 3)`` (default ``gate_probability = 1 -
+1e-9``, a gate at NIS 44.8: a consistent filter rejects one good sample in
+10^9). Above it (or when the NIS is not finite) the sample is *rejected*:
+not applied, the step predicts only, exactly as if the sample were missing.
+It is counted (:attr:`RateEKF.n_gated`), reported (``StepReport.gated``,
+:meth:`RateEKF.log`, ``RateEKFResult.gated`` and ``info["n_gated"]``) and its
+NIS still feeds the health checks below (an exceedance of the per-step
+threshold, and the window mean; a NIS too large for float64 is recorded as
+1e300). Without the gate, one +10 deg/s spike on a tactical gyro (NIS 2e7)
+is taken at face value and throws the bias estimate off by 30 to 45 sigma
+for the rest of the run (the tests). ``gate_probability=None`` disables the
+gate.
+
+A gate has the classical failure mode: a filter that has really lost track
+(e.g. a far too small ``P0``) rejects every sample from then on. It does
+not hide it: every rejected sample is an NIS exceedance, so the health flag
+rises after ``nis_run_length`` of them.
+
+Numerical breakdown: a state or covariance that becomes non-finite (only
+possible with the gate disabled and absurd input, e.g. a 1e5 rad/s sample,
+whose estimate then makes Euler's equations overflow) raises ValueError at
+the step where it happens, naming the time and the cause; the filter is left
+as it was before that step. filterpy is never handed a non-finite matrix.
 
 Observability: what a gyro alone can tell
 -----------------------------------------
@@ -177,10 +211,14 @@ from attitude.sensors import Gyro
 from attitude.simulation import Estimate
 from estimation.consistency import nees, nis_health, plot_errors_with_bounds
 
-__all__ = ["NOISE_MODELS", "RateEKF", "RateEKFResult", "StepReport", "run_rate_ekf"]
+__all__ = ["GATE_PROBABILITY", "NOISE_MODELS", "RateEKF", "RateEKFResult", "StepReport", "run_rate_ekf"]
 
 #: Gyro measurement-noise treatments (see the module docstring).
 NOISE_MODELS = ("farrenkopf", "uncorrelated")
+#: Default probability of the innovation gate (module docstring): chi-square(3) gate at NIS 44.8.
+GATE_PROBABILITY = 1.0 - 1e-9
+#: NIS recorded for a rejected sample whose NIS is not finite in float64 (keeps window sums finite).
+_NIS_CAP = 1e300
 
 _DIM_Z = 3
 
@@ -301,15 +339,19 @@ class StepReport:
     nan_skipped : bool
         A gyro sample was present but non-finite, and skipped.
     innovation : ndarray (3,)
-        ``z - h(x_prior)`` [rad/s] (NaN without an update).
+        ``z - h(x_prior)`` [rad/s] (NaN without a sample; present for a
+        gated one).
     innovation_covariance : ndarray (3, 3)
-        Its covariance ``S`` [rad^2/s^2] (NaN without an update).
+        Its covariance ``S`` [rad^2/s^2] (NaN without a sample).
     nis : float
-        ``nu^T S^-1 nu`` (NaN without an update).
+        ``nu^T S^-1 nu`` (NaN without a sample; for a gated sample the value
+        that was rejected, capped at 1e300).
     nis_exceeds : bool
         The NIS is above the per-step chi-square threshold.
     health_flag : bool
         A run of exceedances or an out-of-band NIS window is in progress.
+    gated : bool
+        A finite sample was rejected by the innovation gate (not applied).
     """
 
     t: float
@@ -320,6 +362,11 @@ class StepReport:
     nis: float
     nis_exceeds: bool
     health_flag: bool
+    gated: bool = False
+
+
+class _Breakdown(Exception):
+    """The state or covariance would become non-finite (turned into a ValueError by :meth:`RateEKF.step`)."""
 
 
 # ---------------------------------------------------------------------------
@@ -430,6 +477,10 @@ class RateEKF:
     health_confidence : float
         Two-sided confidence of the window band, in (0, 1) (see the module
         docstring for the false-alarm rates).
+    gate_probability : float or None
+        Probability of the innovation gate, in (0, 1): a sample whose NIS
+        exceeds ``chi2.ppf(gate_probability, 3)`` is rejected (module
+        docstring). Default ``1 - 1e-9``; None disables the gate.
 
     Raises
     ------
@@ -438,7 +489,7 @@ class RateEKF:
         ``sigma_u`` or ``torque_noise``, a ``P0`` that is not symmetric
         positive definite, a non-finite ``x0``, mismatched shapes, an
         unknown ``noise_model``, ``sigma_u > 0`` with ``estimate_bias``
-        False, or invalid health settings.
+        False, or invalid health or gate settings.
 
     Attributes
     ----------
@@ -453,6 +504,10 @@ class RateEKF:
     n_updates, n_nan_skipped, n_wheel_nan_skipped, n_attitude_nan_skipped, n_nis_exceeds : int
         Counters of gyro updates, skipped non-finite gyro samples, wheel
         momenta and attitude samples, and per-step NIS exceedances.
+    n_gated : int
+        Gyro samples rejected by the innovation gate.
+    gate_threshold : float
+        The NIS gate ``chi2.ppf(gate_probability, 3)`` (inf when disabled).
     """
 
     def __init__(
@@ -480,6 +535,7 @@ class RateEKF:
         nis_run_length: int = 3,
         nis_window: int = 50,
         health_confidence: float = 0.99999,
+        gate_probability: float | None = GATE_PROBABILITY,
     ) -> None:
         if not isinstance(body, RigidBody) or body.batch_shape:
             raise ValueError(f"body must be a single RigidBody, got {body!r}")
@@ -566,9 +622,17 @@ class RateEKF:
         lo, hi = stats.chi2.ppf([a / 2.0, 1.0 - a / 2.0], _DIM_Z * self.nis_window) / self.nis_window
         #: Band of the mean NIS of a window (``chi2_band(3, nis_window, health_confidence)``).
         self.nis_window_band = (float(lo), float(hi))
+        if gate_probability is None:
+            self.gate_probability = None
+            self.gate_threshold = math.inf
+        else:
+            self.gate_probability = _open_unit(gate_probability, "gate_probability")
+            self.gate_threshold = float(stats.chi2.ppf(self.gate_probability, _DIM_Z))
         self._recent_nis: deque[float] = deque(maxlen=self.nis_window)
         self._run = 0
         self.n_updates = 0
+        self.n_gated = 0
+        self._largest_applied_nis: tuple[float | None, float] = (None, -math.inf)  # (time [s], NIS)
         self.n_nan_skipped = 0
         self.n_wheel_nan_skipped = 0
         self.n_nis_exceeds = 0
@@ -585,14 +649,21 @@ class RateEKF:
     # -- construction --------------------------------------------------------------
 
     @classmethod
-    def from_gyro(cls, body: RigidBody, gyro: Gyro, **kwargs: Any) -> RateEKF:
+    def from_gyro(cls, body: RigidBody, gyro: Gyro, *, sampling_check: str = "warn", **kwargs: Any) -> RateEKF:
         """A filter for a :class:`attitude.sensors.Gyro`: its ``sigma_v``, ``sigma_u``, ``period`` and name.
 
-        ``gyro.sigma_v`` must be > 0. Keywords as for the class
+        ``gyro.sigma_v`` must be > 0. The filter models a sample as the rate
+        at the sample time, so ``gyro.sampling`` must be
+        ``"instantaneous"`` (module docstring); ``sampling_check`` says what
+        a mismatch does: ``"warn"`` (default, a
+        :class:`attitude.sensors.GyroSamplingWarning`), ``"raise"``
+        (ValueError) or ``"ignore"`` (for samples that are not this gyro's
+        own, e.g. generated separately). Other keywords as for the class
         (``torque_noise`` and ``P0`` are required).
         """
         if not isinstance(gyro, Gyro):
             raise ValueError(f"gyro must be an attitude.sensors.Gyro, got {gyro!r}")
+        gyro.check_sampling("instantaneous", consumer="RateEKF.from_gyro", action=sampling_check)
         kwargs.setdefault("gyro_name", gyro.name)
         return cls(body, gyro.sigma_v, gyro.sigma_u, gyro.period, **kwargs)
 
@@ -668,6 +739,8 @@ class RateEKF:
         """``F`` and ``Q`` of one substep, linearised at the current estimate (Van Loan)."""
         wh = np.concatenate([self.kf.x[:3], inp.h0])
         a = self._a0 + (self._a_coeff @ wh).reshape((3, 3), order="F")
+        if not np.all(np.isfinite(a)):
+            raise _Breakdown("the Jacobian of Euler's equations at the estimate is not finite")
         phi, q_rate = _van_loan(a, self._g_rate, inp.dt)
         n = self.dim_x
         f = np.eye(n)
@@ -690,13 +763,16 @@ class RateEKF:
             kf.F, kf.Q = self._transition(inp)  # filterpy's predict uses F and Q as they stand
             kf.predict(u=inp)
             kf.P = 0.5 * (kf.P + kf.P.T)
+            if not (np.all(np.isfinite(kf.x)) and np.all(np.isfinite(kf.P))):
+                raise _Breakdown("the prediction (Euler's equations from the current estimate) overflowed")
 
     # -- update -----------------------------------------------------------------------
 
     def _hx(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         return x[:3] + x[3:6] if self.estimate_bias else x[:3] + self.known_bias
 
-    def _update(self, z: NDArray[np.float64], t: float) -> tuple[float, NDArray, NDArray]:
+    def _update(self, z: NDArray[np.float64], t: float) -> tuple[float, NDArray, NDArray, bool]:
+        """Gate, then (if accepted) update; returns ``(nis, innovation, S, accepted)``."""
         kf = self.kf
         h = self._H
         r = kf.R
@@ -710,17 +786,32 @@ class RateEKF:
                 try:
                     ell = np.linalg.solve(kf.P, m).T  # P is symmetric: (P^-1 M)^T = M^T P^-1
                 except np.linalg.LinAlgError as exc:
-                    raise ValueError(f"the prior covariance at t = {t!r} s is singular (numerical breakdown)") from exc
+                    raise _Breakdown("the prior covariance is singular") from exc
                 h = h + ell
                 r = r - ell @ m
                 r = 0.5 * (r + r.T)
         h_eff = h
+        # The gate, on the prior innovation (the same S as filterpy's, before anything is applied).
+        nu = z - self._hx(kf.x)
+        s = h_eff @ kf.P @ h_eff.T + r
+        if not np.all(np.isfinite(s)):
+            raise _Breakdown("the innovation covariance is not finite")
+        try:
+            nis_gate = float(nu @ np.linalg.solve(s, nu))
+        except np.linalg.LinAlgError as exc:
+            raise _Breakdown("the innovation covariance is singular") from exc
+        if nis_gate < 0:
+            raise _Breakdown(f"the innovation covariance is not positive definite (NIS {nis_gate:.3g})")
+        if not nis_gate <= self.gate_threshold:  # also rejects an infinite or NaN NIS
+            return (nis_gate if nis_gate <= _NIS_CAP else _NIS_CAP), nu, s, False
         kf.update(z, HJacobian=lambda _x: h_eff, Hx=self._hx, R=r)
         kf.P = 0.5 * (kf.P + kf.P.T)
+        if not (np.all(np.isfinite(kf.x)) and np.all(np.isfinite(kf.P))):
+            raise _Breakdown(f"the update with the gyro sample {z.tolist()} rad/s (NIS {nis_gate:.3g}) overflowed")
         nu = np.array(kf.y, dtype=np.float64)
         s = np.array(kf.S, dtype=np.float64)
         nis_value = float(nu @ kf.SI @ nu)  # filterpy keeps S^-1
-        return nis_value, nu, s
+        return nis_value, nu, s, True
 
     # -- public stepping ----------------------------------------------------------------
 
@@ -746,7 +837,8 @@ class RateEKF:
             Time [s] (not before the filter's time).
         gyro : array_like (3,) or None
             Gyro sample [rad/s]; None: no sample (predict only). A
-            non-finite sample is skipped and counted.
+            non-finite sample is skipped and counted; a sample whose NIS is
+            above the gate is rejected and counted (module docstring).
         torque : array_like (3,), optional
             Known body torque held over the interval ending at ``t`` [N m]
             (default zero). With wheels and known momenta it is not used.
@@ -763,7 +855,10 @@ class RateEKF:
         ValueError
             If ``t`` is not finite or earlier than the filter's time, the
             torque is not a finite (3,) vector, a sample has the wrong shape,
-            or the covariance loses positive definiteness.
+            or the covariance loses positive definiteness; or on a numerical
+            breakdown (the state or covariance would become non-finite: the
+            message names the time and cause, and the filter is left as it
+            was before the step).
         """
         t = _time(t, "t")
         if t < self.t:
@@ -783,6 +878,49 @@ class RateEKF:
         hw = None
         if self.wheels is not None and wheel_momentum is not None:
             hw = self._wheel_vector(wheel_momentum, "wheel_momentum", allow_nonfinite=True)
+        # filterpy re-assigns (never mutates) its arrays, so references are a snapshot for a breakdown.
+        kf = self.kf
+        saved = (
+            {k: getattr(kf, k) for k in ("x", "P", "x_prior", "P_prior", "x_post", "P_post", "F", "Q")},
+            self.t,
+            self._h_wheels,
+            self.n_wheel_nan_skipped,
+        )
+        try:
+            with np.errstate(over="ignore", invalid="ignore"):  # overflow is caught by the finiteness checks
+                return self._step(t, dt, tau, z, nan_skipped, hw)
+        except _Breakdown as exc:
+            for key, value in saved[0].items():
+                setattr(kf, key, value)
+            self.t, self._h_wheels, self.n_wheel_nan_skipped = saved[1:]
+            w = float(np.abs(kf.x[:3]).max())
+            t_upd, nis_upd = self._largest_applied_nis
+            last = (
+                "no sample applied yet"
+                if t_upd is None
+                else f"the largest NIS applied so far was {nis_upd:.3g}, at t = {t_upd!r} s"
+            )
+            gate = (
+                "The innovation gate is disabled (gate_probability=None), so a corrupt sample (e.g. a huge rate) is "
+                "applied as is: enable the gate to reject it."
+                if self.gate_probability is None
+                else "Check the inputs (torques, wheel momenta) and the initial covariance."
+            )
+            raise ValueError(
+                f"numerical breakdown of the rate EKF at t = {t!r} s: {exc}; the estimate before the step was "
+                f"max |omega_i| = {w:.6g} rad/s ({last}). The filter is left as it was before this step. {gate}"
+            ) from None
+
+    def _step(
+        self,
+        t: float,
+        dt: float,
+        tau: NDArray[np.float64],
+        z: NDArray[np.float64] | None,
+        nan_skipped: bool,
+        hw: NDArray[np.float64] | None,
+    ) -> StepReport:
+        """The state-changing part of :meth:`step` (inputs validated; may raise :class:`_Breakdown`)."""
         h0 = hdot = np.zeros(3)
         if self.wheels is not None:
             h_new = None
@@ -805,21 +943,29 @@ class RateEKF:
             self._propagate(dt, tau, h0, hdot)
         self.t = t
 
-        if nan_skipped:
-            self.n_nan_skipped += 1
         nu = np.full(3, np.nan)
         s = np.full((3, 3), np.nan)
         nis_value = float("nan")
         exceeds = False
+        accepted = False
         if z is not None:
-            nis_value, nu, s = self._update(z, t)
-            self._t_last_update = t
-            self.n_updates += 1
+            nis_value, nu, s, accepted = self._update(z, t)
             exceeds = nis_value > self.nis_threshold
+        # Nothing below can fail: the counters change only once the step has succeeded.
+        if nan_skipped:
+            self.n_nan_skipped += 1
+        if z is not None:
+            if accepted:
+                self._t_last_update = t
+                self.n_updates += 1
+                if nis_value > self._largest_applied_nis[1]:
+                    self._largest_applied_nis = (t, nis_value)
+            else:
+                self.n_gated += 1
             self.n_nis_exceeds += int(exceeds)
             self._run = self._run + 1 if exceeds else 0
             self._recent_nis.append(nis_value)
-        else:
+        if not accepted:
             self.kf.x_post, self.kf.P_post = self.kf.x.copy(), self.kf.P.copy()
         window_bad = False
         if len(self._recent_nis) == self.nis_window:
@@ -827,13 +973,14 @@ class RateEKF:
             window_bad = not (self.nis_window_band[0] <= mean <= self.nis_window_band[1])
         report = StepReport(
             t=t,
-            updated=z is not None,
+            updated=accepted,
             nan_skipped=nan_skipped,
             innovation=nu,
             innovation_covariance=s,
             nis=nis_value,
             nis_exceeds=exceeds,
             health_flag=self._run >= self.nis_run_length or window_bad,
+            gated=z is not None and not accepted,
         )
         self._last = report
         return report
@@ -888,9 +1035,10 @@ class RateEKF:
         """Values the engine logs at each estimator sample (``estimator.<key>``).
 
         ``bias`` (3) [rad/s], ``sigma`` (n) [rad/s], ``covariance`` (n*n,
-        row-major) [rad^2/s^2], ``nis`` (NaN without update), ``nis_exceeds``,
-        ``health_flag``, ``updated``, ``nan_skipped`` (0/1 this step) and the
-        running count ``n_nan_skipped``.
+        row-major) [rad^2/s^2], ``nis`` (NaN without a sample; the rejected
+        value for a gated one), ``nis_exceeds``, ``health_flag``, ``updated``,
+        ``nan_skipped``, ``gated`` (0/1 this step) and the running counts
+        ``n_nan_skipped`` and ``n_gated``.
         """
         r = self._last
         return {
@@ -903,6 +1051,8 @@ class RateEKF:
             "updated": float(r is not None and r.updated),
             "nan_skipped": float(r is not None and r.nan_skipped),
             "n_nan_skipped": float(self.n_nan_skipped),
+            "gated": float(r is not None and r.gated),
+            "n_gated": float(self.n_gated),
         }
 
 
@@ -938,18 +1088,19 @@ class RateEKFResult(ResultIO):
         Error covariance of ``[omega, beta]`` (``d = 6``) or ``omega``
         (``d = 3``) [rad^2/s^2].
     innovation : ndarray (n, 3)
-        Innovations [rad/s] (NaN rows without an update).
+        Innovations [rad/s] (NaN rows without a sample; present for a gated one).
     innovation_covariance : ndarray (n, 3, 3)
-        Their covariances [rad^2/s^2] (NaN without an update).
+        Their covariances [rad^2/s^2] (NaN without a sample).
     nis : ndarray (n,)
-        NIS of each update (NaN without one).
+        NIS of each sample, applied or gated (NaN without one).
     nis_exceeds : ndarray (n,) of bool
         NIS above the per-step chi-square threshold.
     nis_flagged : ndarray (n,) of bool
         Steps in a run of at least ``nis_run_length`` exceedances or in an
         out-of-band NIS window (:func:`estimation.consistency.nis_health`).
     updated, nan_skipped : ndarray (n,) of bool
-        A gyro sample was used / was non-finite and skipped.
+        A gyro sample was used / was non-finite and skipped. A sample
+        rejected by the innovation gate is in neither (see :attr:`gated`).
     omega_true, bias_true : ndarray (n, 3) or None
         The truth, when known (simulation), for errors and NEES.
     info : dict
@@ -975,6 +1126,11 @@ class RateEKFResult(ResultIO):
     def healthy(self) -> bool:
         """True when no step was flagged."""
         return not bool(np.any(self.nis_flagged))
+
+    @property
+    def gated(self) -> NDArray[np.bool_]:
+        """Steps (n,) whose gyro sample was rejected by the innovation gate (a NIS but no update)."""
+        return ~np.isnan(self.nis) & ~self.updated
 
     @property
     def sigma(self) -> NDArray[np.float64]:
@@ -1026,9 +1182,14 @@ class RateEKFResult(ResultIO):
             raise ValueError(f"kind must be 'errors', 'nis' or None, got {kind!r}")
         fig = Figure(figsize=(9, 4), layout="constrained")
         ax = fig.subplots()
-        ok = ~np.isnan(self.nis)
+        ok = self.updated & ~np.isnan(self.nis)
+        gated = self.gated
         ax.semilogy(self.t[ok], self.nis[ok], ".", ms=2, color="tab:blue", label="NIS")
+        if np.any(gated):
+            ax.semilogy(self.t[gated], self.nis[gated], "x", ms=6, color="tab:red", label="rejected by the gate")
         ax.axhline(self.info["nis_threshold"], color="tab:red", ls="--", lw=1, label="per-step threshold")
+        if self.info.get("gate_threshold") is not None:
+            ax.axhline(self.info["gate_threshold"], color="tab:purple", ls="-.", lw=1, label="innovation gate")
         ax.axhline(_DIM_Z, color="k", ls=":", lw=1, label="expected value 3")
         for start, stop in self.info.get("nis_interval_times", []):
             ax.axvspan(start, stop, color="tab:red", alpha=0.2)
@@ -1037,7 +1198,10 @@ class RateEKFResult(ResultIO):
         ax.grid(True, alpha=0.3)
         ax.legend(loc="upper right")
         state = "healthy" if self.healthy else f"{len(self.info.get('nis_intervals', []))} flagged stretch(es)"
-        ax.set_title(f"rate EKF innovation health: {state}, {self.info.get('n_nan_skipped', 0)} NaN samples skipped")
+        ax.set_title(
+            f"rate EKF innovation health: {state}, {self.info.get('n_nan_skipped', 0)} NaN samples skipped, "
+            f"{self.info.get('n_gated', 0)} gated"
+        )
         return fig
 
 
@@ -1072,7 +1236,9 @@ def run_rate_ekf(
         Step times [s], non-decreasing (a filter step at each; the first may
         equal the filter's time).
     gyro : array_like (n, 3)
-        Gyro samples [rad/s]. Rows with NaN/inf are skipped and counted.
+        Gyro samples [rad/s]. Rows with NaN/inf are skipped and counted;
+        samples above the filter's innovation gate are rejected and counted
+        (``info["n_gated"]``, :attr:`RateEKFResult.gated`).
     torque : array_like (n, 3), optional
         Known body torque held over the interval *ending* at ``t[k]`` [N m]
         (what the engine hands an estimator as ``"torque_command"``; a
@@ -1094,7 +1260,8 @@ def run_rate_ekf(
     ------
     ValueError
         For mismatched shapes, times that go backwards (also relative to
-        the filter's time), or non-finite torques or times.
+        the filter's time), non-finite torques or times, or a numerical
+        breakdown of the filter (:meth:`RateEKF.step`).
     """
     if not isinstance(ekf, RateEKF):
         raise ValueError(f"ekf must be a RateEKF, got {ekf!r}")
@@ -1136,6 +1303,7 @@ def run_rate_ekf(
     exceeds = np.zeros(n, dtype=bool)
     updated = np.zeros(n, dtype=bool)
     skipped = np.zeros(n, dtype=bool)
+    gated = np.zeros(n, dtype=bool)
     live_flag = np.zeros(n, dtype=bool)
     for k in range(n):
         report = ekf.step(
@@ -1149,11 +1317,13 @@ def run_rate_ekf(
         out_p[k] = ekf.P
         out_nu[k], out_s[k], out_nis[k] = report.innovation, report.innovation_covariance, report.nis
         exceeds[k], updated[k], skipped[k] = report.nis_exceeds, report.updated, report.nan_skipped
+        gated[k] = report.gated
         live_flag[k] = report.health_flag
-    flagged = _runs(exceeds[updated], ekf.nis_run_length)
+    has_nis = updated | gated  # gated samples still count in the health checks
+    flagged = _runs(exceeds[has_nis], ekf.nis_run_length)
     flagged_all = np.zeros(n, dtype=bool)
-    flagged_all[np.nonzero(updated)[0]] = flagged
-    window_checked = int(updated.sum()) >= ekf.nis_window
+    flagged_all[np.nonzero(has_nis)[0]] = flagged
+    window_checked = int(has_nis.sum()) >= ekf.nis_window
     if window_checked:
         health = nis_health(out_nis, _DIM_Z, ekf.nis_window, ekf.health_confidence, t=times)
         flagged_all |= health.flagged
@@ -1165,6 +1335,9 @@ def run_rate_ekf(
         "n_steps": n,
         "n_updates": int(updated.sum()),
         "n_nan_skipped": int(skipped.sum()),
+        "n_gated": int(gated.sum()),
+        "gate_probability": ekf.gate_probability,
+        "gate_threshold": None if ekf.gate_probability is None else ekf.gate_threshold,
         "n_nis_exceeds": int(exceeds.sum()),
         "nis_threshold": ekf.nis_threshold,
         "nis_confidence": ekf.nis_confidence,

@@ -16,6 +16,7 @@ from attitude.sensors import (
     ARCSEC,
     GYRO_PRESETS,
     Gyro,
+    GyroSamplingWarning,
     StarTracker,
     arw_from_sigma_v,
     arw_to_sigma_v,
@@ -524,6 +525,78 @@ class TestMeanRateSampling:
         mean_rate = 0.5 * alpha * (t1**2 - t0**2) / (t1 - t0)
         np.testing.assert_allclose(second, [0.0, 0.0, mean_rate], atol=1e-12)
         assert abs(second[2] - alpha * t1) > 1e-3  # distinguishable from the instantaneous rate
+
+    @staticmethod
+    def tumbling_history(n=300):
+        """Truth of an accelerating tumble on an uneven time grid (exact, adaptive integration)."""
+        from attitude.propagate import propagate
+
+        t = np.cumsum(np.r_[0.0, 0.1 + 0.02 * np.sin(np.arange(n - 1))])
+        traj = propagate(
+            RigidBody([4.0, 8.0, 10.0]),
+            quat.from_axis_angle([1.0, 2.0, 3.0], 0.4),
+            np.radians([20.0, -30.0, 15.0]),
+            t,
+            method="adaptive",
+        )
+        return t, traj.q, traj.omega
+
+    @pytest.mark.parametrize("sampling", ["instantaneous", "mean"])
+    def test_measure_history_is_bit_identical_to_measure(self, sampling):
+        # Every deterministic error switched on, uneven steps, a body whose rate changes by degrees/s per sample.
+        t, q, omega = self.tumbling_history()
+        kw = {"bias_deg_per_h": [50.0, -20.0, 10.0], "scale_factor_ppm": 300.0, "quantization_deg_per_s": 1e-4}
+        gyro = Gyro.preset("mems", period=0.1, sampling=sampling, misalignment_rad=[1e-3, 0.0, -2e-3], **kw)
+        batch = gyro.measure_history(t, omega, 5, q_BN=q)
+        gen = np.random.default_rng(5)
+        sequential = np.array([gyro.measure(tk, truth(wk, qk, tk), gen) for tk, qk, wk in zip(t, q, omega)])
+        np.testing.assert_array_equal(batch, sequential)
+        # The two samplings really differ here (the interval mean lags by dt/2 times the acceleration).
+        other = Gyro.preset("mems", period=0.1, misalignment_rad=[1e-3, 0.0, -2e-3], **kw).measure_history(t, omega, 5)
+        assert (np.abs(other - batch).max() > 1e-3) == (sampling == "mean")
+
+    def test_measure_history_of_a_mean_gyro_needs_the_attitude(self):
+        t, q, omega = self.tumbling_history(10)
+        gyro = Gyro(1e-4, period=0.1, sampling="mean", name="fog")
+        with pytest.raises(ValueError, match=r"q_BN is required: gyro 'fog' has sampling='mean'"):
+            gyro.measure_history(t, omega, 1)
+        with pytest.raises(ValueError, match=r"q_BN must have shape \(10, 4\)"):
+            gyro.measure_history(t, omega, 1, q_BN=q[:5])
+        with pytest.raises(ValueError, match="q_BN must be a unit quaternion"):
+            gyro.measure_history(t, omega, 1, q_BN=2 * q)
+        # An instantaneous gyro checks the attitude but does not need it.
+        plain = Gyro(1e-4, period=0.1)
+        np.testing.assert_array_equal(plain.measure_history(t, omega, 1, q_BN=q), plain.measure_history(t, omega, 1))
+
+    def test_sample_errors_runs_axis_is_bit_identical_to_consecutive_runs(self):
+        gyro = Gyro.preset("tactical", period=0.1)
+        b0 = np.random.default_rng(3).standard_normal((4, 3)) * 1e-5
+        errors, biases = gyro.sample_errors(200, 9, bias0=b0, n_runs=4)
+        assert errors.shape == (4, 200, 3) and biases.shape == (4, 201, 3)
+        gen = np.random.default_rng(9)
+        for r in range(4):
+            e1, b1 = gyro.sample_errors(200, gen, bias0=b0[r])
+            np.testing.assert_array_equal(errors[r], e1)
+            np.testing.assert_array_equal(biases[r], b1)
+        shared, _ = gyro.sample_errors(5, 1, bias0=[1e-5, 0.0, 0.0], n_runs=2)  # one bias0 for every run
+        assert shared.shape == (2, 5, 3)
+        with pytest.raises(ValueError, match=r"bias0 must be a scalar or have shape \(3,\) or \(4, 3\)"):
+            gyro.sample_errors(5, 1, bias0=np.zeros((2, 3)), n_runs=4)
+        with pytest.raises(ValueError, match="n_runs must be a positive integer"):
+            gyro.sample_errors(5, 1, n_runs=0)
+
+    def test_check_sampling(self):
+        gyro = Gyro(1e-4, period=0.1, sampling="mean", name="fog")
+        assert gyro.check_sampling("mean", consumer="X")
+        with pytest.raises(
+            ValueError, match=r"gyro\.sampling must be 'instantaneous' for X, got 'mean' \(gyro 'fog'\)"
+        ):
+            gyro.check_sampling("instantaneous", consumer="X")
+        with pytest.warns(GyroSamplingWarning, match=r"gyro\.sampling must be 'instantaneous'"):
+            assert not gyro.check_sampling("instantaneous", consumer="X", action="warn")
+        assert not gyro.check_sampling("instantaneous", consumer="X", action="ignore")
+        with pytest.raises(ValueError, match="sampling_check must be one of"):
+            gyro.check_sampling("mean", consumer="X", action="loud")
 
     def test_sampling_is_validated_and_passed_by_the_datasheet_constructor(self):
         with pytest.raises(ValueError, match="sampling must be one of"):
