@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 import time
 import tomllib
@@ -487,7 +488,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help(sys.stderr)
         return EXIT_BAD_INPUT
     try:
-        return args.run(args)
+        code = args.run(args)
+        sys.stdout.flush()  # a pipe closed early fails here, inside the handler, not at interpreter exit
+        return code
+    except BrokenPipeError:
+        # The reader went away (`attitude physics | head -5`): exit quietly, as Unix tools do.
+        # Point stdout at devnull so the interpreter's final flush does not raise again.
+        try:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (OSError, ValueError):
+            pass
+        return 141  # 128 + SIGPIPE, what a shell reports for a tool killed by the broken pipe
     except ConfigError as exc:
         print(f"attitude {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT

@@ -155,14 +155,15 @@ def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> d
     req = config.requirements
     slews = results["slews"]
     flight = results["closed_loop"]
-    plan = slews["plan"]
+    # The slew time is judged on the FLOWN slew: the first time after which the attitude error stays
+    # within the pointing accuracy (the plan's duration is shown beside it, in sections 3 and 4).
     rows = [
         _row(
             "slew_time",
-            f"slew time for {slews['angle_deg']:.1f} deg (optimal plan)",
+            f"slew time for {slews['angle_deg']:.1f} deg (flown: error within the pointing accuracy from then on)",
             "requirements.slew.max_time_s",
             req.slew.max_time_s,
-            None if plan is None else plan["duration_s"],
+            None if flight is None else flight["flown_slew_time_s"],
             "s",
             "<=",
         )

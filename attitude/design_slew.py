@@ -36,7 +36,8 @@ from attitude import quaternion as quat
 from attitude.config import ConfigError, SpacecraftConfig
 from attitude.design_estimation import ATTITUDE_SIGMA0_DEG, gyro_bias_sigma_deg_per_h
 from attitude.simulation import SimulationResult, simulate
-from controllers.slew import KeepOutCone, SlewPlanningError, eigenaxis_slew, plan_slew
+from controllers.slew import KeepOutCone, SlewPlanningError, eigenaxis_slew, momentum_rate_limit, plan_slew
+from controllers.slew_reference import axis_angle
 from controllers.tracking import TrackingController
 from estimation.mekf import MEKF, initial_covariance
 
@@ -61,6 +62,9 @@ PLAN_RATE_FRACTION = 0.95
 PLAN_STARTS = 2
 #: ... and each keep-out cone widened by this much [deg] (less when the start or end attitude is closer).
 KEEP_OUT_MARGIN_DEG = 0.5
+#: ... and this fraction of the wheels' momentum capacity (controllers.slew.momentum_rate_limit): the
+#: wheels hold -I omega during a rest-to-rest slew, plus what the feedback corrections add.
+PLAN_MOMENTUM_FRACTION = 0.8
 
 
 def _f(x: Any) -> float:
@@ -149,6 +153,14 @@ def plan_slews(
     q0, qf = slew.q_start(), slew.q_target()
     plan_wheels = _scaled_wheels(config, PLAN_TORQUE_FRACTION)
     rate_max = None if slew.rate_max_rad_per_s is None else PLAN_RATE_FRACTION * slew.rate_max_rad_per_s
+    # Wheel momentum envelope: a rate limit that keeps the minimum-norm wheel momenta -A^+ I omega
+    # inside PLAN_MOMENTUM_FRACTION of momentum_max on any path (the optimal plan), and the exact
+    # momentum-limited rate along the eigenaxis for the eigenaxis slew.
+    wheels = config.wheels()
+    rate_h = PLAN_MOMENTUM_FRACTION * momentum_rate_limit(body, wheels)
+    rate_h_axis = PLAN_MOMENTUM_FRACTION * momentum_rate_limit(body, wheels, axis_angle(q0, qf)[0])
+    rate_plan = rate_h if rate_max is None else min(rate_max, rate_h)
+    rate_eig = rate_h_axis if rate_max is None else min(rate_max, rate_h_axis)
     cones = list(req.keep_out)
     planned = []
     for c in cones:
@@ -167,6 +179,11 @@ def plan_slews(
         "plan_rate_fraction": PLAN_RATE_FRACTION,
         "plan_rate_percent": 100.0 * PLAN_RATE_FRACTION,
         "plan_rate_limit_deg_per_s": None if rate_max is None else _f(math.degrees(rate_max)),
+        "plan_momentum_fraction": PLAN_MOMENTUM_FRACTION,
+        "momentum_rate_limit_deg_per_s": _f(math.degrees(rate_h)),
+        "momentum_rate_limit_eigenaxis_deg_per_s": _f(math.degrees(rate_h_axis)),
+        "planner_rate_limit_deg_per_s": _f(math.degrees(rate_plan)),
+        "eigenaxis_rate_limit_deg_per_s": _f(math.degrees(rate_eig)),
         "torque_envelope_mNm": _vec(1e3 * plan_wheels.torque_envelope()),
         "keep_out": [
             {
@@ -188,14 +205,14 @@ def plan_slews(
     plan = eig = None
     error = None
     try:
-        kwargs: dict[str, Any] = {"torque_max": plan_wheels, "rate_max": rate_max, "keep_out": planned, "nodes": nodes}
+        kwargs: dict[str, Any] = {"torque_max": plan_wheels, "rate_max": rate_plan, "keep_out": planned, "nodes": nodes}
         if objective == "energy":
             kwargs["duration"] = slew.max_time_s if duration_s is None else duration_s
         plan = plan_slew(body, q0, qf, objective=objective, starts=PLAN_STARTS, **kwargs)
     except (SlewPlanningError, ValueError) as exc:
         error = f"{type(exc).__name__}: {exc}"
     try:
-        eig = eigenaxis_slew(body, q0, qf, torque_max=plan_wheels, rate_max=rate_max, n_points=801)
+        eig = eigenaxis_slew(body, q0, qf, torque_max=plan_wheels, rate_max=rate_eig, n_points=801)
     except ValueError as exc:
         error = (error + "; " if error else "") + f"eigenaxis: {exc}"
     if plan is not None:
@@ -243,8 +260,9 @@ def slew_figures(study: SlewStudy) -> dict[str, Figure]:
         figures["slew_plan"] = study.plan.plot()
     if study.plan is None and study.eigenaxis is None:
         return figures
-    fig = Figure(figsize=(10, 6.5), layout="constrained")
-    ax_w, ax_s = fig.subplots(2, 1, sharex=True)
+    # Without a keep-out cone there is no separation to show: one panel (no empty legend).
+    fig = Figure(figsize=(10, 6.5 if study.cones else 3.8), layout="constrained")
+    ax_w, ax_s = fig.subplots(2, 1, sharex=True) if study.cones else (fig.subplots(), None)
     for name, traj, style in (("optimal plan", study.plan, "-"), ("eigenaxis", study.eigenaxis, "--")):
         if traj is None:
             continue
@@ -256,21 +274,21 @@ def slew_figures(study: SlewStudy) -> dict[str, Figure]:
     rate = study.summary["plan_rate_limit_deg_per_s"]
     if rate is not None:
         ax_w.axhline(rate / PLAN_RATE_FRACTION, color="tab:red", lw=0.8, ls=":", label="required rate limit")
-    lo, hi = ax_s.get_ylim()
-    for c in study.cones:
-        ax_s.axhline(c.half_angle_deg, color="tab:red", lw=0.8, ls=":", label=f"keep-out half-angle ({c.name})")
-        ax_s.axhspan(min(lo, c.half_angle_deg) - 90.0, c.half_angle_deg, color="tab:red", alpha=0.08)
-    if study.cones:
-        ax_s.set_ylim(min(lo, min(c.half_angle_deg for c in study.cones) - 1.0), hi)
     ax_w.set_ylabel("|body rate| [deg/s]")
-    ax_s.set_ylabel("boresight separation [deg]")
-    ax_s.set_xlabel("time from the start of the slew [s]")
+    if ax_s is not None:
+        lo, hi = ax_s.get_ylim()
+        for c in study.cones:
+            ax_s.axhline(c.half_angle_deg, color="tab:red", lw=0.8, ls=":", label=f"keep-out half-angle ({c.name})")
+            ax_s.axhspan(min(lo, c.half_angle_deg) - 90.0, c.half_angle_deg, color="tab:red", alpha=0.08)
+        ax_s.set_ylim(min(lo, min(c.half_angle_deg for c in study.cones) - 1.0), hi)
+        ax_s.set_ylabel("boresight separation [deg]")
+    (ax_w if ax_s is None else ax_s).set_xlabel("time from the start of the slew [s]")
     for ax in (ax_w, ax_s):
-        ax.grid(True, alpha=0.3)
-        ax.legend(loc="best", fontsize=8)
-    if not study.cones:
-        ax_s.text(0.5, 0.5, "no keep-out cone in the requirements", transform=ax_s.transAxes, ha="center")
-    fig.suptitle("Optimal plan and eigenaxis slew side by side")
+        if ax is not None:
+            ax.grid(True, alpha=0.3)
+            ax.legend(loc="best", fontsize=8)
+    suffix = "" if study.cones else " (no keep-out cones in the requirements)"
+    fig.suptitle("Optimal plan and eigenaxis slew side by side" + suffix)
     figures["slew_comparison"] = fig
     return figures
 
@@ -348,6 +366,16 @@ def fly_slew(
     )
     accuracy = req.pointing_accuracy_rad
     settled_at = r.settling_time(accuracy)
+    # Flown slew time: the first time after which the error from the TARGET attitude stays within the
+    # pointing accuracy (settled_at above is judged against the moving reference, not the target).
+    to_target = np.asarray(quat.error_angle(req.slew.q_target(), r.q))
+    outside = np.nonzero(to_target > accuracy)[0]
+    if outside.size == 0:
+        arrived_at = float(r.t[0])
+    elif outside[-1] == r.t.size - 1:
+        arrived_at = math.inf
+    else:
+        arrived_at = float(r.t[outside[-1] + 1])
     window = r.t >= slew_end + req.settling_time_s
     err_deg = np.degrees(r.error_angle)
     knowledge = np.degrees(quat.error_angle(r.estimate_q, r.q)) * 3600.0
@@ -360,9 +388,13 @@ def fly_slew(
         "engine": r.info.get("engine"),
         "tracking_wn_rad_per_s": c.bandwidth_rad_per_s,
         "tracking_damping": c.damping,
+        "drawn_initial_knowledge_error_arcsec": _f(math.degrees(float(quat.error_angle(q_hat0, q0))) * 3600.0),
         "initial_knowledge_error_arcsec": _f(knowledge[0]),
         "slew_end_s": slew_end,
         "settled_at_s": _f(settled_at),
+        "plan_slew_time_s": slew_end,
+        "flown_slew_time_s": _f(arrived_at),
+        "max_pointing_error_after_slew_deg": _f(np.max(err_deg[r.t >= slew_end])),
         "settling_time_after_slew_s": _f(max(0.0, settled_at - slew_end)),
         "pointing_window_start_s": _f(slew_end + req.settling_time_s),
         "pointing_window_end_s": _f(r.t[-1]),

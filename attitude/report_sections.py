@@ -312,7 +312,20 @@ def _slews(results: dict[str, Any]) -> list[Block]:
     if rate is not None:
         text += f" and {fmt(s['plan_rate_percent'])} % of the rate limit ({fmt(rate)} deg/s)"
     text += ", leaving the feedback authority on top of the feedforward."
-    if cones:
+    if s.get("momentum_rate_limit_deg_per_s") is not None:
+        text += (
+            f" The wheels hold -I omega during the slew, so both are also rate-limited to keep the wheel momentum "
+            f"within {fmt(100.0 * s['plan_momentum_fraction'])} % of its limit: "
+            f"{fmt(s['planner_rate_limit_deg_per_s'])} deg/s for the optimal plan (any direction) and "
+            f"{fmt(s['eigenaxis_rate_limit_deg_per_s'])} deg/s along the eigenaxis."
+        )
+    if cones and plan is None:
+        text += (
+            " The optimal plan could not be made (below), so no slew here is shown to keep out of "
+            + ", ".join(f"'{c['name']}'" for c in cones)
+            + "; the eigenaxis slew cannot avoid a cone."
+        )
+    elif cones:
         text += (
             " The optimal plan keeps out of "
             + ", ".join(f"'{c['name']}' (planned at {fmt(c['planned_half_angle_deg'])} deg)" for c in cones)
@@ -384,13 +397,18 @@ def _closed_loop(results: dict[str, Any]) -> list[Block]:
             f"{fmt(f['tick_s'])} s): tracking control (plan torque as feedforward, quaternion PD feedback at "
             f"{fmt(f['tracking_wn_rad_per_s'])} rad/s and damping {fmt(f['tracking_damping'])}), reaction wheels "
             "with their torque and momentum limits, the gyro and the star tracker of the file, and the MEKF in the "
-            f"loop from an initial knowledge error of {fmt(f['initial_knowledge_error_arcsec'])} arcsec. The slew "
+            f"loop from an initial knowledge error of {fmt(f.get('drawn_initial_knowledge_error_arcsec'))} arcsec "
+            "(drawn from the filter's initial covariance; "
+            f"{fmt(f['initial_knowledge_error_arcsec'])} arcsec after the first star-tracker update). The slew "
             f"ends at {fmt(f['slew_end_s'])} s; pointing is judged from {fmt(f['pointing_window_start_s'])} s "
             "(end of slew plus the required settling time) to the end of the run."
         )
     ]
     rows = [
+        ["slew time, planned [s]", fmt(f.get("plan_slew_time_s"))],
+        ["slew time, flown (error within the pointing accuracy from then on) [s]", fmt(f.get("flown_slew_time_s"))],
         ["settling time after the end of the slew [s]", _settling_text(f)],
+        ["largest pointing error after the end of the slew [deg]", fmt(f.get("max_pointing_error_after_slew_deg"))],
         ["largest pointing error after settling [deg]", fmt(f["max_pointing_error_in_window_deg"])],
         ["pointing error at the end [deg]", fmt(f["pointing_error_end_deg"])],
         ["pointing error at the end [arcsec]", fmt(f["pointing_error_end_arcsec"])],

@@ -160,6 +160,7 @@ from controllers.slew_problem import (
     InfeasibleSlewError,
     SlewPlanningError,
     check_count,
+    momentum_rate_limit,
     validate,
 )
 from controllers.slew_reference import PUBLISHED_BILIMORIA_WIE, EigenaxisSlew, axis_angle, eigenaxis_slew
@@ -175,6 +176,7 @@ __all__ = [
     "SlewPlan",
     "SlewPlanningError",
     "eigenaxis_slew",
+    "momentum_rate_limit",
     "plan_slew",
 ]
 

@@ -28,6 +28,7 @@ __all__ = [
     "SlewPlanningError",
     "TorqueSet",
     "check_count",
+    "momentum_rate_limit",
     "validate",
     "vector3",
 ]
@@ -208,3 +209,31 @@ def validate(
         t_s=t_s,
         keep_out_margin=bool(keep_out_margin),
     )
+
+
+def momentum_rate_limit(body: RigidBody, wheels: ReactionWheels, axis: ArrayLike | None = None) -> float:
+    """Largest body rate [rad/s] whose wheel momentum stays inside ``wheels.momentum_max``.
+
+    A rest-to-rest slew that starts with zero wheel momentum conserves the
+    total angular momentum, so the wheels hold ``-I omega`` (body frame); the
+    minimum-norm wheel momenta are ``h = -A^+ I omega``. For every rate with
+    ``|omega| <= r`` each ``|h_i| <= r |row_i(A^+ I)|``, so
+    ``r = min_i momentum_max_i / |row_i(A^+ I)|`` is a sufficient rate limit
+    for any path (conservative: it takes the worst direction of every row).
+    With ``axis`` (an eigenaxis slew, ``omega = w axis``) the bound is exact
+    along that axis: ``min_i momentum_max_i / |(A^+ I axis)_i|``.
+    """
+    if not isinstance(wheels, ReactionWheels):
+        raise ValueError(f"wheels must be a ReactionWheels, got {type(wheels).__name__}")
+    m = wheels.allocation @ np.asarray(body.inertia, dtype=float)
+    if axis is None:
+        gain = np.linalg.norm(m, axis=1)
+    else:
+        a = vector3(axis, "axis")
+        n = float(np.linalg.norm(a))
+        if not n > 0:
+            raise ValueError(f"axis must be a non-zero vector, got {a}")
+        gain = np.abs(m @ (a / n))
+    with np.errstate(divide="ignore"):
+        limits = np.where(gain > 0, wheels.momentum_max / np.where(gain > 0, gain, 1.0), np.inf)
+    return float(np.min(limits))
