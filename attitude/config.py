@@ -1152,8 +1152,22 @@ def _read_orbit(r: _Reader, t: _Table) -> OrbitConfig:
     return config
 
 
+#: Accepted deviation of a typed quaternion's norm from 1: four significant
+#: digits as typed (e.g. 0.7071) are off by ~1e-5; a non-unit quaternion such
+#: as [1, 1, 0, 0] is a typo, not an attitude, and is rejected.
+QUATERNION_NORM_TOLERANCE = 1e-4
+
+
 def _read_quaternion(r: _Reader, value: Any, key: str) -> tuple[float, float, float, float]:
-    return r.vector(value, key, 4)  # type: ignore[return-value]
+    q = r.vector(value, key, 4)
+    norm = math.sqrt(sum(v * v for v in q))
+    if abs(norm - 1.0) > QUATERNION_NORM_TOLERANCE:
+        raise r.error(
+            key,
+            f"must be a unit quaternion [w, x, y, z] (| |q| - 1 | <= {QUATERNION_NORM_TOLERANCE:g}); "
+            f"got {list(q)} with |q| = {norm:.6g}",
+        )
+    return q  # type: ignore[return-value]
 
 
 def _read_slew(r: _Reader, t: _Table) -> SlewRequirement:

@@ -646,3 +646,23 @@ def test_garbage_values_raise_only_config_errors(edits):
     # Whatever loads builds every object and round-trips.
     config.body(), config.wheels(), config.hub_body(), config.gyro(), config.star_tracker(), config.orbit()
     assert parse_config(config_to_toml(config), "again.toml") == config
+
+
+@pytest.mark.parametrize("key", ["start_q_BN", "target_q_BN"])
+def test_a_non_unit_quaternion_is_rejected_with_its_key(key, tmp_path):
+    text = default_config_text()
+    lines = [
+        ln
+        for ln in text.splitlines()
+        if not ln.strip().startswith(("angle_deg", "axis_B", "start_q_BN", "target_q_BN"))
+    ]
+    i = lines.index("[requirements.slew]")
+    lines.insert(i + 1, f"{key} = [1.0, 1.0, 0.0, 0.0]")
+    if key == "start_q_BN":
+        lines.insert(i + 1, "target_q_BN = [0.7071, 0.0, 0.7071, 0.0]")  # 4 digits as typed: accepted
+    path = tmp_path / "bad.toml"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(ConfigError, match="must be a unit quaternion") as info:
+        load_config(path)
+    assert info.value.key == f"requirements.slew.{key}"
+    assert str(path) in str(info.value)
