@@ -262,15 +262,19 @@ def _linear(results: dict[str, Any]) -> list[Block]:
             "delay each loop tolerates."
         )
     )
+    def margin(m: dict, key: str) -> str:
+        # Margins of an unstable closed loop are not margins (no stable gain interval to bound).
+        return fmt(m[key]) if m["stable"] else "n/a"
+
     rows = [
         [
             m["controller"],
             m["loop"],
             m["axis"],
-            fmt(m["gain_margin_db"]),
-            fmt(m["phase_margin_deg"]),
-            fmt(m["delay_margin_s"]),
-            fmt(m["gain_crossover_rad_per_s"]),
+            margin(m, "gain_margin_db"),
+            margin(m, "phase_margin_deg"),
+            margin(m, "delay_margin_s"),
+            margin(m, "gain_crossover_rad_per_s"),
             "stable" if m["stable"] else "UNSTABLE",
         ]
         for m in lin["margins"]
