@@ -572,3 +572,17 @@ def test_broken_pipe_exits_quietly(tmp_path):
     proc.wait(timeout=60)
     assert "Traceback" not in err and "BrokenPipeError" not in err
     assert proc.returncode == 141
+
+
+def test_hopelessly_weak_wheels_fail_fast_with_the_reason(tmp_path):
+    # 1e-12 N m wheels: the eigenaxis slew takes ~1e6 x the required time; the
+    # design fails at once instead of planning and flying it.
+    path = tmp_path / "weak.toml"
+    run_attitude("init", str(path), cwd=tmp_path)
+    text = path.read_text()
+    path.write_text(
+        "\n".join("torque_max_Nm = 1e-12" if ln.startswith("torque_max_Nm") else ln for ln in text.splitlines())
+    )
+    proc = run_attitude("design", str(path), "--quick", "--out", str(tmp_path / "out"), cwd=tmp_path, timeout=120)
+    assert proc.returncode == 1, proc.stderr[-2000:]
+    assert "cannot make this slew in time" in (tmp_path / "out" / "report.md").read_text()
