@@ -27,6 +27,9 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
+from attitude._plain import plain_float as _f
+from attitude._plain import plain_matrix as _mat
+from attitude._plain import plain_vector as _vec
 from attitude.analytic import flip_period, torque_free_motion
 from attitude.config import SpacecraftConfig
 from attitude.environment import gravity_gradient_stability
@@ -41,18 +44,6 @@ DEFAULT_SPIN_RATE_DEG_PER_S = 10.0
 PERTURBATION = 0.01
 
 _AXES = "xyz"
-
-
-def _f(x: Any) -> float:
-    return float(x)
-
-
-def _vec(x: Any) -> list[float]:
-    return [float(v) for v in np.asarray(x, dtype=float).ravel()]
-
-
-def _mat(x: Any) -> list[list[float]]:
-    return [[float(v) for v in row] for row in np.asarray(x, dtype=float)]
 
 
 def _closest_body_axis(axis_B: np.ndarray) -> tuple[str, float]:

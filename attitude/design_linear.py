@@ -20,6 +20,9 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
+from attitude._plain import plain_float as _f
+from attitude._plain import plain_matrix as _mat
+from attitude._plain import plain_vector as _vec
 from attitude.config import SpacecraftConfig
 from attitude.linearize import linearize
 from controllers.analysis import attitude_closed_loop, loop_gain, margins, plot_bode, plot_step, sampled_loop
@@ -29,18 +32,6 @@ from controllers.pd import QuaternionPD
 __all__ = ["linear_design"]
 
 _AXES = "xyz"
-
-
-def _f(x: Any) -> float:
-    return float(x)
-
-
-def _vec(x: Any) -> list[float]:
-    return [float(v) for v in np.asarray(x, dtype=float).ravel()]
-
-
-def _mat(x: Any) -> list[list[float]]:
-    return [[float(v) for v in row] for row in np.asarray(x, dtype=float)]
 
 
 def _pole(p: complex) -> dict[str, float]:

@@ -33,6 +33,8 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from attitude import quaternion as quat
+from attitude._plain import plain_float as _f
+from attitude._plain import plain_vector as _vec
 from attitude.config import ConfigError, SpacecraftConfig
 from attitude.design_estimation import ATTITUDE_SIGMA0_DEG, gyro_bias_sigma_deg_per_h
 from attitude.simulation import SimulationResult, simulate
@@ -65,18 +67,6 @@ KEEP_OUT_MARGIN_DEG = 0.5
 #: ... and this fraction of the wheels' momentum capacity (controllers.slew.momentum_rate_limit): the
 #: wheels hold -I omega during a rest-to-rest slew, plus what the feedback corrections add.
 PLAN_MOMENTUM_FRACTION = 0.8
-
-
-def _f(x: Any) -> float:
-    return float(x)
-
-
-def _vec(x: Any) -> list[float]:
-    return [float(v) for v in np.asarray(x, dtype=float).ravel()]
-
-
-def _mat(x: Any) -> list[list[float]]:
-    return [[float(v) for v in row] for row in np.asarray(x, dtype=float)]
 
 
 @dataclass
