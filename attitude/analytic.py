@@ -191,9 +191,7 @@ def _single_body(body: RigidBody | ArrayLike) -> RigidBody:
         except ValueError as exc:
             raise ValueError(f"body must be a RigidBody or a valid inertia [kg m^2]: {exc}") from exc
     if body.batch_shape:
-        raise ValueError(
-            f"body must be a single rigid body, got a batch of inertias of shape {body.batch_shape}"
-        )
+        raise ValueError(f"body must be a single rigid body, got a batch of inertias of shape {body.batch_shape}")
     return body
 
 
@@ -281,9 +279,7 @@ def _sncndn_reduced(v: NDArray[np.float64], mc: float) -> tuple[NDArray[np.float
     return sn, cn, dn
 
 
-def jacobi_sncndn(
-    u: ArrayLike, mc: float
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+def jacobi_sncndn(u: ArrayLike, mc: float) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Jacobi elliptic functions ``sn, cn, dn (u | m)`` from the complementary parameter.
 
     Unlike ``scipy.special.ellipj(u, m)`` this takes ``mc = 1 - m`` itself, so
@@ -501,8 +497,21 @@ def torque_free_motion(
 
     def constant(regime: str) -> TorqueFreeMotion:
         return TorqueFreeMotion(
-            regime=regime, symmetry=symmetry, moments=moments, C_PB=c_pb, omega0=omega0, H=h_mag, T=energy,
-            m=0.0, mc=1.0, lam=0.0, K=0.5 * math.pi, period=math.inf, amplitudes=np.abs(w_p), sign=1.0, u0=0.0,
+            regime=regime,
+            symmetry=symmetry,
+            moments=moments,
+            C_PB=c_pb,
+            omega0=omega0,
+            H=h_mag,
+            T=energy,
+            m=0.0,
+            mc=1.0,
+            lam=0.0,
+            K=0.5 * math.pi,
+            period=math.inf,
+            amplitudes=np.abs(w_p),
+            sign=1.0,
+            u0=0.0,
         )
 
     if rate == 0.0:
@@ -559,8 +568,21 @@ def torque_free_motion(
     u0 = _argument_of(y / norm, x / norm, mc, quarter)
     lam_si = lam * rate
     return TorqueFreeMotion(
-        regime=regime, symmetry=symmetry, moments=moments, C_PB=c_pb, omega0=omega0, H=h_mag, T=energy,
-        m=m, mc=mc, lam=lam_si, K=quarter, period=4.0 * quarter / lam_si, amplitudes=amp * rate, sign=sign, u0=u0,
+        regime=regime,
+        symmetry=symmetry,
+        moments=moments,
+        C_PB=c_pb,
+        omega0=omega0,
+        H=h_mag,
+        T=energy,
+        m=m,
+        mc=mc,
+        lam=lam_si,
+        K=quarter,
+        period=4.0 * quarter / lam_si,
+        amplitudes=amp * rate,
+        sign=sign,
+        u0=u0,
     )
 
 
@@ -823,15 +845,20 @@ def axisymmetric_precession(
     cone = h_mag / i_t
     h_n = quat.rotate(q0, h_b)
     h_axis = h_n / h_mag if h_mag > 0.0 else quat.rotate(q0, e)
-    q = quat.multiply(
-        quat.multiply(quat.from_axis_angle(h_axis, cone * t), q0), quat.from_axis_angle(e, -lam * t)
-    )
+    q = quat.multiply(quat.multiply(quat.from_axis_angle(h_axis, cone * t), q0), quat.from_axis_angle(e, -lam * t))
     h_hat_b = h_b / h_mag if h_mag > 0.0 else np.zeros(3)
     omega = cone * quat.rotate(quat.from_axis_angle(e, lam * t), h_hat_b) - lam * e
     nutation = math.atan2(i_t * float(np.linalg.norm(w_t)), i_s * w_s)
     return AxisymmetricPrecession(
-        t=t.copy(), q=q, omega=omega, body_precession_rate=lam, inertial_precession_rate=cone,
-        nutation_angle=nutation, symmetry_axis_B=e, angular_momentum_N=h_n, symmetry_moment=i_s,
+        t=t.copy(),
+        q=q,
+        omega=omega,
+        body_precession_rate=lam,
+        inertial_precession_rate=cone,
+        nutation_angle=nutation,
+        symmetry_axis_B=e,
+        angular_momentum_N=h_n,
+        symmetry_moment=i_s,
         transverse_moment=i_t,
     )
 

@@ -15,7 +15,17 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-__all__ = ["clip", "fabs", "fmax", "fmin", "if_else", "is_symbolic", "sqrt", "tanh"]
+__all__ = [
+    "clip",
+    "cross",
+    "fabs",
+    "fmax",
+    "fmin",
+    "if_else",
+    "is_symbolic",
+    "sqrt",
+    "tanh",
+]
 
 _CASADI_TYPES = (ca.SX, ca.MX, ca.DM)
 
@@ -150,3 +160,23 @@ def if_else(condition: Any, if_true: Any, if_false: Any) -> Any:
     if is_symbolic(condition, if_true, if_false):
         return ca.if_else(condition, if_true, if_false)
     return np.where(condition, if_true, if_false)
+
+
+def cross(a: Any, b: Any) -> list[Any]:
+    """Cross product ``a x b`` of two 3-component lists (numpy arrays or casadi scalars).
+
+    Parameters
+    ----------
+    a, b : list of 3 numpy arrays or casadi scalars
+        Vector components (any units; numpy entries broadcast).
+
+    Returns
+    -------
+    list of 3
+        Components of ``a x b`` (units of ``a`` times units of ``b``).
+    """
+    return [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]

@@ -213,8 +213,8 @@ def gravity_gradient_torque(body: RigidBody, r_B: ArrayLike, mu: float = MU_EART
     r2 = np.sum(r_B * r_B, axis=-1)
     if np.any(r2 == 0.0):
         raise ValueError("r_B must be non-zero (the position from the planet's centre); found a zero vector")
-    i_r = np.einsum("...ij,...j->...i", body.inertia, r_B)
-    return (3.0 * mu * r2**-2.5)[..., None] * np.cross(r_B, i_r)
+    torque = gravity_gradient_torque_components(body, [r_B[..., i] for i in range(3)], mu)
+    return np.stack(np.broadcast_arrays(*torque), axis=-1)
 
 
 # ---------------------------------------------------------------------------
@@ -413,17 +413,6 @@ class CircularOrbit:
 # ---------------------------------------------------------------------------
 
 
-def _rotate_inverse_components(q: Components, v: Components) -> Components:
-    """``C_BN v`` on components: N components of ``v`` to B for attitude ``q = q_BN`` (``+ - *`` only)."""
-    w, x, y, z = q
-    c_nb = [
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-    ]
-    return [c_nb[0][i] * v[0] + c_nb[1][i] * v[1] + c_nb[2][i] * v[2] for i in range(3)]
-
-
 def _check_lvlh_body(body: Any) -> RigidBody:
     body = _check_body(body)
     if body.batch_shape:
@@ -480,9 +469,9 @@ def lvlh_relative_dynamics(body: RigidBody, orbit: CircularOrbit) -> ca.Function
     e = [x[i] for i in range(3)]
     w = [x[3 + i] for i in range(3)]
     q_BL = [ca.sqrt(1.0 - (e[0] * e[0] + e[1] * e[1] + e[2] * e[2])), *e]
-    r_B = _rotate_inverse_components(q_BL, [0.0, 0.0, -orbit.radius_m])
+    r_B = quat.rotate_inverse_components(q_BL, [0.0, 0.0, -orbit.radius_m])
     tau = [t + u[i] for i, t in enumerate(gravity_gradient_torque_components(body, r_B, orbit.mu))]
-    omega_LN_B = _rotate_inverse_components(q_BL, list(orbit.omega_LN_L))
+    omega_LN_B = quat.rotate_inverse_components(q_BL, list(orbit.omega_LN_L))
     omega_BN_B = [a + b for a, b in zip(w, omega_LN_B)]
     omega_BN_dot = body.omega_dot_components(omega_BN_B, tau)
     transport = cross(w, omega_LN_B)

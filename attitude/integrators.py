@@ -22,9 +22,11 @@ from collections.abc import Callable
 from typing import Any
 
 import casadi as ca
-import numpy as np
 
-from attitude.rigid_body import Components, RigidBody, cross, split_components
+from attitude.backend import cross
+from attitude.quaternion import exp_rotation_vector_components
+from attitude.quaternion import multiply_components as quaternion_multiply_components
+from attitude.rigid_body import Components, RigidBody, split_components
 
 __all__ = [
     "casadi_rk4_step",
@@ -83,54 +85,6 @@ def normalize_quaternion_components(x: Components) -> Components:
     """
     inv = (x[0] * x[0] + x[1] * x[1] + x[2] * x[2] + x[3] * x[3]) ** -0.5
     return [x[0] * inv, x[1] * inv, x[2] * inv, x[3] * inv, *x[4:]]
-
-
-def quaternion_multiply_components(p: Components, q: Components) -> Components:
-    """Hamilton product ``p ⊗ q`` on component lists.
-
-    Parameters
-    ----------
-    p, q : list of 4 numpy arrays or casadi scalars
-        Quaternion components ``[w, x, y, z]`` (numpy entries broadcast).
-
-    Returns
-    -------
-    list of 4
-        Components of ``p ⊗ q``.
-    """
-    pw, px, py, pz = p
-    qw, qx, qy, qz = q
-    return [
-        pw * qw - px * qx - py * qy - pz * qz,
-        pw * qx + px * qw + py * qz - pz * qy,
-        pw * qy - px * qz + py * qw + pz * qx,
-        pw * qz + px * qy - py * qx + pz * qw,
-    ]
-
-
-def exp_rotation_vector_components(phi: Components) -> Components:
-    """Unit quaternion ``[cos(|phi|/2), sin(|phi|/2) phi/|phi|]`` of a rotation vector (numpy).
-
-    A series replaces ``sin(h)/h`` for half-angles ``h < 1e-4`` rad, so
-    ``phi = 0`` is exact.
-
-    Parameters
-    ----------
-    phi : list of 3 numpy arrays
-        Rotation vector components [rad] (numpy only: uses ``np.where``).
-
-    Returns
-    -------
-    list of 4 numpy arrays
-        Unit quaternion components ``[w, x, y, z]``.
-    """
-    angle = np.sqrt(phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2])
-    half = 0.5 * angle
-    small = half < 1e-4
-    # sin(h)/h = 1 - h^2/6 + h^4/120: the omitted h^4 term is < 1e-18 below h = 1e-4.
-    sinc = np.where(small, 1.0 - half * half / 6.0, np.sin(half) / np.where(small, 1.0, half))
-    s = 0.5 * sinc
-    return [np.cos(half), s * phi[0], s * phi[1], s * phi[2]]
 
 
 def _dexpinv(theta: Components, omega: Components) -> Components:

@@ -151,7 +151,7 @@ def _omega_ref(body: RigidBody, omega_ref: ArrayLike | None) -> NDArray[np.float
     if w.shape != (3,):
         raise ValueError(f"omega_ref must have shape (3,) [rad/s], got shape {w.shape}")
     inertia = body.inertia
-    gyro = np.cross(w, inertia @ w)
+    gyro = -inertia @ body.omega_dot(w)  # omega x I omega, from the one definition of Euler's equations
     scale = np.max(np.abs(inertia)) * float(w @ w)
     if np.linalg.norm(gyro) > SPIN_AXIS_TOLERANCE * scale:
         raise ValueError(

@@ -17,10 +17,14 @@ quaternion say so.
 
 from __future__ import annotations
 
+import math
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from attitude._validation import as_float_array, check_vector
+from attitude.backend import cross
 from attitude.rng import as_generator
 
 __all__ = [
@@ -64,6 +68,113 @@ _SMALL_ANGLE = 1e-5
 
 # Largest scalar part whose exponential is finite in float64 (e^709.78 ~ 1.8e308).
 _EXP_MAX = 709.0
+
+
+# ---------------------------------------------------------------------------
+# The one definition of the quaternion algebra, on component lists.
+#
+# Lists of 4 (or 3) components that are numpy arrays of any common batch
+# shape or casadi scalars, combined with + - * only (``exp`` is numpy only).
+# The array API below and every model (rigid body, integrators, controllers,
+# filters, planners) use these; no checks here (the callers validate).
+# ---------------------------------------------------------------------------
+
+
+def multiply_components(p: list, q: list) -> list:
+    """Hamilton product ``p ⊗ q`` on components ``[w, x, y, z]``."""
+    pw, px, py, pz = p
+    qw, qx, qy, qz = q
+    return [
+        pw * qw - px * qx - py * qy - pz * qz,
+        pw * qx + px * qw + py * qz - pz * qy,
+        pw * qy - px * qz + py * qw + pz * qx,
+        pw * qz + px * qy - py * qx + pz * qw,
+    ]
+
+
+def conjugate_components(q: list) -> list:
+    """Conjugate ``[w, -x, -y, -z]`` on components."""
+    return [q[0], -q[1], -q[2], -q[3]]
+
+
+def derivative_components(q: list, omega: list) -> list:
+    """Kinematics ``0.5 q ⊗ [0, omega]`` on components (the product with the zero terms left out) [1/s]."""
+    qw, qx, qy, qz = q
+    wx, wy, wz = omega
+    return [
+        -0.5 * (qx * wx + qy * wy + qz * wz),
+        0.5 * (qw * wx + qy * wz - qz * wy),
+        0.5 * (qw * wy - qx * wz + qz * wx),
+        0.5 * (qw * wz + qx * wy - qy * wx),
+    ]
+
+
+def rotate_components(q: list, v: list) -> list:
+    """``q ⊗ v ⊗ q*`` for a unit quaternion: body components to inertial ones for ``q = q_BN``.
+
+    Uses ``v + w t + u x t`` with ``t = 2 u x v`` (``u`` the vector part).
+    """
+    w, u = q[0], q[1:]
+    t = [2.0 * c for c in cross(u, v)]
+    ut = cross(u, t)
+    return [vi + w * ti + ci for vi, ti, ci in zip(v, t, ut)]
+
+
+def rotate_inverse_components(q: list, v: list) -> list:
+    """``q* ⊗ v ⊗ q`` for a unit quaternion: inertial components to body ones for ``q = q_BN``."""
+    return rotate_components(conjugate_components(q), v)
+
+
+#: Half-angle [rad] below which sin(h)/h is replaced by its series 1 - h^2/6.
+_EXP_SERIES_HALF_ANGLE = 1e-4
+
+
+def exp_rotation_vector_components(phi: list, half_angle: Any = None) -> list:
+    """Unit quaternion ``[cos(|phi|/2), sin(|phi|/2) phi/|phi|]`` of a rotation vector [rad] (numpy).
+
+    A series replaces ``sin(h)/h`` for half-angles ``h < 1e-4`` rad
+    (``1 - h^2/6``; the omitted ``h^4/120`` is below 1e-18), so ``phi = 0`` is
+    exact. ``half_angle`` (``|phi|/2``) may be given when already known (e.g.
+    from a scale-safe norm).
+    """
+    if half_angle is None:
+        half = 0.5 * (phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2]) ** 0.5
+    else:
+        half = half_angle
+    if type(half) is float:  # one rotation in Python floats (not numpy scalars): math, no per-call overhead
+        sinc = 1.0 - half * half / 6.0 if half < _EXP_SERIES_HALF_ANGLE else math.sin(half) / half
+        return [math.cos(half), 0.5 * sinc * phi[0], 0.5 * sinc * phi[1], 0.5 * sinc * phi[2]]
+    small = half < _EXP_SERIES_HALF_ANGLE
+    tiny = np.where(small, half, 0.0)  # keeps the unused series branch finite for huge angles
+    sinc = np.where(small, 1.0 - tiny * tiny / 6.0, np.sin(half) / np.where(small, 1.0, half))
+    s = 0.5 * sinc
+    return [np.cos(half), s * phi[0], s * phi[1], s * phi[2]]
+
+
+def log_vector_components(q: list) -> list:
+    """Vector part ``theta v/|v|`` of ``log(q)``, ``theta = atan2(|v|, w)`` in ``[0, pi]`` (numpy).
+
+    Scale-invariant (any non-zero ``q``); half the rotation vector for a unit
+    ``q`` taken the way it points (flip ``q`` to ``w >= 0`` first for the
+    shortest way). ``hypot`` does not underflow, and atan2 keeps full relative
+    precision for any ``|v| > 0`` (no series needed; theta -> pi when w < 0).
+    For ``v = 0`` and ``w < 0`` the axis is arbitrary: x is used, as in
+    :func:`to_axis_angle`.
+    """
+    w, x, y, z = q
+    vn = np.hypot(np.hypot(x, y), z)
+    theta = np.arctan2(vn, w)
+    zero = vn == 0
+    scale = np.where(zero, 0.0, theta / np.where(zero, 1.0, vn))
+    return [np.where(zero, theta, scale * x), scale * y, scale * z]
+
+
+def _split(x: NDArray[np.float64]) -> list:
+    return [x[..., i] for i in range(x.shape[-1])]
+
+
+def _join(parts: list) -> NDArray[np.float64]:
+    return np.stack(np.broadcast_arrays(*parts), axis=-1)
 
 
 def _norm(x: NDArray[np.float64], keepdims: bool = False) -> NDArray[np.float64]:
@@ -168,17 +279,7 @@ def multiply(p: ArrayLike, q: ArrayLike) -> NDArray[np.float64]:
     """
     p = check_vector(p, "p", 4)
     q = check_vector(q, "q", 4)
-    pw, px, py, pz = np.moveaxis(p, -1, 0)
-    qw, qx, qy, qz = np.moveaxis(q, -1, 0)
-    return np.stack(
-        [
-            pw * qw - px * qx - py * qy - pz * qz,
-            pw * qx + px * qw + py * qz - pz * qy,
-            pw * qy - px * qz + py * qw + pz * qx,
-            pw * qz + px * qy - py * qx + pz * qw,
-        ],
-        axis=-1,
-    )
+    return _join(multiply_components(_split(p), _split(q)))
 
 
 def conjugate(q: ArrayLike) -> NDArray[np.float64]:
@@ -294,10 +395,7 @@ def rotate(q: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
     """
     q = as_unit_quaternion(q, "q")
     v = check_vector(v, "v", 3)
-    w = q[..., :1]
-    u = q[..., 1:]
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
+    return _join(rotate_components(_split(q), _split(v)))
 
 
 def rotate_inverse(q: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
@@ -352,13 +450,8 @@ def exp(q: ArrayLike) -> NDArray[np.float64]:
     v = q[..., 1:]
     if np.any(s > _EXP_MAX):
         raise ValueError(f"q scalar part must be at most {_EXP_MAX} (e^s overflows beyond); got {np.max(s)!r}")
-    angle = _norm(v)
-    small = angle < _SMALL_ANGLE
-    safe = np.where(small, 1.0, angle)
-    # sin(x)/x = 1 - x^2/6 + x^4/120 - ...; the x^4 term is < 1e-22 below _SMALL_ANGLE.
-    tiny = np.where(small, angle, 0.0)
-    sinc = np.where(small, 1.0 - tiny * tiny / 6.0, np.sin(safe) / safe)
-    out = np.concatenate([np.cos(angle)[..., None], sinc[..., None] * v], axis=-1)
+    # exp([0, v]) is the unit quaternion of the rotation vector 2 v; |v| from the scale-safe norm.
+    out = _join(exp_rotation_vector_components(_split(2.0 * v), half_angle=_norm(v)))
     return np.exp(s)[..., None] * out
 
 
@@ -386,19 +479,8 @@ def log(q: ArrayLike) -> NDArray[np.float64]:
         If ``q`` is not of shape ``(..., 4)``, holds NaN/inf, or has zero norm.
     """
     q = _nonzero_quaternion(q, "q")
-    qn = _norm(q)
-    w = q[..., 0]
-    v = q[..., 1:]
-    # hypot does not underflow: the direction v/|v| matters even for a tiny v when w < 0.
-    vn = np.hypot(np.hypot(v[..., 0], v[..., 1]), v[..., 2])
-    theta = np.arctan2(vn, w)
-    # atan2 keeps full relative precision for any |v| > 0, so theta/|v| needs no series
-    # (and theta -> pi, not 0, when w < 0). For v = 0 and w < 0 (q = -|q|) the axis is
-    # arbitrary; x is used, as in to_axis_angle.
-    zero = vn == 0
-    safe = np.where(zero, 1.0, vn)
-    vec = np.where(zero[..., None], theta[..., None] * np.array([1.0, 0.0, 0.0]), (theta / safe)[..., None] * v)
-    return np.concatenate([np.log(qn)[..., None], vec], axis=-1)
+    vec = _join(log_vector_components(_split(q)))
+    return np.concatenate([np.log(_norm(q))[..., None], vec], axis=-1)
 
 
 def shortest(q: ArrayLike) -> NDArray[np.float64]:
@@ -536,8 +618,7 @@ def derivative(q: ArrayLike, omega: ArrayLike) -> NDArray[np.float64]:
     """
     q = check_vector(q, "q", 4)
     omega = check_vector(omega, "omega", 3)
-    omega_q = np.concatenate([np.zeros((*omega.shape[:-1], 1)), omega], axis=-1)
-    return 0.5 * multiply(q, omega_q)
+    return _join(derivative_components(_split(q), _split(omega)))
 
 
 def to_dcm(q: ArrayLike) -> NDArray[np.float64]:
@@ -671,7 +752,7 @@ def to_rotation_vector(q: ArrayLike) -> NDArray[np.float64]:
         If ``q`` is not a unit quaternion of shape ``(..., 4)`` or holds NaN/inf.
     """
     q = shortest(as_unit_quaternion(q, "q"))
-    return 2.0 * log(q)[..., 1:]
+    return 2.0 * _join(log_vector_components(_split(q)))
 
 
 def from_rotation_vector(rotvec: ArrayLike) -> NDArray[np.float64]:

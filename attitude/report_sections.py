@@ -262,6 +262,7 @@ def _linear(results: dict[str, Any]) -> list[Block]:
             "delay each loop tolerates."
         )
     )
+
     def margin(m: dict, key: str) -> str:
         # Margins of an unstable closed loop are not margins (no stable gain interval to bound).
         return fmt(m[key]) if m["stable"] else "n/a"

@@ -27,6 +27,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
 from attitude._validation import as_float_array, check_vector, describe
+from attitude.backend import cross
+from attitude.quaternion import derivative_components as quaternion_rate
 
 __all__ = [
     "REALISABILITY_TOLERANCE",
@@ -73,26 +75,6 @@ def _join(parts: Components, like: Any) -> Any:
     return np.stack(parts, axis=-1)
 
 
-def cross(a: Components, b: Components) -> Components:
-    """Cross product ``a x b`` of two 3-component lists.
-
-    Parameters
-    ----------
-    a, b : list of 3 numpy arrays or casadi scalars
-        Vector components (any units; numpy entries broadcast).
-
-    Returns
-    -------
-    list of 3
-        Components of ``a x b`` (units of ``a`` times units of ``b``).
-    """
-    return [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-
-
 def _matvec(entries: list[list[Any]], v: Components) -> Components:
     """Matrix-vector product with a 3x3 nested list; ``None`` entries are zero."""
     out = []
@@ -104,31 +86,6 @@ def _matvec(entries: list[list[Any]], v: Components) -> Components:
             acc = e * vj if acc is None else acc + e * vj
         out.append(acc if acc is not None else 0.0 * v[0])
     return out
-
-
-def quaternion_rate(q: Components, omega: Components) -> Components:
-    """Quaternion kinematics ``0.5 q ⊗ [0, omega]`` on components.
-
-    Parameters
-    ----------
-    q : list of 4 numpy arrays or casadi scalars
-        Attitude ``q_BN`` components ``[w, x, y, z]``.
-    omega : list of 3 numpy arrays or casadi scalars
-        Body rate ``omega_BN_B`` [rad/s].
-
-    Returns
-    -------
-    list of 4
-        ``q_dot`` components [1/s].
-    """
-    qw, qx, qy, qz = q
-    wx, wy, wz = omega
-    return [
-        -0.5 * (qx * wx + qy * wy + qz * wz),
-        0.5 * (qw * wx + qy * wz - qz * wy),
-        0.5 * (qw * wy - qx * wz + qz * wx),
-        0.5 * (qw * wz + qx * wy - qy * wx),
-    ]
 
 
 def _entries(matrix: NDArray[np.float64]) -> list[list[Any]]:

@@ -266,6 +266,44 @@ def _misalignment_matrix(value: ArrayLike) -> NDArray[np.float64]:
 # Gyro
 
 
+def farrenkopf_process_noise(sigma_v2: float, sigma_u2: float, dt: float) -> NDArray[np.float64]:
+    """Discrete process noise (6, 6) of ``[attitude error, bias error]`` over ``dt`` (Farrenkopf model).
+
+    ``Q = [[(sv2 dt + su2 dt^3 / 3) I, -(su2 dt^2 / 2) I], [-(su2 dt^2 / 2) I, su2 dt I]]``
+    (Crassidis and Junkins, 2nd ed., sec. 7.2.1): the one definition used by
+    :meth:`Gyro.process_noise` and :mod:`estimation.mekf`. No argument checks
+    (callers validate).
+
+    Parameters
+    ----------
+    sigma_v2 : float
+        Squared angle-random-walk density [rad^2/s].
+    sigma_u2 : float
+        Squared rate-random-walk density [rad^2/s^3].
+    dt : float
+        Step [s].
+
+    Returns
+    -------
+    ndarray (6, 6)
+        ``Q`` [rad^2, rad^2/s, rad^2/s^2 blocks].
+    """
+    a = sigma_v2 * dt + sigma_u2 * dt**3 / 3.0
+    c = -sigma_u2 * dt**2 / 2.0
+    b = sigma_u2 * dt
+    # Filled by index (a filter calls this every step; np.block costs 20x more).
+    q = np.zeros((6, 6))
+    q[_DIAG_A, _DIAG_A] = a
+    q[_DIAG_A, _DIAG_B] = c
+    q[_DIAG_B, _DIAG_A] = c
+    q[_DIAG_B, _DIAG_B] = b
+    return q
+
+
+_DIAG_A = np.arange(3)
+_DIAG_B = np.arange(3, 6)
+
+
 #: Gyro sampling models (see :class:`Gyro`).
 GYRO_SAMPLING = ("instantaneous", "mean")
 #: What :meth:`Gyro.check_sampling` does on a mismatch.
@@ -559,15 +597,7 @@ class Gyro:
         (Crassidis and Junkins, 2nd ed., sec. 7.2.1; exact for the sampled
         model at zero rate, to first order in ``|omega| dt`` otherwise).
         """
-        dt = self._dt(dt)
-        su2, sv2 = self.sigma_u**2, self.sigma_v**2
-        eye = np.eye(3)
-        return np.block(
-            [
-                [(sv2 * dt + su2 * dt**3 / 3.0) * eye, -(su2 * dt**2 / 2.0) * eye],
-                [-(su2 * dt**2 / 2.0) * eye, su2 * dt * eye],
-            ]
-        )
+        return farrenkopf_process_noise(self.sigma_v**2, self.sigma_u**2, self._dt(dt))
 
     def check_sampling(self, expected: str, *, consumer: str, action: str = "raise") -> bool:
         """Check that :attr:`sampling` is ``expected`` (what a filter's measurement model assumes).

@@ -57,15 +57,6 @@ def quaternion_error_components(q_ref: Components, q: Components) -> tuple[Compo
     return [sign * c for c in e], e
 
 
-def _rotate_ref_to_body(q_e: Components, v_r: Components) -> Components:
-    """``C_BR v_R``: body components of a reference-frame vector (q_e = q_BR)."""
-    w, u = q_e[0], q_e[1:]
-    # v_B = q_e* ⊗ v_R ⊗ q_e = v - 2 w (u x v) + 2 u x (u x v)
-    t = cross(u, v_r)
-    tt = cross(u, t)
-    return [v - 2.0 * w * a + 2.0 * b for v, a, b in zip(v_r, t, tt)]
-
-
 def _per_axis_gain(value: ArrayLike, name: str) -> NDArray[np.float64]:
     arr = check_positive(value, name)
     if arr.shape not in ((), (1,), (3,)):
@@ -173,7 +164,7 @@ class QuaternionPD:
     def torque_components(self, q: Components, omega: Components, h_body: Components, inputs: Components) -> Components:
         """The control law on components; ``inputs = [q_ref (4), omega_ref (3)]``."""
         q_e, _ = quaternion_error_components(inputs[:4], q)
-        w_ref_b = _rotate_ref_to_body(q_e, inputs[4:7])
+        w_ref_b = quat.rotate_inverse_components(q_e, inputs[4:7])
         w_e = [w - r for w, r in zip(omega, w_ref_b)]
         tau = []
         for i in range(3):

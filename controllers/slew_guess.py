@@ -52,7 +52,8 @@ def base_guess(prob: Problem, n: int, duration_s: float | None) -> tuple[NDArray
     w = w + np.outer(1 - s, prob.omega0 * prob.t_s) + np.outer(s, prob.omegaf * prob.t_s)
     dw = np.diff(w, axis=0) / (duration_s / n)
     wm = 0.5 * (w[1:] + w[:-1])
-    u = dw @ inertia_s.T + np.cross(wm, wm @ inertia_s.T)
+    # Inverse dynamics from the one definition: tau = I (w_dot - w_dot_torque_free(w)).
+    u = (dw - prob.body_s.omega_dot(wm)) @ inertia_s.T
     return np.vstack([q.T, w.T]), u.T, duration_s
 
 

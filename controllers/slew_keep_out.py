@@ -189,11 +189,7 @@ def rotate_components(q: Sequence[Any], v: Sequence[float] | NDArray[np.float64]
     list of 3
         Components of the rotated vector, same backend as ``q``.
     """
-    w, u = q[0], list(q[1:])
-    vv = [float(x) for x in v]
-    t = cross(u, vv)
-    tt = cross(u, t)
-    return [vv[i] + 2.0 * w * t[i] + 2.0 * tt[i] for i in range(3)]
+    return quat.rotate_components(list(q), [float(x) for x in v])
 
 
 def _norm(v: Sequence[Any]) -> Any:

@@ -143,7 +143,7 @@ from scipy import stats
 from attitude import quaternion as quat
 from attitude._validation import as_float_array, check_positive
 from attitude.results import ResultIO
-from attitude.sensors import ARCSEC, Gyro, StarTracker
+from attitude.sensors import ARCSEC, Gyro, StarTracker, farrenkopf_process_noise
 from attitude.simulation import Estimate
 from estimation.consistency import NisHealth, nees, nis_health, plot_errors_with_bounds
 
@@ -192,44 +192,32 @@ def _skew(v: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.stack([np.stack([z, -w, y], -1), np.stack([w, z, -x], -1), np.stack([-y, x, z], -1)], -2)
 
 
+def _cols(x: NDArray[np.float64]) -> list:
+    return [x[..., i] for i in range(x.shape[-1])]
+
+
+def _stack(parts: list) -> NDArray[np.float64]:
+    return np.stack(np.broadcast_arrays(*parts), axis=-1)
+
+
 def _qmul(p: NDArray[np.float64], q: NDArray[np.float64]) -> NDArray[np.float64]:
-    pw, px, py, pz = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
-    qw, qx, qy, qz = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    return np.stack(
-        [
-            pw * qw - px * qx - py * qy - pz * qz,
-            pw * qx + px * qw + py * qz - pz * qy,
-            pw * qy - px * qz + py * qw + pz * qx,
-            pw * qz + px * qy - py * qx + pz * qw,
-        ],
-        axis=-1,
-    )
+    """``p ⊗ q`` (..., 4) by the one definition in :mod:`attitude.quaternion` (no checks)."""
+    return _stack(quat.multiply_components(_cols(p), _cols(q)))
 
 
 def _conj(q: NDArray[np.float64]) -> NDArray[np.float64]:
-    return q * np.array([1.0, -1.0, -1.0, -1.0])
+    return _stack(quat.conjugate_components(_cols(q)))
 
 
 def _exp_rotvec(phi: NDArray[np.float64]) -> NDArray[np.float64]:
     """Unit quaternion of the rotation vector ``phi`` [rad] (..., 3)."""
-    angle = np.sqrt(np.sum(phi * phi, axis=-1))
-    half = 0.5 * angle
-    small = angle < 1e-5
-    safe = np.where(small, 1.0, angle)
-    # sin(a/2)/a = 1/2 - a^2/48 + a^4/3840: the a^4 term is < 1e-23 below 1e-5.
-    s = np.where(small, 0.5 - angle**2 / 48.0, np.sin(half) / safe)
-    return np.concatenate([np.cos(half)[..., None], s[..., None] * phi], axis=-1)
+    return _stack(quat.exp_rotation_vector_components(_cols(phi)))
 
 
 def _log_rotvec(q: NDArray[np.float64]) -> NDArray[np.float64]:
     """Rotation vector [rad] of the unit quaternion ``q`` on the shortest way (``|phi| <= pi``)."""
-    sign = np.where(q[..., 0] < 0.0, -1.0, 1.0)
-    w = sign * q[..., 0]
-    v = sign[..., None] * q[..., 1:]
-    vn = np.sqrt(np.sum(v * v, axis=-1))
-    # atan2 keeps full relative precision for any |v| > 0; |v| = 0 means no rotation.
-    ratio = np.where(vn > 0.0, 2.0 * np.arctan2(vn, w) / np.where(vn > 0.0, vn, 1.0), 2.0)
-    return ratio[..., None] * v
+    sign = np.where(q[..., :1] < 0.0, -1.0, 1.0)
+    return 2.0 * _stack(quat.log_vector_components(_cols(sign * q)))
 
 
 def _normalize(q: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -237,16 +225,9 @@ def _normalize(q: NDArray[np.float64]) -> NDArray[np.float64]:
 
 
 def _compose_one(q: NDArray[np.float64], phi: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``normalise(q ⊗ exp(phi / 2))`` for one quaternion (4,) and rotation vector (3,), with Python scalars."""
-    px, py, pz = float(phi[0]), float(phi[1]), float(phi[2])
-    angle = math.sqrt(px * px + py * py + pz * pz)
-    s = 0.5 - angle * angle / 48.0 if angle < 1e-5 else math.sin(0.5 * angle) / angle  # as in _exp_rotvec
-    dw, dx, dy, dz = math.cos(0.5 * angle), s * px, s * py, s * pz
-    qw, qx, qy, qz = float(q[0]), float(q[1]), float(q[2]), float(q[3])
-    w = qw * dw - qx * dx - qy * dy - qz * dz
-    x = qw * dx + qx * dw + qy * dz - qz * dy
-    y = qw * dy - qx * dz + qy * dw + qz * dx
-    z = qw * dz + qx * dy - qy * dx + qz * dw
+    """``normalise(q ⊗ exp(phi / 2))`` for one quaternion (4,) and rotation vector (3,)."""
+    dq = quat.exp_rotation_vector_components([float(phi[0]), float(phi[1]), float(phi[2])])
+    w, x, y, z = quat.multiply_components([float(c) for c in q], [float(c) for c in dq])
     n = math.sqrt(w * w + x * x + y * y + z * z)
     return np.array([w / n, x / n, y / n, z / n])
 
@@ -335,18 +316,8 @@ def process_noise(sigma_v: float, sigma_u: float, dt: float) -> NDArray[np.float
     return _process_noise(sv * sv, su * su, h)
 
 
-_MASK_AA = np.zeros((6, 6))
-_MASK_AA[:3, :3] = _I3
-_MASK_AB = np.zeros((6, 6))
-_MASK_AB[:3, 3:] = _I3
-_MASK_AB[3:, :3] = _I3
-_MASK_BB = np.zeros((6, 6))
-_MASK_BB[3:, 3:] = _I3
-
-
-def _process_noise(sv2: float, su2: float, h: float) -> NDArray[np.float64]:
-    """:func:`process_noise` without checks, from the squared densities."""
-    return (sv2 * h + su2 * h**3 / 3.0) * _MASK_AA - (su2 * h**2 / 2.0) * _MASK_AB + (su2 * h) * _MASK_BB
+# The one definition of the Farrenkopf discrete process noise lives with the gyro model.
+_process_noise = farrenkopf_process_noise
 
 
 def initial_covariance(attitude_sigma: float, bias_sigma: float) -> NDArray[np.float64]:
