@@ -801,10 +801,16 @@ def to_axis_angle(q: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64
     ValueError
         If ``q`` is not a unit quaternion of shape ``(..., 4)`` or holds NaN/inf.
     """
-    phi = to_rotation_vector(q)
-    angle = _norm(phi)
-    safe = np.where(angle > 0, angle, 1.0)
-    axis = np.where((angle > 0)[..., None], phi / safe[..., None], np.array([1.0, 0.0, 0.0]))
+    q = shortest(as_unit_quaternion(q, "q"))
+    v = q[..., 1:]
+    # The axis from the vector part scaled to O(1) first: a subnormal |v| has
+    # few digits, so dividing by it (or by the rotation vector's norm) loses them.
+    vn = _norm(v)
+    angle = 2.0 * np.arctan2(vn, q[..., 0])
+    big = np.max(np.abs(v), axis=-1, keepdims=True)
+    y = v / np.where(big > 0, big, 1.0)
+    yn = _norm(y, keepdims=True)
+    axis = np.where(vn[..., None] > 0, y / np.where(yn > 0, yn, 1.0), np.array([1.0, 0.0, 0.0]))
     return axis, angle
 
 
