@@ -144,6 +144,58 @@ def _row(rid: str, text: str, key: str, required: Any, achieved: Any, unit: str,
     }
 
 
+def _slew_rows(
+    config: SpacecraftConfig,
+    angle_deg: float,
+    figures: dict[str, Any] | None,
+    source: str,
+    time_label: str,
+    slew_time_s: float | None,
+) -> list[dict[str, Any]]:
+    """The slew requirements (time, rate limit, keep-out cones) judged on ``figures`` of a plan or a flight.
+
+    ``figures`` holds ``peak_rate_deg_per_s`` and ``min_separation_deg`` (None: not computed, so failed);
+    ``source`` ("plan" or "flown") labels the rows.
+    """
+    req = config.requirements
+    rows = [
+        _row(
+            "slew_time",
+            f"slew time for {angle_deg:.1f} deg ({time_label})",
+            "requirements.slew.max_time_s",
+            req.slew.max_time_s,
+            slew_time_s,
+            "s",
+            "<=",
+        )
+    ]
+    if req.slew.rate_max_deg_per_s is not None:
+        rows.append(
+            _row(
+                "slew_rate",
+                f"largest body rate ({source})",
+                "requirements.slew.rate_max_deg_per_s",
+                req.slew.rate_max_deg_per_s,
+                None if figures is None else figures["peak_rate_deg_per_s"],
+                "deg/s",
+                "<=",
+            )
+        )
+    for i, cone in enumerate(req.keep_out):
+        rows.append(
+            _row(
+                f"keep_out_{i}",
+                f"keep-out '{cone.name}': smallest separation ({source})",
+                f"requirements.keep_out[{i}].half_angle_deg",
+                cone.half_angle_deg,
+                None if figures is None else figures["min_separation_deg"][cone.name],
+                "deg",
+                ">=",
+            )
+        )
+    return rows
+
+
 def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> dict[str, Any]:
     """Section 6: each requirement of the file against the achieved figure (from ``results`` only).
 
@@ -157,41 +209,14 @@ def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> d
     flight = results["closed_loop"]
     # The slew time is judged on the FLOWN slew: the first time after which the attitude error stays
     # within the pointing accuracy (the plan's duration is shown beside it, in sections 3 and 4).
-    rows = [
-        _row(
-            "slew_time",
-            f"slew time for {slews['angle_deg']:.1f} deg (flown: error within the pointing accuracy from then on)",
-            "requirements.slew.max_time_s",
-            req.slew.max_time_s,
-            None if flight is None else flight["flown_slew_time_s"],
-            "s",
-            "<=",
-        )
-    ]
-    if req.slew.rate_max_deg_per_s is not None:
-        rows.append(
-            _row(
-                "slew_rate",
-                "largest body rate (flown)",
-                "requirements.slew.rate_max_deg_per_s",
-                req.slew.rate_max_deg_per_s,
-                None if flight is None else flight["peak_rate_deg_per_s"],
-                "deg/s",
-                "<=",
-            )
-        )
-    for i, cone in enumerate(req.keep_out):
-        rows.append(
-            _row(
-                f"keep_out_{i}",
-                f"keep-out '{cone.name}': smallest separation (flown)",
-                f"requirements.keep_out[{i}].half_angle_deg",
-                cone.half_angle_deg,
-                None if flight is None else flight["min_separation_deg"][cone.name],
-                "deg",
-                ">=",
-            )
-        )
+    rows = _slew_rows(
+        config,
+        slews["angle_deg"],
+        flight,
+        "flown",
+        "flown: error within the pointing accuracy from then on",
+        None if flight is None else flight["flown_slew_time_s"],
+    )
     rows.append(
         _row(
             "settling_time",
@@ -277,43 +302,9 @@ def plan_verdicts(config: SpacecraftConfig, slews: dict[str, Any]) -> dict[str, 
     ``slews`` is :attr:`attitude.design_slew.SlewStudy.summary`. Returns
     ``{"requirements": [...], "verdict": {...}}``.
     """
-    req = config.requirements
     plan = slews["plan"]
-    rows = [
-        _row(
-            "slew_time",
-            f"slew time for {slews['angle_deg']:.1f} deg (optimal plan)",
-            "requirements.slew.max_time_s",
-            req.slew.max_time_s,
-            None if plan is None else plan["duration_s"],
-            "s",
-            "<=",
-        )
-    ]
-    if req.slew.rate_max_deg_per_s is not None:
-        rows.append(
-            _row(
-                "slew_rate",
-                "largest body rate (plan)",
-                "requirements.slew.rate_max_deg_per_s",
-                req.slew.rate_max_deg_per_s,
-                None if plan is None else plan["peak_rate_deg_per_s"],
-                "deg/s",
-                "<=",
-            )
-        )
-    for i, cone in enumerate(req.keep_out):
-        rows.append(
-            _row(
-                f"keep_out_{i}",
-                f"keep-out '{cone.name}': smallest separation (plan)",
-                f"requirements.keep_out[{i}].half_angle_deg",
-                cone.half_angle_deg,
-                None if plan is None else plan["min_separation_deg"][cone.name],
-                "deg",
-                ">=",
-            )
-        )
+    duration = None if plan is None else plan["duration_s"]
+    rows = _slew_rows(config, slews["angle_deg"], plan, "plan", "optimal plan", duration)
     failed = [r["id"] for r in rows if not r["pass"]]
     return {"requirements": rows, "verdict": {"pass": not failed, "failed": failed}}
 
