@@ -16,12 +16,14 @@ import casadi as ca
 import numpy as np
 
 __all__ = [
+    "atan2",
     "clip",
     "cross",
     "fabs",
     "fmax",
     "fmin",
     "if_else",
+    "is_finite",
     "is_symbolic",
     "sqrt",
     "tanh",
@@ -92,6 +94,39 @@ def fabs(x: Any) -> Any:
         ``|x|``, casadi if ``x`` is symbolic.
     """
     return ca.fabs(x) if is_symbolic(x) else np.abs(x)
+
+
+def atan2(y: Any, x: Any) -> Any:
+    """Four-quadrant arc tangent of ``y / x`` [rad].
+
+    Parameters
+    ----------
+    y, x : numpy array_like or casadi SX/MX/DM
+
+    Returns
+    -------
+    ndarray or casadi object
+        Angle in ``[-pi, pi]``, casadi if either argument is symbolic.
+    """
+    return ca.atan2(y, x) if is_symbolic(y, x) else np.arctan2(y, x)
+
+
+def is_finite(x: Any) -> Any:
+    """True where ``x`` is neither NaN nor infinite.
+
+    Written as ``|x| < inf`` (false for NaN and inf under IEEE rules), which
+    casadi keeps as a comparison: ``x - x == 0`` would be simplified away.
+
+    Parameters
+    ----------
+    x : numpy array_like or casadi SX/MX/DM
+
+    Returns
+    -------
+    ndarray of bool or casadi object
+        The test, casadi (1/0) if ``x`` is symbolic.
+    """
+    return fabs(x) < np.inf
 
 
 def fmin(a: Any, b: Any) -> Any:

@@ -33,10 +33,12 @@ from attitude.quaternion import derivative_components as quaternion_rate
 __all__ = [
     "REALISABILITY_TOLERANCE",
     "SYMMETRY_TOLERANCE",
+    "ParametricBody",
     "PrincipalAxes",
     "RigidBody",
     "cross",
     "quaternion_rate",
+    "symmetric_entries",
 ]
 
 #: Largest accepted ``max|I - I^T| / max|I|``: inertia tensors from CAD tools
@@ -132,7 +134,67 @@ class PrincipalAxes:
         return np.swapaxes(self.C_PB, -1, -2)
 
 
-class RigidBody:
+class _EulerEquations:
+    """The one definition of Euler's equations on components (numpy or casadi).
+
+    Subclasses hold the inertia and its inverse as nested 3x3 lists of
+    entries in ``_I`` and ``_I_inv`` (``None`` for an entry that is zero).
+    """
+
+    _I: list[list[Any]]
+    _I_inv: list[list[Any]]
+
+    def omega_dot_components(
+        self, omega: Components, torque: Components | None, h: Components | None = None
+    ) -> Components:
+        """Euler's equations on components: ``I^-1 (tau - omega x (I omega + h))``.
+
+        Parameters
+        ----------
+        omega, torque, h : list of 3 numpy arrays or casadi scalars
+            Body rate [rad/s], torque [N m] and internal momentum [N m s], all
+            in body components. ``torque`` None means torque-free and ``h``
+            None means no internal momentum (both skip the arithmetic).
+
+        Returns
+        -------
+        list of 3
+            Body angular acceleration ``omega_dot`` [rad/s^2], same backend as
+            ``omega``.
+        """
+        h_total = _matvec(self._I, omega)
+        if h is not None:
+            h_total = [a + b for a, b in zip(h_total, h)]
+        if torque is None:
+            # -omega x H written as H x omega: no separate negation.
+            return _matvec(self._I_inv, cross(h_total, omega))
+        gyro = cross(omega, h_total)
+        return _matvec(self._I_inv, [t - g for t, g in zip(torque, gyro)])
+
+    def state_derivative_components(
+        self, x: Components, torque: Components | None, h: Components | None = None
+    ) -> Components:
+        """Time derivative of the state components ``[q (4), omega (3)]``.
+
+        Parameters
+        ----------
+        x : list of 7 numpy arrays or casadi scalars
+            Attitude ``q_BN`` (scalar first) and body rate ``omega_BN_B`` [rad/s].
+        torque : list of 3 or None
+            Torque in body components [N m]; None for torque-free motion.
+        h : list of 3, optional
+            Internal (wheel) angular momentum in body components [N m s].
+
+        Returns
+        -------
+        list of 7
+            ``[q_dot (4) [1/s], omega_dot (3) [rad/s^2]]``, same backend as ``x``.
+        """
+        q, w = x[:4], x[4:7]
+        return quaternion_rate(q, w) + self.omega_dot_components(w, torque, h)
+
+
+class RigidBody(_EulerEquations):
     """A rigid spacecraft: inertia tensor, checks, and Euler's equations.
 
     Parameters
@@ -315,34 +377,7 @@ class RigidBody:
         """
         return quat.rotate(q, self.angular_momentum(omega))
 
-    # -- the one definition (numpy or casadi) --------------------------------
-
-    def omega_dot_components(
-        self, omega: Components, torque: Components | None, h: Components | None = None
-    ) -> Components:
-        """Euler's equations on components: ``I^-1 (tau - omega x (I omega + h))``.
-
-        Parameters
-        ----------
-        omega, torque, h : list of 3 numpy arrays or casadi scalars
-            Body rate [rad/s], torque [N m] and internal momentum [N m s], all
-            in body components. ``torque`` None means torque-free and ``h``
-            None means no internal momentum (both skip the arithmetic).
-
-        Returns
-        -------
-        list of 3
-            Body angular acceleration ``omega_dot`` [rad/s^2], same backend as
-            ``omega``.
-        """
-        h_total = _matvec(self._I, omega)
-        if h is not None:
-            h_total = [a + b for a, b in zip(h_total, h)]
-        if torque is None:
-            # -omega x H written as H x omega: no separate negation.
-            return _matvec(self._I_inv, cross(h_total, omega))
-        gyro = cross(omega, h_total)
-        return _matvec(self._I_inv, [t - g for t, g in zip(torque, gyro)])
+    # -- numpy and casadi front ends of the one definition (_EulerEquations) ----
 
     def omega_dot(self, omega: Any, torque: Any = None, h: Any = None) -> Any:
         """Body angular acceleration [rad/s^2] from Euler's equations.
@@ -380,28 +415,6 @@ class RigidBody:
         )
         hh = None if h is None else _split(h if symbolic else check_vector(h, "h", 3), 3)
         return _join(self.omega_dot_components(w, tau, hh), omega)
-
-    def state_derivative_components(
-        self, x: Components, torque: Components | None, h: Components | None = None
-    ) -> Components:
-        """Time derivative of the state components ``[q (4), omega (3)]``.
-
-        Parameters
-        ----------
-        x : list of 7 numpy arrays or casadi scalars
-            Attitude ``q_BN`` (scalar first) and body rate ``omega_BN_B`` [rad/s].
-        torque : list of 3 or None
-            Torque in body components [N m]; None for torque-free motion.
-        h : list of 3, optional
-            Internal (wheel) angular momentum in body components [N m s].
-
-        Returns
-        -------
-        list of 7
-            ``[q_dot (4) [1/s], omega_dot (3) [rad/s^2]]``, same backend as ``x``.
-        """
-        q, w = x[:4], x[4:7]
-        return quaternion_rate(q, w) + self.omega_dot_components(w, torque, h)
 
     def state_derivative(self, x: Any, torque: Any = None, h: Any = None) -> Any:
         """Time derivative of the state ``x = [q_BN (4), omega_BN_B (3)]``.
@@ -489,6 +502,40 @@ class RigidBody:
         return ca.Function(
             "rigid_body_jacobian", [x, tau], [ca.jacobian(f, x), ca.jacobian(f, tau)], ["x", "tau"], ["A", "B"]
         )
+
+
+class ParametricBody(_EulerEquations):
+    """A body whose inertia entries are given directly, for generated code.
+
+    The compiled Monte Carlo kernels (:mod:`attitude.montecarlo_kernel`)
+    evaluate :meth:`omega_dot_components` with the inertia and its inverse
+    as casadi symbols, so that one compiled function serves every dispersed
+    inertia. Nothing is checked here: the numbers fed to those symbols come
+    from validated :class:`RigidBody` objects.
+
+    Parameters
+    ----------
+    inertia_entries, inverse_entries : sequence of 6
+        ``[I_xx, I_yy, I_zz, I_xy, I_xz, I_yz]`` of the inertia [kg m^2] and
+        of its inverse [1/(kg m^2)] (symmetric tensors), any backend.
+    """
+
+    def __init__(self, inertia_entries: Sequence[Any], inverse_entries: Sequence[Any]) -> None:
+        self._I = _symmetric_entries(inertia_entries)
+        self._I_inv = _symmetric_entries(inverse_entries)
+
+
+def symmetric_entries(matrix: ArrayLike) -> NDArray[np.float64]:
+    """The six independent entries ``[xx, yy, zz, xy, xz, yz]`` of symmetric 3x3 matrices (..., 3, 3) -> (..., 6)."""
+    m = np.asarray(matrix, dtype=float)
+    return np.stack([m[..., 0, 0], m[..., 1, 1], m[..., 2, 2], m[..., 0, 1], m[..., 0, 2], m[..., 1, 2]], axis=-1)
+
+
+def _symmetric_entries(six: Sequence[Any]) -> list[list[Any]]:
+    if len(six) != 6:
+        raise ValueError(f"a symmetric tensor needs 6 entries [xx, yy, zz, xy, xz, yz], got {len(six)}")
+    xx, yy, zz, xy, xz, yz = six
+    return [[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]]
 
 
 def split_components(x: Any, n: int) -> Components:

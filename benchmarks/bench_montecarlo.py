@@ -10,7 +10,10 @@ Figures:
   (compiled engine) and vectorised (all runs as one batched numpy state);
 * spacecraft-simulated seconds per CPU second of a 1,000-run vectorised
   PD-with-wheels campaign, against the target of 30 x 9,000 = 270,000 per
-  core (9,000: a compiled C++ peer's simplest closed loop, per run).
+  core (9,000: a compiled C++ peer's simplest closed loop, per run). The
+  whole campaign is timed (dispersion draws, the table, the kernel), once
+  with an empty kernel cache (the C compiler's CPU, a child process,
+  included) and then warm (median of 3); and the numpy back end alone.
 
 CPU accounting. In one process, ``time.process_time`` (honest CPU). With
 worker processes the parent's process time misses the workers, so two
@@ -26,14 +29,20 @@ start-up is reported apart.
 from __future__ import annotations
 
 import os
+import resource
+import statistics
+import tempfile
 import time
 from typing import Any
 
 import numpy as np
 
+from attitude import codegen
+from attitude import montecarlo_batch as mb
 from attitude.config import default_config
 from attitude.montecarlo import Campaign, run_campaign
 from attitude.montecarlo_dispersions import dispersions_from_config
+from attitude.rigid_body import RigidBody
 from attitude.scenarios import ClosedLoopScenario, PDWheelsScenario
 
 CONFIG = default_config()
@@ -45,10 +54,11 @@ TARGET_FACTOR = 30
 
 def _measure(campaign: Campaign, **kwargs: Any) -> dict[str, Any]:
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    wall0, cpu0 = time.perf_counter(), time.process_time()
+    wall0, cpu0, child0 = time.perf_counter(), time.process_time(), _children_cpu()
     result = run_campaign(campaign, progress=False, **kwargs)
     wall = time.perf_counter() - wall0
-    parent_cpu = time.process_time() - cpu0
+    # The C compiler of the vectorised kernel runs as a child process: its CPU counts too.
+    parent_cpu = time.process_time() - cpu0 + (_children_cpu() - child0)
     ok = int(np.sum(result.status == "ok"))
     workers = kwargs.get("workers") or 2
     out: dict[str, Any] = {
@@ -68,6 +78,11 @@ def _measure(campaign: Campaign, **kwargs: Any) -> dict[str, Any]:
         out["wall_x_workers_s"] = wall * workers
     out["sim_s_per_cpu_s"] = campaign.runs * DURATION_S / out.get("cpu_s", out.get("cpu_s_in_runs"))
     return out
+
+
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
 
 
 def closed_loop_ekf(serial_runs: int = 3, parallel_runs: int = 8) -> dict[str, Any]:
@@ -99,23 +114,71 @@ def closed_loop_ekf(serial_runs: int = 3, parallel_runs: int = 8) -> dict[str, A
     return out
 
 
-def pd_wheels(per_run_runs: int = 20, vectorised_runs: int = 1000) -> dict[str, Any]:
+def pd_wheels(per_run_runs: int = 20, vectorised_runs: int = 1000, repeats: int = 3) -> dict[str, Any]:
     dispersions = {k: DISPERSIONS[k] for k in ("inertia", "initial_rate", "initial_attitude")}
     scenario = PDWheelsScenario.from_config(CONFIG, duration=DURATION_S)
     per_run = _measure(Campaign(scenario, dispersions, runs=per_run_runs, seed=1), workers=1)
-    vectorised = _measure(Campaign(scenario, dispersions, runs=vectorised_runs, seed=1), vectorized=True)
-    rate = vectorised["sim_s_per_cpu_s"]
+    campaign = Campaign(scenario, dispersions, runs=vectorised_runs, seed=1)
+    # Cold: an empty kernel cache, so the C compiler runs (once per machine and loop structure).
+    saved = os.environ.get(codegen.CACHE_ENV)
+    with tempfile.TemporaryDirectory() as cache:
+        os.environ[codegen.CACHE_ENV] = cache
+        mb._TICKS_CACHE.clear()
+        try:
+            cold = _measure(campaign, vectorized=True)
+        finally:
+            if saved is None:
+                os.environ.pop(codegen.CACHE_ENV)
+            else:
+                os.environ[codegen.CACHE_ENV] = saved
+            mb._TICKS_CACHE.clear()
+    # Warm: the compiled kernel cached on disk (later campaigns of the same design).
+    warm_runs = [_measure(campaign, vectorized=True) for _ in range(repeats)]
+    warm = sorted(warm_runs, key=lambda m: m["cpu_s"])[len(warm_runs) // 2]
+    warm["cpu_s_all_repeats"] = [m["cpu_s"] for m in warm_runs]
+    numpy_backend = _measure_numpy_backend(scenario, dispersions)
+    rate_cold, rate_warm = cold["sim_s_per_cpu_s"], warm["sim_s_per_cpu_s"]
+    target = TARGET_FACTOR * PEER_SIM_S_PER_CPU_S
     return {
         "case": "quaternion PD (truth) + 4-wheel pyramid, default spacecraft, 600 s at 10 Hz, dispersed inertia, "
         "initial attitude and rate",
         "per_run_compiled_one_worker": per_run,
-        "vectorised_1000_runs": vectorised,
-        "spacecraft_sim_s_per_cpu_s_per_core": rate,
+        "vectorised_1000_runs_cold_cache": cold,
+        "vectorised_1000_runs_warm_cache_median": warm,
+        "vectorised_numpy_backend": numpy_backend,
+        "spacecraft_sim_s_per_cpu_s_per_core": {"cold": rate_cold, "warm_median": rate_warm},
         "peer_sim_s_per_cpu_s": PEER_SIM_S_PER_CPU_S,
-        "ratio_to_peer": rate / PEER_SIM_S_PER_CPU_S,
-        "target_sim_s_per_cpu_s": TARGET_FACTOR * PEER_SIM_S_PER_CPU_S,
-        "target_met": rate >= TARGET_FACTOR * PEER_SIM_S_PER_CPU_S,
-        "speedup_vectorised_vs_per_run_cpu": rate / per_run["sim_s_per_cpu_s"],
+        "ratio_to_peer": {"cold": rate_cold / PEER_SIM_S_PER_CPU_S, "warm_median": rate_warm / PEER_SIM_S_PER_CPU_S},
+        "target_sim_s_per_cpu_s": target,
+        # Judged on the cold campaign (compiler included): the conservative figure.
+        "target_met": rate_cold >= target,
+        "speedup_vectorised_vs_per_run_cpu": {
+            "cold": rate_cold / per_run["sim_s_per_cpu_s"],
+            "warm_median": rate_warm / per_run["sim_s_per_cpu_s"],
+        },
+    }
+
+
+def _measure_numpy_backend(scenario: PDWheelsScenario, dispersions: dict, runs: int = 1000) -> dict[str, Any]:
+    """The same campaign's simulation on the numpy back end (no compiler), fewer simulated seconds."""
+    params = [Campaign(scenario, dispersions, runs=runs, seed=1).parameters(r) for r in range(runs)]
+    initial = [scenario._initial(p) for p in params]
+    body = RigidBody(np.stack([np.asarray(i[0], dtype=float) for i in initial]))
+    q0, omega0 = (np.stack([np.asarray(i[k], dtype=float) for i in initial]) for k in (1, 2))
+    duration = 60.0
+    samples = []
+    for _ in range(3):
+        start = time.process_time()
+        mb.simulate_batch(
+            body, q0, omega0, duration, controller=scenario.controller, wheels=scenario.wheels, backend="numpy"
+        )
+        samples.append(time.process_time() - start)
+    cpu = statistics.median(samples)
+    return {
+        "runs": runs,
+        "simulated_s_per_run": duration,
+        "cpu_s_median": cpu,
+        "spacecraft_sim_s_per_cpu_s": runs * duration / cpu,
     }
 
 
