@@ -44,7 +44,6 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
-import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -365,20 +364,13 @@ class _Loop:
         columns[-1] = self.threshold
         stops = list(range(0, n_ticks, self.stride)) if self.stride else [0]
         recorded: dict[str, list] = {}
-        zd = ca.DM(z.T)
         model = _PlantModel(plant, self.model.wheels)
         for a, b in zip(stops, [*stops[1:], n_ticks]):
             if self.stride:
-                self._observe(model, _components(zd, ticks.n_x), a, self._start(n), recorded)
-            zd = ticks.advance(zd, columns[:, a:b])
-        z = np.array(zd).T
+                self._observe(model, [z[:, i] for i in range(ticks.n_x)], a, self._start(n), recorded)
+            z = ticks.advance(z, columns[:, a:b])
         x = [np.ascontiguousarray(z[:, i]) for i in range(ticks.n_x)]
         off = ticks.n_x + ticks.n_u
         acc = [np.ascontiguousarray(z[:, off + i]) for i in range(len(METRICS))]
         acc, err = self._observe(model, x, n_ticks, acc, recorded)
         return x, acc, err, recorded
-
-
-def _components(zd: ca.DM, n_x: int) -> list:
-    z = np.array(zd)
-    return [np.ascontiguousarray(z[i]) for i in range(n_x)]

@@ -43,7 +43,7 @@ from attitude.integrators import quaternion_multiply_components
 from attitude.rigid_body import ParametricBody, split_components
 from attitude.simulation import _body_momentum, _PlantModel
 
-__all__ = ["FOLDS", "METRICS", "CompiledTicks", "command", "observe"]
+__all__ = ["FOLDS", "METRICS", "CompiledHold", "CompiledTicks", "command", "observe"]
 
 #: Order of the running metrics in the tick state.
 METRICS = ("peak_rate", "peak_wheel_speed", "last_above", "diverged_at")
@@ -91,9 +91,15 @@ def observe(model: _PlantModel, x: list, q_ref: list | None, threshold: Any, k: 
     return [bk.fmax(acc[0], rate), peak_speed, last_above, diverged_at], err, speeds
 
 
-def command(model: _PlantModel, controller: Any, x: list, inputs: list) -> list:
-    """Motor torques (or the body torque without wheels) for the control law on the true state ``x``."""
-    tau = controller.torque_components(x[:4], x[4:7], _body_momentum(model, x), inputs)
+def command(model: _PlantModel, controller: Any, x: list, inputs: list, estimate: list | None = None) -> list:
+    """Motor torques (or the body torque without wheels) of the control law.
+
+    As the single-run engine: the law sees ``estimate`` (``[q (4), omega
+    (3)]``, default the true state ``x``) and the wheel momentum of the true
+    state; the allocation uses the true wheel speeds.
+    """
+    seen = x if estimate is None else estimate
+    tau = controller.torque_components(seen[:4], seen[4:7], _body_momentum(model, x), inputs)
     return model.command(tau, x)[0]
 
 
@@ -145,23 +151,23 @@ class CompiledTicks:
             zm, cm = ca.MX.sym("z", self.n_z), ca.MX.sym("c", self.n_c, n)
             functions.append(ca.Function(f"tick{n}", [zm, cm], [tick.fold(n)(zm, cm)]))
         self._compiled = dict(zip([1, *FOLDS], compile_functions(functions)))
-        self._mapped: dict[tuple[int, int], ca.Function] = {}
+        self._mapped: dict[tuple[int, int], Any] = {}
 
-    def advance(self, z: ca.DM, columns: NDArray[np.float64]) -> ca.DM:
+    def advance(self, z: NDArray[np.float64], columns: NDArray[np.float64]) -> NDArray[np.float64]:
         """Advance every run by ``columns.shape[1]`` ticks.
 
         Parameters
         ----------
-        z : casadi.DM (n_z, n_runs)
-            Tick states, one column per run.
+        z : ndarray (n_runs, n_z)
+            Tick states, one row per run.
         columns : ndarray (n_c, n)
             Tick columns (shared by all runs), in order.
 
         Returns
         -------
-        casadi.DM (n_z, n_runs)
+        ndarray (n_runs, n_z)
         """
-        n_runs = z.shape[1]
+        n_runs = z.shape[0]
         done = 0
         while done < columns.shape[1]:
             left = columns.shape[1] - done
@@ -169,7 +175,69 @@ class CompiledTicks:
             key = (fold, n_runs)
             if key not in self._mapped:
                 # Input 1 (the tick columns) is shared by the runs, not repeated.
-                self._mapped[key] = self._compiled[fold].map(f"runs{fold}", "serial", n_runs, [1], [])
-            z = self._mapped[key](z, columns[:, done : done + fold])
+                self._mapped[key] = _Evaluator(self._compiled[fold].map(f"runs{fold}", "serial", n_runs, [1], []))
+            z = self._mapped[key](z, columns[:, done : done + fold].T)
             done += fold
         return z
+
+
+class _Evaluator:
+    """Zero-copy evaluation of a compiled function on numpy arrays (``casadi.Function.buffer``).
+
+    A casadi (rows, cols) matrix is stored column by column, which is a
+    C-ordered numpy array of shape (cols, rows): runs are rows here.
+    """
+
+    def __init__(self, function: ca.Function) -> None:
+        self._buffer, self._evaluate = function.buffer()
+        self.n_out = function.size1_out(0)
+
+    def __call__(self, *args: NDArray[np.float64]) -> NDArray[np.float64]:
+        inputs = [np.ascontiguousarray(a, dtype=np.float64) for a in args]
+        out = np.empty((inputs[0].shape[0], self.n_out))
+        for i, a in enumerate(inputs):
+            self._buffer.set_arg(i, memoryview(a))
+        self._buffer.set_res(0, memoryview(out))
+        self._evaluate()
+        return out
+
+
+class CompiledHold:
+    """The plant's hold step over one tick for one run, compiled to C and mapped over the runs.
+
+    For loops whose commands come from outside the kernel (an estimator in
+    the loop): ``x_next = hold(x, u, parameters, dt)`` with the parameters
+    of the tick state (module docstring).
+
+    Parameters
+    ----------
+    wheels : ReactionWheels or None
+    substeps : int
+        RK4 steps per tick.
+
+    Raises
+    ------
+    attitude.codegen.CompilationError
+        Without a working C compiler.
+    """
+
+    def __init__(self, wheels: Any, substeps: int) -> None:
+        self.n_x = 7 + (0 if wheels is None else wheels.n_wheels)
+        self.n_u = wheels.n_wheels if wheels is not None else 3
+        z = ca.SX.sym("z", self.n_x + self.n_u + 15)
+        dt = ca.SX.sym("dt")
+        zs = split_components(z, self.n_x + self.n_u + 15)
+        x, u, p = zs[: self.n_x], zs[self.n_x : self.n_x + self.n_u], zs[self.n_x + self.n_u :]
+        model = _PlantModel(ParametricBody(p[:6], p[6:12]), wheels)
+        hold = ca.Function("hold1", [z, dt], [ca.vertcat(*model.hold_step(x, u, p[12:15], dt, substeps))])
+        (self._compiled,) = compile_functions([hold])
+        self._mapped: dict[int, _Evaluator] = {}
+
+    def step(
+        self, x: NDArray[np.float64], u: NDArray[np.float64], parameters: NDArray[np.float64], dt: float
+    ) -> NDArray[np.float64]:
+        """Next states (n_runs, n_x) of states (n_runs, n_x), commands (n_runs, n_u), parameters (n_runs, 15)."""
+        n = x.shape[0]
+        if n not in self._mapped:
+            self._mapped[n] = _Evaluator(self._compiled.map(f"hold_runs{n}", "serial", n, [1], []))
+        return self._mapped[n](np.concatenate([x, u, parameters], axis=1), np.array([dt]))

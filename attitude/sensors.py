@@ -85,12 +85,23 @@ noise an MEKF with the body-frame error convention ``q = q_est ⊗ dq`` needs.
 With a Sun direction and an exclusion half-angle, no measurement is made
 (``measure`` returns None) while the Sun is strictly inside the cone of that
 half-angle about the boresight.
+
+Batches of runs
+---------------
+A vectorised Monte Carlo campaign advances N runs together, one tick at a
+time. :class:`GyroBatch` (N gyros that may differ in their transfer matrix
+and initial bias) and :meth:`StarTracker.measure_batch` sample all runs at
+once with the same code as :meth:`Gyro.measure` and
+:meth:`StarTracker.measure`, elementwise along a leading runs axis, so run
+``r`` gets bit for bit the samples of its single-run sensor when it is
+given the normals its own generator would have drawn; the runs' generators
+are served by :class:`attitude.rng.NormalStreams`.
 """
 
 from __future__ import annotations
 
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -98,7 +109,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
 from attitude._validation import as_float_array, check_positive, check_vector, describe
-from attitude.rng import as_generator
+from attitude.rng import NormalStreams, as_generator
 
 __all__ = [
     "ARCSEC",
@@ -108,6 +119,7 @@ __all__ = [
     "SAMPLING_CHECKS",
     "STAR_TRACKER_PRESETS",
     "Gyro",
+    "GyroBatch",
     "GyroSamplingWarning",
     "StarTracker",
     "arw_from_sigma_v",
@@ -264,6 +276,28 @@ def _misalignment_matrix(value: ArrayLike) -> NDArray[np.float64]:
 
 # ---------------------------------------------------------------------------
 # Gyro
+
+
+def _apply_transfer(transfer: NDArray[np.float64], omega: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``T omega`` for ``T`` (3, 3) or (..., 3, 3) and ``omega`` (..., 3).
+
+    Explicit products (no BLAS, whose summation order and FMA use depend on
+    the shapes) so that a batch and a single sample round identically.
+    """
+    return (
+        omega[..., 0:1] * transfer[..., :, 0]
+        + omega[..., 1:2] * transfer[..., :, 1]
+        + omega[..., 2:3] * transfer[..., :, 2]
+    )
+
+
+def _check_after(t: float, t_last: float | None, who: str) -> None:
+    """Raise ValueError unless ``t`` [s] comes after the previous sample time ``t_last``."""
+    if t_last is not None and not t > t_last:
+        raise ValueError(
+            f"t must come after the previous sample of {who}: t = {t!r} s <= {t_last!r} s "
+            "(call reset() before reusing the gyro in a new run)"
+        )
 
 
 def farrenkopf_process_noise(sigma_v2: float, sigma_u2: float, dt: float) -> NDArray[np.float64]:
@@ -686,17 +720,50 @@ class Gyro:
     def ideal_output(self, omega_BN_B: ArrayLike) -> NDArray[np.float64]:
         """Noise-free, unquantised output ``(I + S + M) omega`` [rad/s], shape (..., 3)."""
         omega = check_vector(omega_BN_B, "omega_BN_B", 3)
-        t = self.transfer_matrix
-        # Explicit products (no BLAS) so a batch and a single sample round identically.
-        return omega[..., 0:1] * t[:, 0] + omega[..., 1:2] * t[:, 1] + omega[..., 2:3] * t[:, 2]
+        return _apply_transfer(self.transfer_matrix, omega)
 
-    def _output(self, omega: NDArray[np.float64], errors: NDArray[np.float64]) -> NDArray[np.float64]:
-        raw = self.ideal_output(omega) + errors
+    def _output(
+        self, omega: NDArray[np.float64], errors: NDArray[np.float64], transfer: NDArray[np.float64] | None = None
+    ) -> NDArray[np.float64]:
+        """``clip(quantise(T omega + errors))`` with ``T`` this gyro's transfer matrix or ``transfer`` (..., 3, 3)."""
+        raw = _apply_transfer(self.transfer_matrix if transfer is None else transfer, omega) + errors
         if self.quantization > 0:
             raw = np.round(raw / self.quantization) * self.quantization
         if np.isfinite(self.saturation):
             raw = np.clip(raw, -self.saturation, self.saturation)
         return raw
+
+    def _sample(
+        self,
+        t: float,
+        omega: NDArray[np.float64],
+        q: NDArray[np.float64] | None,
+        bias: NDArray[np.float64],
+        t_last: float | None,
+        q_last: NDArray[np.float64] | None,
+        normals: NDArray[np.float64],
+        transfer: NDArray[np.float64] | None = None,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """One sample of one gyro, or of N runs at once (a leading runs axis): the one code path.
+
+        :meth:`measure` calls it with ``omega`` (3,), ``q`` (4,), ``bias``
+        (3,), ``normals`` (1, 2, 3); :class:`GyroBatch` with (N, 3), (N, 4),
+        (N, 3), (N, 1, 2, 3) and its per-run ``transfer`` (N, 3, 3). Every
+        operation is elementwise along the runs axis (explicit products, no
+        BLAS), so run ``r`` of a batch rounds exactly as the single call. No
+        checks (the callers validate, ``t > t_last`` included). Returns the
+        output and the bias at ``t``.
+        """
+        if self.sampling == "mean" and q_last is not None:
+            # The interval-mean rate: the rotation vector of the attitude increment over the interval.
+            increment = quat.multiply(quat.conjugate(q_last), q)
+            omega = quat.to_rotation_vector(increment) / (t - t_last)
+        if t_last is None:
+            dt_bias, dt_noise = 0.0, self.period
+        else:
+            dt_bias = dt_noise = t - t_last
+        errors, biases = self._errors(bias, np.array([dt_bias]), np.array([dt_noise]), normals)
+        return self._output(omega, errors[..., 0, :], transfer), biases[..., -1, :]
 
     def measure(self, t: float, truth: Any, rng: Any = None) -> NDArray[np.float64]:
         """One rate sample [rad/s] at time ``t`` [s] (the engine's sensor protocol).
@@ -725,27 +792,13 @@ class Gyro:
         gen = as_generator(rng)
         t = float(as_float_array(t, "t"))
         omega = check_vector(truth.omega, "truth.omega", 3)
-        if self.sampling == "mean":
-            q = quat.as_unit_quaternion(truth.q, "truth.q")
-            if self._q_last is not None and t > self._t_last:
-                increment = quat.multiply(quat.conjugate(self._q_last), q)
-                omega = quat.to_rotation_vector(increment) / (t - self._t_last)
-            self._q_last = q
-        if self._t_last is None:
-            dt_bias, dt_noise = 0.0, self.period
-        else:
-            dt = t - self._t_last
-            if dt <= 0:
-                raise ValueError(
-                    f"t must come after the previous sample of gyro {self.name!r}: t = {t!r} s <= {self._t_last!r} s "
-                    "(call reset() before reusing the gyro in a new run)"
-                )
-            dt_bias = dt_noise = dt
+        q = quat.as_unit_quaternion(truth.q, "truth.q") if self.sampling == "mean" else None
+        _check_after(t, self._t_last, f"gyro {self.name!r}")
         normals = gen.standard_normal((1, 2, 3))
-        errors, biases = self._errors(self._bias, np.array([dt_bias]), np.array([dt_noise]), normals)
-        self._bias = biases[-1]
+        out, self._bias = self._sample(t, omega, q, self._bias, self._t_last, self._q_last, normals)
         self._t_last = t
-        return self._output(omega, errors[0])
+        self._q_last = q
+        return out
 
     def sample_errors(
         self,
@@ -871,6 +924,185 @@ class Gyro:
         normals = as_generator(rng).standard_normal((t.size, 2, 3))
         errors, _ = self._errors(np.array(self.initial_bias, dtype=np.float64), dt_bias, dt_noise, normals)
         return self._output(omega, errors)
+
+
+#: Settings the gyros of a :class:`GyroBatch` must share (everything but the transfer matrix and the initial bias).
+_GYRO_BATCH_SHARED = ("sigma_v", "sigma_u", "period", "sampling", "quantization", "saturation")
+
+
+class GyroBatch:
+    """N gyros sampled together: run ``r`` reproduces ``gyros[r].measure`` bit for bit.
+
+    The batch sampler of a vectorised Monte Carlo campaign: N runs advance
+    one tick at a time with their states stacked along a leading runs axis.
+    The gyros may differ in their transfer matrix ``I + S + M`` (dispersed
+    scale factor and misalignment) and in their initial bias (a dispersed
+    turn-on bias); everything else (``sigma_v``, ``sigma_u``, ``period``,
+    ``sampling``, ``quantization``, ``saturation``) must be the same. The
+    batch keeps its own state (per-run bias (N, 3), the previous sample
+    time, the previous attitudes (N, 4) for ``sampling="mean"``), starting
+    as freshly reset gyros; the :class:`Gyro` objects are not touched.
+
+    :meth:`measure` runs the same code as :meth:`Gyro.measure` (its
+    ``_sample``: the interval-mean rate from the attitude increment, the
+    first-sample rule, the exact Farrenkopf errors, quantisation and
+    saturation) with a leading runs axis; every operation is elementwise
+    along that axis, so when ``normals[r]`` are the numbers
+    ``gen_r.standard_normal((1, 2, 3))`` would have drawn, run ``r`` gets
+    exactly the sample ``gyros[r].measure(t, truth_r, gen_r)`` returns.
+
+    Parameters
+    ----------
+    gyros : sequence of Gyro
+        One gyro per run (at least one), sharing the settings listed above.
+
+    Raises
+    ------
+    ValueError
+        If ``gyros`` is empty, holds something that is not a :class:`Gyro`,
+        or two gyros differ in a shared setting (the message names it).
+    """
+
+    def __init__(self, gyros: Sequence[Gyro]) -> None:
+        gs = list(gyros)
+        if not gs:
+            raise ValueError("gyros must hold at least one Gyro, got an empty sequence")
+        for i, g in enumerate(gs):
+            if not isinstance(g, Gyro):
+                raise ValueError(f"gyros must hold attitude.sensors.Gyro objects; gyros[{i}] is {type(g).__name__}")
+        first = gs[0]
+        for name in _GYRO_BATCH_SHARED:
+            for i, g in enumerate(gs[1:], start=1):
+                if getattr(g, name) != getattr(first, name):
+                    raise ValueError(
+                        f"gyros must share {name} (only the transfer matrix and the initial bias may differ per run); "
+                        f"gyros[0].{name} = {getattr(first, name)!r} but gyros[{i}].{name} = {getattr(g, name)!r}"
+                    )
+        # The shared settings and the one code path (Gyro._sample) come from the first gyro.
+        self._model = first
+        self.name = first.name
+        transfer = np.stack([g.transfer_matrix for g in gs])
+        transfer.flags.writeable = False
+        #: Per-run ``I + S + M`` (N, 3, 3).
+        self.transfer_matrix = transfer
+        initial = np.stack([g.initial_bias for g in gs])
+        initial.flags.writeable = False
+        #: Per-run initial bias (N, 3) [rad/s].
+        self.initial_bias = initial
+        self.reset()
+
+    def __repr__(self) -> str:
+        return f"GyroBatch(n_runs={self.n_runs}, model={self._model!r})"
+
+    @property
+    def n_runs(self) -> int:
+        """Number of runs."""
+        return int(self.transfer_matrix.shape[0])
+
+    @property
+    def period(self) -> float:
+        """Sample period [s] (shared)."""
+        return self._model.period
+
+    @property
+    def sampling(self) -> str:
+        """``"instantaneous"`` or ``"mean"`` (shared; see :class:`Gyro`)."""
+        return self._model.sampling
+
+    @property
+    def sigma_v(self) -> float:
+        """Angle-random-walk density [rad/s^0.5] (shared)."""
+        return self._model.sigma_v
+
+    @property
+    def sigma_u(self) -> float:
+        """Rate-random-walk density [rad/s^1.5] (shared)."""
+        return self._model.sigma_u
+
+    @property
+    def bias(self) -> NDArray[np.float64]:
+        """Per-run bias (N, 3) [rad/s] at the latest sample (a copy)."""
+        return self._bias.copy()
+
+    @property
+    def t_last(self) -> float | None:
+        """Time [s] of the latest sample (None before the first)."""
+        return self._t_last
+
+    def reset(self) -> None:
+        """Back to the initial biases; the next sample is a first one (as :meth:`Gyro.reset`)."""
+        self._bias = np.array(self.initial_bias, dtype=np.float64)
+        self._t_last: float | None = None
+        self._q_last: NDArray[np.float64] | None = None
+
+    def measure(
+        self, t: float, q: ArrayLike | None, omega: ArrayLike, normals: ArrayLike | NormalStreams
+    ) -> NDArray[np.float64]:
+        """One rate sample [rad/s] per run at time ``t`` [s].
+
+        Parameters
+        ----------
+        t : float
+            Sample time [s] (shared); must come after the previous sample.
+        q : array_like (N, 4) or None
+            True attitudes ``q_BN`` (unit norm; normalised here as
+            :meth:`Gyro.measure` does). Required for ``sampling="mean"``;
+            ignored (may be None) for ``"instantaneous"``.
+        omega : array_like (N, 3)
+            True body rates [rad/s] (the sample of ``"instantaneous"``, and
+            the first sample of ``"mean"``).
+        normals : array_like (N, 2, 3) or NormalStreams
+            Standard normals of each run, ``[N_u, N_v]`` in the order of
+            ``gen.standard_normal((1, 2, 3))``; or the runs'
+            :class:`attitude.rng.NormalStreams`, from which 6 numbers per run
+            are drawn.
+
+        Returns
+        -------
+        ndarray (N, 3)
+            Samples [rad/s].
+
+        Raises
+        ------
+        ValueError
+            If ``t`` is not finite or does not come after the previous
+            sample, or an array has the wrong shape, holds NaN/inf, or ``q``
+            is not unit norm (nothing changes then).
+        """
+        n = self.n_runs
+        tt = as_float_array(t, "t")
+        if tt.ndim != 0:
+            raise ValueError(f"t must be a scalar time [s], got shape {tt.shape}")
+        t = float(tt)
+        w = check_vector(omega, "omega", 3)
+        if w.shape != (n, 3):
+            raise ValueError(f"omega must have shape ({n}, 3) (one true rate per run), got shape {w.shape}")
+        qn = None
+        if self.sampling == "mean":
+            if q is None:
+                raise ValueError(
+                    "q is required: the gyros have sampling='mean', whose samples are formed from the attitude "
+                    "increment since the previous sample"
+                )
+            qn = quat.as_unit_quaternion(q, "q")
+            if qn.shape != (n, 4):
+                raise ValueError(f"q must have shape ({n}, 4) (one attitude per run), got shape {qn.shape}")
+        _check_after(t, self._t_last, "this GyroBatch")
+        if isinstance(normals, NormalStreams):
+            if normals.n_runs != n:
+                raise ValueError(f"normals must have {n} streams (one per run), got {normals.n_runs}")
+            nrm = normals.draw(None, 6).reshape(n, 1, 2, 3)
+        else:
+            nrm = as_float_array(normals, "normals")
+            if nrm.shape != (n, 2, 3):
+                raise ValueError(f"normals must have shape ({n}, 2, 3) ([N_u, N_v] per run), got shape {nrm.shape}")
+            nrm = nrm[:, None]
+        out, self._bias = self._model._sample(
+            t, w, qn, self._bias, self._t_last, self._q_last, nrm, self.transfer_matrix
+        )
+        self._t_last = t
+        self._q_last = qn
+        return out
 
 
 #: Datasheet figures of the gyro presets (keywords of :meth:`Gyro.from_datasheet`) and their sources.
@@ -1084,19 +1316,51 @@ class StarTracker:
             return _unit_vector(self.sun_direction_N(t), "sun_direction_N(t)")
         return self.sun_direction_N
 
-    def sun_blinded(self, t: float, q_BN: ArrayLike) -> bool:
+    def sun_blinded(self, t: float, q_BN: ArrayLike) -> bool | NDArray[np.bool_]:
         """True when the Sun is strictly inside the exclusion cone about the boresight.
 
         The test is ``angle(boresight, sun) < sun_exclusion``, with the Sun
-        direction taken into body axes by ``q_BN``.
+        direction taken into body axes by ``q_BN`` and the angle
+        ``atan2(|s x b|, s . b)`` formed with explicit products (a batch
+        decides exactly as one attitude at a time).
+
+        Parameters
+        ----------
+        t : float
+            Time [s] (for a time-varying Sun direction).
+        q_BN : array_like (4,) or (..., 4)
+            Attitude(s) (unit norm).
+
+        Returns
+        -------
+        bool or ndarray (...) of bool
+            A bool for one attitude, an array for a batch.
         """
+        q = quat.as_unit_quaternion(q_BN, "q_BN")
+        blinded = self._blinded(t, q)
+        return bool(blinded) if q.ndim == 1 else blinded
+
+    def _blinded(self, t: float, q: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """:meth:`sun_blinded` for normalised attitudes ``q`` (..., 4) (the one code path)."""
         sun_N = self.sun_direction_at(t)
         if sun_N is None:
-            return False
-        sun_B = quat.rotate_inverse(q_BN, sun_N)
-        cos_angle = float(np.dot(sun_B, self.boresight_B)) / float(np.linalg.norm(sun_B))
-        sin_angle = float(np.linalg.norm(np.cross(sun_B, self.boresight_B))) / float(np.linalg.norm(sun_B))
-        return bool(np.arctan2(sin_angle, cos_angle) < self.sun_exclusion)
+            return np.zeros(q.shape[:-1], dtype=bool)
+        sun_B = quat.rotate_inverse(q, sun_N)
+        s0, s1, s2 = sun_B[..., 0], sun_B[..., 1], sun_B[..., 2]
+        b0, b1, b2 = (float(c) for c in self.boresight_B)
+        cos_part = s0 * b0 + s1 * b1 + s2 * b2
+        c0, c1, c2 = s1 * b2 - s2 * b1, s2 * b0 - s0 * b2, s0 * b1 - s1 * b0
+        sin_part = np.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+        return np.asarray(np.arctan2(sin_part, cos_part) < self.sun_exclusion)
+
+    def _noisy(self, q: NDArray[np.float64], normals: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``q ⊗ exp(C_BS diag(s_c, s_c, s_r) normals / 2)`` for normalised ``q`` (..., 4) (the one code path)."""
+        scale = np.array([self.sigma_cross, self.sigma_cross, self.sigma_roll])
+        dtheta_S = normals * scale
+        c = self.C_BS
+        # Explicit products (no BLAS) so a batch and a single sample round identically.
+        dtheta_B = dtheta_S[..., 0:1] * c[:, 0] + dtheta_S[..., 1:2] * c[:, 1] + dtheta_S[..., 2:3] * c[:, 2]
+        return quat.multiply(q, quat.from_rotation_vector(dtheta_B))
 
     def add_noise(self, q_BN: ArrayLike, rng: Any = None) -> NDArray[np.float64]:
         """Noisy attitudes ``q_BN ⊗ dq`` for true attitudes ``q_BN`` (..., 4); no Sun check.
@@ -1105,12 +1369,7 @@ class StarTracker:
         the same numbers as ``n`` calls of :meth:`measure` with one Generator.
         """
         q = quat.as_unit_quaternion(q_BN, "q_BN")
-        gen = as_generator(rng)
-        scale = np.array([self.sigma_cross, self.sigma_cross, self.sigma_roll])
-        dtheta_S = gen.standard_normal((*q.shape[:-1], 3)) * scale
-        c = self.C_BS
-        dtheta_B = dtheta_S[..., 0:1] * c[:, 0] + dtheta_S[..., 1:2] * c[:, 1] + dtheta_S[..., 2:3] * c[:, 2]
-        return quat.multiply(q, quat.from_rotation_vector(dtheta_B))
+        return self._noisy(q, as_generator(rng).standard_normal((*q.shape[:-1], 3)))
 
     def measure(self, t: float, truth: Any, rng: Any = None) -> NDArray[np.float64] | None:
         """Measured attitude ``q_BN`` (4,) at ``t`` [s], or None while the Sun blinds the tracker.
@@ -1127,11 +1386,70 @@ class StarTracker:
             Random source.
         """
         q = quat.as_unit_quaternion(truth.q, "truth.q")
-        if self.sun_blinded(t, q):
+        if self._blinded(t, q):
             return None
-        # add_noise normalises truth.q itself: normalising once keeps a
-        # sequence of measurements bit-identical to one batch call.
-        return self.add_noise(truth.q, rng)
+        # Normalised once, as add_noise does: a sequence of measurements is bit-identical to one batch call.
+        return self._noisy(q, as_generator(rng).standard_normal(3))
+
+    def measure_batch(
+        self, t: float, q_BN: ArrayLike, normals: ArrayLike | NormalStreams
+    ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+        """One sample per run at ``t`` [s]: run ``r`` is exactly :meth:`measure` of ``q_BN[r]``.
+
+        A blinded run draws no numbers (as :meth:`measure`): with an array of
+        normals, its row is ignored (it may be NaN); with
+        :class:`attitude.rng.NormalStreams`, only the runs that sample draw
+        3 numbers each. To draw the normals yourself, find the runs that
+        sample first with :meth:`sun_blinded` (a batch of attitudes gives a
+        boolean array).
+
+        Parameters
+        ----------
+        t : float
+            Time [s] (shared; for a time-varying Sun direction).
+        q_BN : array_like (N, 4)
+            True attitudes (unit norm; normalised here as :meth:`measure` does).
+        normals : array_like (N, 3) or NormalStreams
+            Standard normals of each run, in the order of
+            ``gen.standard_normal(3)`` (rows of blinded runs unused); or the
+            runs' streams.
+
+        Returns
+        -------
+        q_meas : ndarray (N, 4)
+            Measured attitudes ``q_BN``; NaN rows where the Sun blinds the tracker.
+        sampled : ndarray (N,) of bool
+            True where a sample was made.
+
+        Raises
+        ------
+        ValueError
+            If ``q_BN`` is not (N, 4) unit quaternions, ``normals`` has the
+            wrong shape (or number of streams), or holds NaN/inf in a row of
+            a run that samples.
+        """
+        q = quat.as_unit_quaternion(q_BN, "q_BN")
+        if q.ndim != 2:
+            raise ValueError(f"q_BN must have shape (N, 4) (one attitude per run), got shape {q.shape}")
+        n = q.shape[0]
+        sampled = ~self._blinded(t, q)
+        if isinstance(normals, NormalStreams):
+            if normals.n_runs != n:
+                raise ValueError(f"normals must have {n} streams (one per run), got {normals.n_runs}")
+            nrm = normals.draw(sampled, 3)
+        else:
+            nrm = as_float_array(normals, "normals", allow_nonfinite=True)
+            if nrm.shape != (n, 3):
+                raise ValueError(f"normals must have shape ({n}, 3) (one triple per run), got shape {nrm.shape}")
+            bad = sampled & ~np.all(np.isfinite(nrm), axis=-1)
+            if np.any(bad):
+                r = int(np.argmax(bad))
+                raise ValueError(
+                    f"normals must be finite in the rows of runs that sample; row {r} is {describe(nrm[r])}"
+                )
+        out = np.full((n, 4), np.nan)
+        out[sampled] = self._noisy(q[sampled], nrm[sampled])
+        return out, sampled
 
 
 #: Datasheet figures of the star-tracker presets (keywords of :meth:`StarTracker.from_datasheet`).

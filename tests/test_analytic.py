@@ -45,8 +45,14 @@ def rotated_body(moments, rng) -> RigidBody:
 
 def integrate_rates(body: RigidBody, omega0, t_eval, **kwargs):
     return solve_ivp(
-        lambda _t, w: body.omega_dot(w), (0.0, float(t_eval[-1])), omega0, method="DOP853",
-        rtol=RTOL, atol=ATOL, t_eval=t_eval, **kwargs,
+        lambda _t, w: body.omega_dot(w),
+        (0.0, float(t_eval[-1])),
+        omega0,
+        method="DOP853",
+        rtol=RTOL,
+        atol=ATOL,
+        t_eval=t_eval,
+        **kwargs,
     )
 
 
@@ -198,8 +204,15 @@ rate_st = st.floats(-2.0, 2.0, allow_nan=False)
 
 
 @given(
-    m1=moment_st, m2=moment_st, m3=moment_st, w1=rate_st, w2=rate_st, w3=rate_st,
-    log_eps=st.floats(-12.0, 0.0), near_middle=st.booleans(), seed=st.integers(0, 2**31),
+    m1=moment_st,
+    m2=moment_st,
+    m3=moment_st,
+    w1=rate_st,
+    w2=rate_st,
+    w3=rate_st,
+    log_eps=st.floats(-12.0, 0.0),
+    near_middle=st.booleans(),
+    seed=st.integers(0, 2**31),
 )
 def test_analytic_solution_solves_euler_equations(m1, m2, m3, w1, w2, w3, log_eps, near_middle, seed):
     moments = np.sort([m1, m2, m3])
@@ -308,8 +321,13 @@ def test_axisymmetric_precession_matches_full_dynamics(moments):
     t = np.linspace(0.0, 5.0 * 2.0 * math.pi / slowest, 801)
     res = axisymmetric_precession(body, q0, omega0, t)
     sol = solve_ivp(
-        lambda _t, x: body.state_derivative(x), (0.0, t[-1]), np.concatenate([q0, omega0]),
-        method="DOP853", rtol=RTOL, atol=ATOL, t_eval=t,
+        lambda _t, x: body.state_derivative(x),
+        (0.0, t[-1]),
+        np.concatenate([q0, omega0]),
+        method="DOP853",
+        rtol=RTOL,
+        atol=ATOL,
+        t_eval=t,
     )
     q_num = sol.y[:4].T / np.linalg.norm(sol.y[:4].T, axis=1, keepdims=True)
     # DOP853 at rtol 1e-12 over ~5 precession periods: observed 3e-12..8e-12;
@@ -386,7 +404,12 @@ def test_middle_axis_flips_at_flip_period():
     motion = torque_free_motion(body, omega0)
     assert period == motion.flip_period
     sol = solve_ivp(
-        lambda _t, w: body.omega_dot(w), (0.0, 4.0 * period), omega0, method="DOP853", rtol=RTOL, atol=ATOL,
+        lambda _t, w: body.omega_dot(w),
+        (0.0, 4.0 * period),
+        omega0,
+        method="DOP853",
+        rtol=RTOL,
+        atol=ATOL,
         events=lambda _t, w: (pa.C_PB @ w)[1],
     )
     crossings = sol.t_events[0]
