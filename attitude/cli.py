@@ -283,24 +283,35 @@ def _cmd_physics(args: argparse.Namespace) -> int:
 
 
 def _cmd_montecarlo(args: argparse.Namespace) -> int:
-    from attitude.scenarios import run_campaign_from_config
+    from attitude.scenarios import ScenarioError, run_campaign_from_config
+    from controllers.slew import SlewPlanningError
 
     config = _load(args.file)
     if args.workers is not None and args.scheduler is not None:
         raise UsageError("--workers and --scheduler exclude each other (the cluster decides its workers)")
     out = Path(args.out)
     _progress(f"Monte Carlo campaign of {config.name}: results in {out}/")
-    result = run_campaign_from_config(
-        config,
-        runs=args.runs,
-        workers=args.workers,
-        scheduler=args.scheduler,
-        out_dir=out,
-        seed=args.seed,
-        duration=args.duration_s,
-        progress=not args.json,
-        keep_out=not args.no_keep_out,
-    )
+    if args.guidance == "plan":
+        _progress(f"planning the slew ({args.nodes} intervals, once, on the nominal spacecraft) ...")
+    try:
+        result = run_campaign_from_config(
+            config,
+            runs=args.runs,
+            workers=args.workers,
+            scheduler=args.scheduler,
+            out_dir=out,
+            seed=args.seed,
+            duration=args.duration_s,
+            progress=not args.json,
+            keep_out=not args.no_keep_out,
+            guidance=args.guidance,
+            nodes=args.nodes,
+        )
+    except ScenarioError as exc:
+        raise UsageError(f"--duration-s {args.duration_s:g}: {exc}") from None
+    except SlewPlanningError as exc:
+        print(f"attitude montecarlo: {exc}", file=sys.stderr)
+        return EXIT_FAIL
     if args.json:
         from attitude.report import dumps_json
 
@@ -442,12 +453,18 @@ def build_parser() -> argparse.ArgumentParser:
         help="a dispersed closed-loop campaign from the file's [montecarlo] table",
         formatter_class=fmt_class,
         description=(
-            "Run the spacecraft's closed loop (planned slew, wheels, gyro, star tracker, MEKF) many times with\n"
-            "the dispersions of the file's [montecarlo] table (inertia, initial rate and attitude, sensor\n"
-            "misalignments). Seeds come from one master seed, so a campaign is reproducible whatever the\n"
-            "number of workers. Writes the per-run table (CSV), statistics, time histories (npz), a\n"
-            "checkpoint (an interrupted campaign resumes) and figures to --out. Exit code 0 when every\n"
-            "completed run meets every requirement.\n\n"
+            "Run the spacecraft's closed loop (wheels, gyro, star tracker, MEKF) many times with the\n"
+            "dispersions of the file's [montecarlo] table (inertia, initial rate and attitude, sensor\n"
+            "misalignments). The guidance is the design's: the required slew planned once on the nominal\n"
+            "spacecraft (time-optimal around the keep-out cones, as `attitude design` plans it) and tracked\n"
+            "with the plan's torque as feedforward; --guidance eigenaxis flies the rate-limited PD straight\n"
+            "to the target instead, which cannot avoid a keep-out cone (add --no-keep-out to judge it on the\n"
+            "other requirements). Settling and pointing are judged against the target attitude: the\n"
+            "settling time is when the error to the target enters the pointing accuracy for good, required\n"
+            "within max_time_s + settling_time_s. Seeds come from one master seed, so a campaign is\n"
+            "reproducible whatever the number of workers. Writes the per-run table (CSV), statistics, time\n"
+            "histories (npz), a checkpoint (an interrupted campaign resumes) and figures to --out. Exit code\n"
+            "0 when every completed run meets every requirement; 1 also when the slew cannot be planned.\n\n"
             "On a Dask cluster: start `dask scheduler` on one machine and `dask worker tcp://HOST:8786` on\n"
             "each of the others (with this package installed), then pass --scheduler tcp://HOST:8786."
         ),
@@ -459,8 +476,29 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scheduler", default=None, metavar="ADDR", help="Dask scheduler address tcp://HOST:PORT")
     p.add_argument("--out", default="montecarlo", metavar="DIR", help="output folder (default: montecarlo)")
     p.add_argument("--seed", type=int, default=None, help="master seed (default: montecarlo.seed of the file)")
-    p.add_argument("--duration-s", type=_positive, default=600.0, help="simulated time per run [s] (default 600)")
-    p.add_argument("--no-keep-out", action="store_true", help="do not count the keep-out cones as requirements")
+    p.add_argument(
+        "--duration-s",
+        type=_positive,
+        default=600.0,
+        help="simulated time per run [s] (default 600); with the planned slew at least the slew plus settling_time_s",
+    )
+    p.add_argument(
+        "--guidance",
+        choices=("plan", "eigenaxis"),
+        default="plan",
+        help="plan: the design's planned slew, tracked (default); eigenaxis: rate-limited PD straight to the target",
+    )
+    p.add_argument(
+        "--nodes",
+        type=_nodes,
+        default=60,
+        help="planner intervals of the planned slew, at least 4 (default: %(default)s)",
+    )
+    p.add_argument(
+        "--no-keep-out",
+        action="store_true",
+        help="do not count the keep-out cones as requirements (for --guidance eigenaxis, which cannot avoid them)",
+    )
     p.add_argument("--json", action="store_true", help="print the statistics as JSON")
     p.set_defaults(run=_cmd_montecarlo)
 

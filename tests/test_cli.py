@@ -484,12 +484,14 @@ def test_montecarlo_writes_the_campaign_and_its_exit_code_follows_the_runs(tmp_p
         "3",
         "--workers",
         "1",
+        # The planned slew (30 intervals: ~1 s of planning) needs slew + settling time: 35 + 60 s here.
         "--duration-s",
-        "60",
+        "100",
+        "--nodes",
+        "30",
         "--out",
         str(out),
         "--json",
-        "--no-keep-out",
         cwd=tmp_path,
     )
     assert proc.returncode in (0, 1), proc.stderr[-2000:]

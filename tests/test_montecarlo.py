@@ -62,9 +62,12 @@ def assert_tables_identical(a: CampaignResult, b: CampaignResult) -> None:
 
 
 def short_closed_loop() -> Campaign:
-    """The default scenario (MEKF, gyro and tracker noise from the run's generator), 20 s per run."""
+    """The default closed loop (MEKF, gyro and tracker noise from the run's generator), 20 s per run.
+
+    The eigenaxis guidance: no planning, and any duration (the planned slew needs slew + settling time).
+    """
     return Campaign(
-        ClosedLoopScenario(CONFIG, duration=20.0),
+        ClosedLoopScenario(CONFIG, duration=20.0, guidance="eigenaxis"),
         DISPERSIONS,
         runs=6,
         seed=2024,
@@ -442,7 +445,8 @@ def test_vectorised_pd_wheels_agrees_with_the_per_run_engine():
 
 
 def test_config_campaign_writes_table_statistics_and_figures(tmp_path):
-    result = run_campaign_from_config(CONFIG, runs=3, workers=1, out_dir=tmp_path, duration=20.0)
+    # The eigenaxis guidance allows a 20 s run (the planned slew needs slew + settling: tests/test_scenarios.py).
+    result = run_campaign_from_config(CONFIG, runs=3, workers=1, out_dir=tmp_path, duration=20.0, guidance="eigenaxis")
     assert np.all(result.status == "ok")
     assert {"settling_time", "nees", "peak_wheel_speed", "keep_out_margin.sun on star tracker"} <= set(result.metrics)
     assert result.histories[0]["t"][-1] == pytest.approx(20.0)
