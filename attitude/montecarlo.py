@@ -51,7 +51,9 @@ only, so the same seed gives bit-identical metrics with any number of
 workers, on a cluster, in any completion order, after a resume, and for the
 first runs of a longer campaign. (The vectorised path evaluates the same
 equations in another order, so it agrees with the per-run path to rounding,
-not bit for bit; it is itself reproducible for a given ``runs_per_task``.)
+not bit for bit; every run's arithmetic is independent of the other runs of
+its batch, so it is itself bit-reproducible whatever ``runs_per_task``, for
+one back end of :func:`attitude.montecarlo_batch.simulate_batch`.)
 """
 
 from __future__ import annotations

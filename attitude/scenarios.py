@@ -16,8 +16,9 @@ estimators; :mod:`attitude.montecarlo` never does (a scenario is any callable
     with the plan's torque as feedforward, as ``attitude design`` flies it.
     ``guidance="eigenaxis"`` is the earlier scenario: a Wie-Lu rate-limited
     quaternion PD straight to the target (an eigenaxis slew, which cannot
-    avoid a keep-out cone). Not vectorisable (the MEKF runs per sample in
-    Python).
+    avoid a keep-out cone). With ``run_batch`` (``vectorized=True``) all
+    runs advance together: truth, sensors, MEKF and control law as batched
+    states (:mod:`attitude.montecarlo_estimated`).
 :class:`PDWheelsScenario`
     PD + wheels with the controller seeing the truth: runs per run in the
     engine's compiled path and, with ``run_batch``, all runs at once in
@@ -45,6 +46,7 @@ these are the definitions those scenarios always had.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -57,14 +59,16 @@ from attitude.design_slew import SlewStudy, plan_slews
 from attitude.montecarlo import Campaign, CampaignResult, Requirement, RunOutput, run_campaign
 from attitude.montecarlo_batch import closed_loop_metrics, simulate_batch
 from attitude.montecarlo_dispersions import dispersions_from_config
+from attitude.montecarlo_estimated import simulate_batch_estimated
 from attitude.rigid_body import RigidBody
-from attitude.sensors import Gyro
+from attitude.rng import NormalStreams
+from attitude.sensors import Gyro, GyroBatch
 from attitude.simulation import Truth, simulate
 from controllers.pd import QuaternionPD, RateLimitedPD
 from controllers.slew import SlewPlanningError
 from controllers.tracking import ReferenceTrajectory, TrackingController
 from estimation.consistency import nees
-from estimation.mekf import MEKF, initial_covariance
+from estimation.mekf import MEKF, MEKFBatch, initial_covariance
 
 __all__ = [
     "GUIDANCES",
@@ -509,6 +513,128 @@ class ClosedLoopScenario:
         extra = {"error_angle": to_target, "tracking_error": result.error_angle, "estimation_error": est_error}
         return RunOutput(metrics, _history(result, self.history_stride, extra))
 
+    def run_batch(self, params_list: Sequence[Mapping[str, Any]], rngs: Sequence[Any]) -> list[RunOutput]:
+        """All runs at once (``run_campaign(..., vectorized=True)``): the same runs as :meth:`__call__`.
+
+        The truth, the sensors, the MEKF and the control law advance as
+        batched states (:func:`attitude.montecarlo_estimated.simulate_batch_estimated`):
+        run ``r`` draws from ``rngs[r]`` exactly the numbers it draws alone,
+        so its metrics equal :meth:`__call__`'s to rounding. The eigenaxis
+        guidance (a rate-limited PD that latches its limits per run) is run
+        run by run.
+        """
+        if self._reference is None:
+            return [self(p, r) for p, r in zip(params_list, rngs)]
+        n = len(params_list)
+        body = RigidBody(_stacked(params_list, "inertia", self._nominal.inertia))
+        q0 = _stacked(params_list, "initial_attitude", self._q_start)
+        omega0 = _stacked(params_list, "initial_rate", np.zeros(3))
+        gyros = [self.gyro(p.get("gyro_misalignment")) for p in params_list]
+        theta = _stacked(params_list, "star_tracker_misalignment", np.zeros(3))
+        mekf = MEKFBatch(self.estimator(gyros[0]), n)
+        recorder = _BatchRecorder(self, n, mekf)
+        out = simulate_batch_estimated(
+            body,
+            q0,
+            omega0,
+            self.duration,
+            controller=self.controller(),
+            wheels=self._wheels,
+            gyro=GyroBatch(gyros),
+            tracker=self._tracker,
+            estimator=mekf,
+            streams=NormalStreams(list(rngs)),
+            tracker_mounting=quat.from_rotation_vector(theta),
+            observer=recorder,
+        )
+        return recorder.outputs(out["diverged_at"])
+
+
+def _stacked(params_list: Sequence[Mapping[str, Any]], name: str, default: Any) -> np.ndarray:
+    """One dispersed parameter of every run, stacked (``default`` where a run does not disperse it)."""
+    return np.stack([np.asarray(p.get(name, default), dtype=float) for p in params_list])
+
+
+class _BatchRecorder:
+    """The metrics and histories of :meth:`ClosedLoopScenario.__call__`, reduced tick by tick for a batch."""
+
+    def __init__(self, scenario: ClosedLoopScenario, n: int, mekf: Any) -> None:
+        self.scenario, self.mekf = scenario, mekf
+        req = scenario.config.requirements
+        self.accuracy = req.pointing_accuracy_rad
+        self.cones = list(req.keep_out)
+        self.controller = scenario.controller()
+        self.stride = scenario.history_stride
+        self.wheels = scenario._wheels
+        self.last_outside = np.full(n, -1, dtype=np.int64)
+        self.peak_rate = np.zeros(n)
+        self.peak_speed = np.zeros(n)
+        self.nees_sum = np.zeros(n)
+        self.nees_count = 0
+        self.min_separation = {c.name: np.full(n, np.inf) for c in self.cones}
+        self.t: list[float] = []
+        self.final_error = np.zeros(n)
+        self.n_ticks = -1
+        self.history: dict[str, list] = {}
+
+    def __call__(self, k: int, t: float, x: np.ndarray, q_hat: np.ndarray, w_hat: np.ndarray, updated: bool) -> None:
+        q = quat.normalize(x[:, :4])
+        to_target = np.asarray(quat.error_angle(self.scenario._q_target, q))
+        self.last_outside[to_target > self.accuracy] = k
+        self.final_error = to_target
+        self.n_ticks = k
+        np.fmax(self.peak_rate, np.linalg.norm(x[:, 4:7], axis=1), out=self.peak_rate)
+        speeds = self.wheels.wheel_speed(x[:, 7:], x[:, 4:7])
+        np.fmax(self.peak_speed, np.max(np.abs(speeds), axis=1), out=self.peak_speed)
+        for cone in self.cones:
+            np.fmin(self.min_separation[cone.name], cone.separation(q), out=self.min_separation[cone.name])
+        est_error = np.full(x.shape[0], np.nan)
+        if updated:
+            errors = quat.to_rotation_vector(quat.multiply(quat.conjugate(q_hat), q))
+            self.nees_sum += nees(errors, self.mekf.P[:, :3, :3])
+            self.nees_count += 1
+            est_error = np.linalg.norm(errors, axis=-1)
+        self.t.append(t)
+        if self.stride and k % self.stride == 0:
+            q_ref = self.controller.reference(t)[0]
+            rows = {
+                "t": np.full(x.shape[0], t),
+                "error_angle": to_target,
+                "tracking_error": np.asarray(quat.error_angle(q_ref, q)),
+                "omega": x[:, 4:7].copy(),
+                "wheel_speed": speeds,
+                "estimation_error": est_error,
+            }
+            for name, value in rows.items():
+                self.history.setdefault(name, []).append(value)
+
+    def outputs(self, diverged_at: np.ndarray) -> list[RunOutput]:
+        t = np.array(self.t)
+        last = self.last_outside
+        settle = np.where(last < 0, t[0], t[np.minimum(last + 1, self.n_ticks)])
+        settle = np.where(last == self.n_ticks, np.inf, settle)
+        history = {name: np.stack(rows, axis=1) for name, rows in self.history.items()}
+        outputs = []
+        for r in range(last.size):
+            if math.isfinite(diverged_at[r]):
+                outputs.append(RunOutput(error=f"the closed loop diverged at t = {diverged_at[r]:.6g} s"))
+                continue
+            metrics = {
+                "settling_time": float(settle[r]),
+                "final_pointing_error": float(self.final_error[r]),
+                "peak_rate": float(self.peak_rate[r]),
+                "peak_wheel_speed": float(self.peak_speed[r]),
+                "nees": float(self.nees_sum[r] / self.nees_count),
+            }
+            for cone in self.cones:
+                metrics[f"keep_out_margin.{cone.name}"] = float(self.min_separation[cone.name][r] - cone.half_angle_rad)
+            run_history = None
+            if self.stride:
+                run_history = {name: values[r] for name, values in history.items()}
+                run_history["t"] = history["t"][0]
+            outputs.append(RunOutput(metrics, run_history))
+        return outputs
+
 
 class PDWheelsScenario:
     """Quaternion PD + reaction wheels, the controller seeing the truth; vectorisable.
@@ -636,6 +762,7 @@ def run_campaign_from_config(
     guidance: str = "plan",
     nodes: int = PLAN_NODES,
     consider_misalignment: bool = False,
+    vectorized: bool = False,
 ) -> CampaignResult:
     """The campaign of a spacecraft file: what ``attitude montecarlo FILE`` runs.
 
@@ -677,6 +804,10 @@ def run_campaign_from_config(
     consider_misalignment : bool
         Inflate the MEKF's tracker covariance by the tracker-misalignment
         dispersion (:class:`ClosedLoopScenario` Notes).
+    vectorized : bool
+        Advance the runs together in batches (:meth:`ClosedLoopScenario.run_batch`;
+        each run's metrics equal the per-run path's to rounding), about
+        four batches per worker.
     """
     if not isinstance(config, SpacecraftConfig):
         config = load_config(config)
@@ -702,7 +833,20 @@ def run_campaign_from_config(
         seed=seed if seed is not None else (mc.seed if mc is not None else None),
         requirements=requirements_from_config(config, keep_out=keep_out),
     )
-    result = run_campaign(campaign, workers=workers, scheduler=scheduler, out_dir=out_dir, progress=progress)
+    runs_per_task = None
+    if vectorized:
+        # Several batches per worker: every core busy, and a progress bar and checkpoints that move.
+        workers = workers or os.cpu_count() or 1
+        runs_per_task = max(1, min(1000, math.ceil(n / (4 * workers))))
+    result = run_campaign(
+        campaign,
+        workers=workers,
+        scheduler=scheduler,
+        out_dir=out_dir,
+        progress=progress,
+        vectorized=vectorized,
+        runs_per_task=runs_per_task,
+    )
     if out_dir is not None and figures:
         from attitude.montecarlo_plots import save_figures
 
