@@ -18,10 +18,51 @@ from scipy import stats
 if TYPE_CHECKING:
     from attitude.montecarlo_results import CampaignResult
 
-__all__ = ["most_influential_parameter", "plot_envelope", "plot_histograms", "plot_scatter", "save_figures"]
+__all__ = [
+    "DISPLAY_UNITS",
+    "display_unit",
+    "most_influential_parameter",
+    "plot_envelope",
+    "plot_histograms",
+    "plot_scatter",
+    "save_figures",
+]
 
 #: Percentile bands drawn by :func:`plot_envelope` [%] (outermost first) and the median.
 ENVELOPE_BANDS = ((0.0, 100.0), (5.0, 95.0), (25.0, 75.0))
+
+_DEG = 180.0 / math.pi
+#: Display scale and unit of the built-in metric, history and parameter names (SI inside, review units on
+#: the axes), by name or by the prefix before the first "." (``keep_out_margin.<cone>``, ``inertia.xx``).
+DISPLAY_UNITS: dict[str, tuple[float, str]] = {
+    "settling_time": (1.0, "s"),
+    "final_pointing_error": (_DEG, "deg"),
+    "error_angle": (_DEG, "deg"),
+    "tracking_error": (_DEG, "deg"),
+    "estimation_error": (_DEG * 3600.0, "arcsec"),
+    "keep_out_margin": (_DEG, "deg"),
+    "peak_rate": (_DEG, "deg/s"),
+    "omega": (_DEG, "deg/s"),
+    "initial_rate": (_DEG, "deg/s"),
+    "peak_wheel_speed": (30.0 / math.pi, "rpm"),
+    "wheel_speed": (30.0 / math.pi, "rpm"),
+    "inertia": (1.0, "kg m^2"),
+    "gyro_misalignment": (_DEG * 3600.0, "arcsec"),
+    "star_tracker_misalignment": (_DEG * 3600.0, "arcsec"),
+}
+
+
+def display_unit(name: str) -> tuple[float, str]:
+    """Scale and unit label for plotting a metric, history or parameter (``(1, "")`` when unknown)."""
+    for key in (name, name.split(".")[0], name.split("[")[0]):
+        if key in DISPLAY_UNITS:
+            return DISPLAY_UNITS[key]
+    return 1.0, ""
+
+
+def _label(name: str) -> str:
+    unit = display_unit(name)[1]
+    return f"{name} [{unit}]" if unit else name
 
 
 def plot_histograms(result: CampaignResult, metrics: Sequence[str] | None = None) -> Figure:
@@ -40,7 +81,8 @@ def plot_histograms(result: CampaignResult, metrics: Sequence[str] | None = None
     ok = result.status == "ok"
     for i, m in enumerate(names):
         ax = fig.add_subplot(rows, cols, i + 1)
-        v = result.metrics[m][ok]
+        scale = display_unit(m)[0]
+        v = result.metrics[m][ok] * scale
         finite = v[np.isfinite(v)]
         if finite.size:
             ax.hist(finite, bins=min(50, max(5, int(math.sqrt(finite.size)))), color="tab:blue", alpha=0.8)
@@ -49,9 +91,10 @@ def plot_histograms(result: CampaignResult, metrics: Sequence[str] | None = None
             if r.metric == m:
                 for bound in (r.min, r.max):
                     if bound is not None:
-                        ax.axvline(bound, color="tab:red", ls="--", lw=1.5, label=f"requirement {r.name}")
+                        ax.axvline(bound * scale, color="tab:red", ls="--", lw=1.5, label=f"requirement {r.name}")
         extra = f", {v.size - finite.size} non-finite" if v.size > finite.size else ""
         ax.set_title(f"{m} ({finite.size} runs{extra})", fontsize=9)
+        ax.set_xlabel(_label(m), fontsize=8)
         ax.set_ylabel("runs")
         if finite.size:
             ax.legend(fontsize=7)
@@ -90,6 +133,8 @@ def plot_envelope(result: CampaignResult, key: str, component: int | None = None
         For a vector history, the component to show; default its norm.
     """
     t, values, what = _stack(result, key, component)
+    scale, unit = display_unit(key)
+    values = values * scale
     fig = Figure(figsize=(8, 4.5), layout="constrained")
     ax = fig.add_subplot(1, 1, 1)
     with np.errstate(invalid="ignore"):
@@ -98,8 +143,8 @@ def plot_envelope(result: CampaignResult, key: str, component: int | None = None
             ax.fill_between(t, band[0], band[1], color="tab:blue", alpha=alpha, lw=0, label=f"{lo:g}-{hi:g} %")
         ax.plot(t, np.nanmedian(values, axis=0), color="black", lw=1.2, label="median")
     ax.set_xlabel("t [s]")
-    ax.set_ylabel(what)
-    if key == "error_angle" and np.nanmin(values) > 0:
+    ax.set_ylabel(f"{what} [{unit}]" if unit else what)
+    if key in ("error_angle", "tracking_error", "estimation_error") and np.nanmin(values) > 0:
         ax.set_yscale("log")
     ax.set_title(f"{what}: envelope of {values.shape[0]} runs")
     ax.legend(fontsize=8)
@@ -114,7 +159,9 @@ def plot_scatter(result: CampaignResult, metric: str, parameter: str) -> Figure:
         raise ValueError(f"parameter {parameter!r} is not in the result; parameters are {list(result.parameters)}")
     fig = Figure(figsize=(6, 4.5), layout="constrained")
     ax = fig.add_subplot(1, 1, 1)
-    x, y = result.parameters[parameter], result.metrics[metric]
+    x = result.parameters[parameter] * display_unit(parameter)[0]
+    y_scale = display_unit(metric)[0]
+    y = result.metrics[metric] * y_scale
     passed = result.passed
     ax.scatter(x[passed], y[passed], s=8, color="tab:blue", label=f"pass ({int(passed.sum())})")
     failed = ~passed & (result.status == "ok")
@@ -124,9 +171,9 @@ def plot_scatter(result: CampaignResult, metric: str, parameter: str) -> Figure:
         if r.metric == metric:
             for bound in (r.min, r.max):
                 if bound is not None:
-                    ax.axhline(bound, color="tab:red", ls="--", lw=1)
-    ax.set_xlabel(parameter)
-    ax.set_ylabel(metric)
+                    ax.axhline(bound * y_scale, color="tab:red", ls="--", lw=1, label=f"requirement {r.name}")
+    ax.set_xlabel(_label(parameter))
+    ax.set_ylabel(_label(metric))
     ax.legend(fontsize=8)
     return fig
 

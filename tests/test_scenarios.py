@@ -163,8 +163,8 @@ def test_consider_misalignment_inflates_the_tracker_covariance_by_its_dispersion
     sc = ClosedLoopScenario(CONFIG, study=study, consider_misalignment=True)
     gyro = sc.gyro(None)
     added = sc.estimator(gyro).tracker_covariance - CONFIG.star_tracker().covariance_B
-    sigma = CONFIG.montecarlo.star_tracker_misalignment.scale_si  # 30 arcsec, normal
-    assert sigma == pytest.approx(30.0 * ARCSEC)
+    sigma = CONFIG.montecarlo.star_tracker_misalignment.scale_si  # the file says 10 arcsec, normal
+    assert sigma == pytest.approx(10.0 * ARCSEC)
     np.testing.assert_allclose(added, sigma**2 * np.eye(3), rtol=1e-12, atol=1e-30)
     plain = ClosedLoopScenario(CONFIG, study=study)
     np.testing.assert_array_equal(plain.estimator(gyro).tracker_covariance, CONFIG.star_tracker().covariance_B)
