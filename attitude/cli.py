@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import re
 import sys
 import time
 import tomllib
@@ -68,6 +69,27 @@ def _positive(text: str) -> float:
     if not (math.isfinite(value) and value > 0):
         raise argparse.ArgumentTypeError(f"must be a positive number, got {text!r}")
     return value
+
+
+def _count(minimum: int) -> Any:
+    """An argparse type: an integer at least ``minimum``."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be at least {minimum}, got {value}")
+        return value
+
+    return parse
+
+
+def _scheduler_address(text: str) -> str:
+    if not re.match(r"^(tcp|tls|inproc|ucx|ws|wss)://\S+$", text):
+        raise argparse.ArgumentTypeError(f"expected a Dask scheduler address like tcp://HOST:8786, got {text!r}")
+    return text
 
 
 def _nodes(text: str) -> int:
@@ -302,25 +324,32 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
             out_dir=out,
             seed=args.seed,
             duration=args.duration_s,
-            progress=not args.json,
+            progress=False if args.json else None,  # None: a bar when stderr is a terminal
             keep_out=not args.no_keep_out,
             guidance=args.guidance,
             nodes=args.nodes,
             vectorized=args.vectorized,
+            resume=not args.fresh,
         )
     except ScenarioError as exc:
         raise UsageError(f"--duration-s {args.duration_s:g}: {exc}") from None
     except SlewPlanningError as exc:
         print(f"attitude montecarlo: {exc}", file=sys.stderr)
         return EXIT_FAIL
+    except ValueError as exc:
+        if "checkpoint of a different campaign" in str(exc):
+            raise UsageError(f"--out {out}: {str(exc).split(';')[0]}; use another --out, or --fresh") from None
+        raise
+    except OSError as exc:  # e.g. a scheduler address nobody answers at
+        raise UsageError(f"--scheduler {args.scheduler}: {exc}" if args.scheduler else str(exc)) from None
     if args.json:
         from attitude.report import dumps_json
 
         sys.stdout.write(dumps_json(result.statistics()))
     else:
         print(result.summary())
-    completed = result.status == "ok"
-    return EXIT_PASS if bool(np.all(result.passed[completed])) and np.any(completed) else EXIT_FAIL
+    # Signed off only when every run completed (no error, nothing left undone) and met every requirement.
+    return EXIT_PASS if bool(np.all(result.status == "ok")) and bool(np.all(result.passed)) else EXIT_FAIL
 
 
 # ---------------------------------------------------------------------------
@@ -472,11 +501,22 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=_EPILOG,
     )
     p.add_argument("file", nargs="?", metavar="FILE", help="spacecraft TOML file (default: the built-in one)")
-    p.add_argument("--runs", type=int, default=None, help="number of runs (default: montecarlo.runs of the file)")
-    p.add_argument("--workers", type=int, default=None, help="local worker processes (default: all cores)")
-    p.add_argument("--scheduler", default=None, metavar="ADDR", help="Dask scheduler address tcp://HOST:PORT")
+    p.add_argument("--runs", type=_count(1), default=None, help="number of runs (default: montecarlo.runs of the file)")
+    p.add_argument("--workers", type=_count(1), default=None, help="local worker processes (default: all cores)")
+    p.add_argument(
+        "--scheduler",
+        type=_scheduler_address,
+        default=None,
+        metavar="ADDR",
+        help="Dask scheduler address tcp://HOST:PORT",
+    )
     p.add_argument("--out", default="montecarlo", metavar="DIR", help="output folder (default: montecarlo)")
-    p.add_argument("--seed", type=int, default=None, help="master seed (default: montecarlo.seed of the file)")
+    p.add_argument("--seed", type=_count(0), default=None, help="master seed (default: montecarlo.seed of the file)")
+    p.add_argument(
+        "--fresh",
+        action="store_true",
+        help="start afresh: discard the checkpoint in --out (default: resume the campaign it holds, if the same)",
+    )
     p.add_argument(
         "--duration-s",
         type=_positive,

@@ -8,7 +8,8 @@ vectorised Monte Carlo path needs (:mod:`attitude.montecarlo_kernel`).
 system's C compiler and loads it with ``casadi.external``.
 
 The library is cached under :func:`cache_dir`, named by a SHA-256 of the
-source, the compiler and its flags: a kernel is compiled once per machine
+source, the compiler (path and version), the machine architecture and the
+flags: a kernel is compiled once per machine
 (about 0.2 s for a closed-loop tick with gcc ``-O2``) and reused by later
 campaigns and by every worker process. A library is written under a temporary
 name and renamed into place, so workers compiling the same kernel at once
@@ -20,8 +21,10 @@ detects NaN and infinity; ``fmax`` ignores NaN).
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
+import platform
 import shutil
 import subprocess
 import tempfile
@@ -42,8 +45,9 @@ __all__ = [
 
 #: Environment variable that overrides the cache directory.
 CACHE_ENV = "ATTITUDE_CACHE_DIR"
-#: Optimisation flags (portable code: no ``-march=native``, since a cache may be shared by several machines).
-COMPILE_FLAGS = ("-O2",)
+#: Optimisation flags: portable code (no ``-march=native``) and no fused multiply-add contraction
+#: (``-ffp-contract=off``: gcc contracts by default where the target has FMA, which would change rounding).
+COMPILE_FLAGS = ("-O2", "-ffp-contract=off")
 
 
 class CompilationError(RuntimeError):
@@ -97,16 +101,19 @@ def compile_functions(functions: Sequence[ca.Function], *, flags: Sequence[str] 
     """
     compiler, source, library = _plan(functions, flags)
     names = [f.name() for f in functions]
-    if not library.exists():
-        _build(compiler, list(flags), source, library)
     try:
-        return [ca.external(name, str(library)) for name in names]
-    except RuntimeError:
-        # A damaged cache entry (e.g. a disk that filled up): build it again once. The new
-        # file replaces the old one's directory entry; a process that has the old one loaded keeps it.
-        library.unlink(missing_ok=True)
-        _build(compiler, list(flags), source, library)
-        return [ca.external(name, str(library)) for name in names]
+        if not library.exists():
+            _build(compiler, list(flags), source, library)
+        try:
+            return [ca.external(name, str(library)) for name in names]
+        except RuntimeError:
+            # A damaged cache entry (e.g. a disk that filled up): build it again once. The new
+            # file replaces the old one's directory entry; a process that has it loaded keeps the old one.
+            library.unlink(missing_ok=True)
+            _build(compiler, list(flags), source, library)
+            return [ca.external(name, str(library)) for name in names]
+    except OSError as exc:  # an unwritable or missing cache directory, a full disk
+        raise CompilationError(f"cannot build or load {library}: {exc} (set {CACHE_ENV} to a writable folder)") from exc
 
 
 def library_path(functions: Sequence[ca.Function], *, flags: Sequence[str] = COMPILE_FLAGS) -> Path:
@@ -134,8 +141,19 @@ def _plan(functions: Sequence[ca.Function], flags: Sequence[str]) -> tuple[str, 
     for f in functions:
         generator.add(f)
     source = generator.dump()
-    key = hashlib.sha256("\n".join([source, compiler, *flags, ca.__version__]).encode()).hexdigest()[:24]
+    identity = [source, compiler, _compiler_version(compiler), platform.machine(), platform.system(), *flags]
+    key = hashlib.sha256("\n".join([*identity, ca.__version__]).encode()).hexdigest()[:24]
     return compiler, source, cache_dir() / f"kernel_{key}.so"
+
+
+@functools.lru_cache(maxsize=8)
+def _compiler_version(compiler: str) -> str:
+    """The compiler's ``--version`` banner (part of the cache key: another compiler, another library)."""
+    try:
+        done = subprocess.run([compiler, "--version"], capture_output=True, text=True, check=False, timeout=30)
+    except (OSError, subprocess.TimeoutExpired):
+        return "unknown"
+    return done.stdout.strip()
 
 
 def _build(compiler: str, flags: list[str], source: str, library: Path) -> None:

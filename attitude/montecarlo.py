@@ -93,7 +93,7 @@ from attitude.montecarlo_executors import (
 )
 from attitude.montecarlo_results import CampaignResult, Requirement
 
-__all__ = ["Campaign", "CampaignResult", "Requirement", "RunOutput", "run_campaign"]
+__all__ = ["Campaign", "CampaignResult", "Requirement", "RunOutput", "run_campaign", "usable_cpus"]
 
 
 @dataclass(frozen=True)
@@ -174,6 +174,13 @@ class Campaign:
         return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
 
 
+def usable_cpus() -> int:
+    """CPUs this process may run on (its affinity mask, which container limits set), at least 1."""
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
+    return os.cpu_count() or 1
+
+
 def _default_context() -> Any:
     """The platform's default start method, unless this process runs other threads.
 
@@ -241,7 +248,7 @@ def run_campaign(
         raise ValueError(f"campaign must be a Campaign, got {type(campaign).__name__}")
     if vectorized and not callable(getattr(campaign.scenario, "run_batch", None)):
         raise ValueError("vectorized=True needs a scenario with run_batch(params_list, rngs)")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1):
         raise ValueError(f"workers must be a positive integer, got {workers!r}")
     if not isinstance(max_retries, int) or max_retries < 0:
         raise ValueError(f"max_retries must be a non-negative integer, got {max_retries!r}")
@@ -250,7 +257,7 @@ def run_campaign(
     if isinstance(runs_per_task, bool) or not isinstance(runs_per_task, int) or runs_per_task < 1:
         raise ValueError(f"runs_per_task must be a positive integer, got {runs_per_task!r}")
     if workers is None:
-        workers = 1 if vectorized else (os.cpu_count() or 1)
+        workers = 1 if vectorized else usable_cpus()
 
     wall0, cpu0 = time.perf_counter(), time.process_time()
     checkpoint = None

@@ -13,7 +13,7 @@ back ends evaluate them:
 
 * ``"compiled"``: the tick of one run generated as C, compiled once per
   machine (:mod:`attitude.codegen`) and mapped over the runs; many ticks per
-  call. Several times faster than numpy (``make bench``: about 600k
+  call. Several times faster than numpy (``make bench``: about 450k
   spacecraft-simulated seconds per CPU second for PD + four wheels).
 * ``"numpy"``: every component an array of shape ``(N,)``; each RK4 stage a
   few hundred numpy operations, so the cost per spacecraft falls with ``N``
@@ -40,7 +40,9 @@ exactly as :func:`closed_loop_metrics` computes them from a single run.
 from __future__ import annotations
 
 import pickle
+import threading
 import time
+import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -239,6 +241,7 @@ def simulate_batch(
             if backend == "compiled":
                 raise
             note = f"numpy fallback: {exc}"
+            warnings.warn(f"simulating the batch without a compiled kernel ({note})", RuntimeWarning, stacklevel=2)
     compile_s = time.perf_counter() - start
     metrics = {k: np.empty(n) for k in ("settling_time", "final_pointing_error", "peak_rate")}
     if wheels is not None:
@@ -281,16 +284,22 @@ def simulate_batch(
     return BatchResult(t, metrics, final[:, :4], final[:, 4:7], final[:, 7:], diverged, history_t, histories, info=info)
 
 
-_TICKS_CACHE: dict[str, CompiledTicks] = {}
+_TICKS_CACHE: dict[bytes, CompiledTicks] = {}
+_TICKS_LOCK = threading.Lock()
 
 
 def _compiled_ticks(wheels: Any, controller: Any, n_inputs: int, has_reference: bool, substeps: int) -> CompiledTicks:
-    """One :class:`CompiledTicks` per loop structure in a process (the library itself is cached on disk)."""
+    """One :class:`CompiledTicks` per loop structure in a process (the library itself is cached on disk).
+
+    Thread-safe: a Dask worker may run several batches in threads at once.
+    """
     key = pickle.dumps((wheels, controller, n_inputs, has_reference, substeps))
-    if key not in _TICKS_CACHE:
-        _TICKS_CACHE.clear()  # one structure at a time is the common case; keep memory flat
-        _TICKS_CACHE[key] = CompiledTicks(wheels, controller, n_inputs, has_reference, substeps)
-    return _TICKS_CACHE[key]
+    with _TICKS_LOCK:
+        if key not in _TICKS_CACHE:
+            if len(_TICKS_CACHE) >= 4:  # a few loop structures at a time; keep memory flat
+                _TICKS_CACHE.pop(next(iter(_TICKS_CACHE)))
+            _TICKS_CACHE[key] = CompiledTicks(wheels, controller, n_inputs, has_reference, substeps)
+        return _TICKS_CACHE[key]
 
 
 def _store(t, acc, err, sl, metrics, diverged) -> None:

@@ -137,12 +137,14 @@ class Dispersion:
         return [float(v) for v in np.asarray(value, dtype=float).reshape(-1)]
 
 
-def _two_sided(sigma: Any, half_width: Any, what: str) -> tuple[str, NDArray[np.float64]]:
+def _two_sided(
+    sigma: Any, half_width: Any, what: str, names: tuple[str, str] = ("sigma", "half_width")
+) -> tuple[str, NDArray[np.float64]]:
     if (sigma is None) == (half_width is None):
-        raise ValueError(f"{what}: give exactly one of sigma (normal) or half_width (uniform on [-h, h])")
+        raise ValueError(f"{what}: give exactly one of {names[0]} (normal) or {names[1]} (uniform on [-h, h])")
     if sigma is not None:
-        return "normal", check_positive(sigma, "sigma", allow_zero=True)
-    return "uniform", check_positive(half_width, "half_width", allow_zero=True)
+        return "normal", check_positive(sigma, names[0], allow_zero=True)
+    return "uniform", check_positive(half_width, names[1], allow_zero=True)
 
 
 def _draw(rng: np.random.Generator, distribution: str, scale: NDArray, shape: tuple[int, ...]) -> NDArray:
@@ -343,7 +345,9 @@ class InertiaDispersion(Dispersion):
         axes = body.principal_axes()
         self.moments = axes.moments
         self.axes_B = axes.axes_B
-        self.distribution, scale = _two_sided(moment_sigma, moment_half_width, "InertiaDispersion")
+        self.distribution, scale = _two_sided(
+            moment_sigma, moment_half_width, "InertiaDispersion", ("moment_sigma", "moment_half_width")
+        )
         if scale.ndim != 0:
             raise ValueError(f"the moment dispersion must be one relative value, got shape {scale.shape}")
         self.scale = float(scale)

@@ -32,6 +32,7 @@ shared by all runs.
 from __future__ import annotations
 
 import time
+import warnings
 from collections.abc import Callable
 from typing import Any
 
@@ -164,6 +165,7 @@ def simulate_batch_estimated(
             if backend == "compiled":
                 raise
             note = f"numpy fallback: {exc}"
+            warnings.warn(f"simulating the batch without a compiled kernel ({note})", RuntimeWarning, stacklevel=2)
     parameters = np.concatenate(
         [symmetric_entries(plant.inertia), symmetric_entries(plant.inertia_inv), np.zeros((n, 3))], axis=1
     )

@@ -514,10 +514,12 @@ def run_dask(
     tag = uuid.uuid4().hex[:8]
     futures = {}
     try:
+        # The scenario (a planned slew, a spacecraft) goes to every worker once, not once per task.
+        shared = client.scatter(scenario, broadcast=True, hash=False)
         for i, task in enumerate(tasks):
             fut = client.submit(
                 execute_task,
-                scenario,
+                shared,
                 seed,
                 task,
                 vectorized,

@@ -31,6 +31,7 @@ when the controller has a reference), k, t_k, sample, dt, threshold]``.
 
 from __future__ import annotations
 
+import threading
 from typing import Any
 
 import casadi as ca
@@ -151,7 +152,8 @@ class CompiledTicks:
             zm, cm = ca.MX.sym("z", self.n_z), ca.MX.sym("c", self.n_c, n)
             functions.append(ca.Function(f"tick{n}", [zm, cm], [tick.fold(n)(zm, cm)]))
         self._compiled = dict(zip([1, *FOLDS], compile_functions(functions)))
-        self._mapped: dict[tuple[int, int], Any] = {}
+        self._mapped: dict[tuple[int, int], _Evaluator] = {}
+        self._lock = threading.Lock()
 
     def advance(self, z: NDArray[np.float64], columns: NDArray[np.float64]) -> NDArray[np.float64]:
         """Advance every run by ``columns.shape[1]`` ticks.
@@ -172,11 +174,15 @@ class CompiledTicks:
         while done < columns.shape[1]:
             left = columns.shape[1] - done
             fold = next((n for n in FOLDS if n <= left), 1)
-            key = (fold, n_runs)
-            if key not in self._mapped:
-                # Input 1 (the tick columns) is shared by the runs, not repeated.
-                self._mapped[key] = _Evaluator(self._compiled[fold].map(f"runs{fold}", "serial", n_runs, [1], []))
-            z = self._mapped[key](z, columns[:, done : done + fold].T)
+            # Input 1 (the tick columns) is shared by the runs, not repeated.
+            function = self._compiled[fold]
+            evaluator = _mapped(
+                self._mapped,
+                self._lock,
+                (fold, n_runs),
+                lambda f=function, m=fold: f.map(f"runs{m}", "serial", n_runs, [1], []),
+            )
+            z = evaluator(z, columns[:, done : done + fold].T)
             done += fold
         return z
 
@@ -185,21 +191,34 @@ class _Evaluator:
     """Zero-copy evaluation of a compiled function on numpy arrays (``casadi.Function.buffer``).
 
     A casadi (rows, cols) matrix is stored column by column, which is a
-    C-ordered numpy array of shape (cols, rows): runs are rows here.
+    C-ordered numpy array of shape (cols, rows): runs are rows here. The
+    buffer holds pointers to the arrays of the call in progress, so calls
+    are serialised by a lock: two threads (a Dask worker with several
+    threads) must not interleave their arguments.
     """
 
     def __init__(self, function: ca.Function) -> None:
         self._buffer, self._evaluate = function.buffer()
         self.n_out = function.size1_out(0)
+        self._lock = threading.Lock()
 
     def __call__(self, *args: NDArray[np.float64]) -> NDArray[np.float64]:
         inputs = [np.ascontiguousarray(a, dtype=np.float64) for a in args]
         out = np.empty((inputs[0].shape[0], self.n_out))
-        for i, a in enumerate(inputs):
-            self._buffer.set_arg(i, memoryview(a))
-        self._buffer.set_res(0, memoryview(out))
-        self._evaluate()
+        with self._lock:
+            for i, a in enumerate(inputs):
+                self._buffer.set_arg(i, memoryview(a))
+            self._buffer.set_res(0, memoryview(out))
+            self._evaluate()
         return out
+
+
+def _mapped(cache: dict, lock: threading.Lock, key: Any, build: Any) -> _Evaluator:
+    """The evaluator of ``key`` in ``cache``, built once under ``lock`` (thread-safe)."""
+    with lock:
+        if key not in cache:
+            cache[key] = _Evaluator(build())
+        return cache[key]
 
 
 class CompiledHold:
@@ -232,12 +251,14 @@ class CompiledHold:
         hold = ca.Function("hold1", [z, dt], [ca.vertcat(*model.hold_step(x, u, p[12:15], dt, substeps))])
         (self._compiled,) = compile_functions([hold])
         self._mapped: dict[int, _Evaluator] = {}
+        self._lock = threading.Lock()
 
     def step(
         self, x: NDArray[np.float64], u: NDArray[np.float64], parameters: NDArray[np.float64], dt: float
     ) -> NDArray[np.float64]:
         """Next states (n_runs, n_x) of states (n_runs, n_x), commands (n_runs, n_u), parameters (n_runs, 15)."""
         n = x.shape[0]
-        if n not in self._mapped:
-            self._mapped[n] = _Evaluator(self._compiled.map(f"hold_runs{n}", "serial", n, [1], []))
-        return self._mapped[n](np.concatenate([x, u, parameters], axis=1), np.array([dt]))
+        evaluator = _mapped(
+            self._mapped, self._lock, n, lambda: self._compiled.map(f"hold_runs{n}", "serial", n, [1], [])
+        )
+        return evaluator(np.concatenate([x, u, parameters], axis=1), np.array([dt]))

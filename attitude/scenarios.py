@@ -46,7 +46,6 @@ these are the definitions those scenarios always had.
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -56,7 +55,7 @@ import numpy as np
 from attitude import quaternion as quat
 from attitude.config import SpacecraftConfig, load_config
 from attitude.design_slew import SlewStudy, plan_slews
-from attitude.montecarlo import Campaign, CampaignResult, Requirement, RunOutput, run_campaign
+from attitude.montecarlo import Campaign, CampaignResult, Requirement, RunOutput, run_campaign, usable_cpus
 from attitude.montecarlo_batch import closed_loop_metrics, simulate_batch
 from attitude.montecarlo_dispersions import dispersions_from_config
 from attitude.montecarlo_estimated import simulate_batch_estimated
@@ -373,6 +372,12 @@ class ClosedLoopScenario:
         spread = None if mc is None or mc.initial_attitude is None else mc.initial_attitude.scale_si
         self._attitude_sigma = spread if spread else ATTITUDE_SIGMA
         if mc is not None and mc.initial_attitude is not None and mc.initial_attitude.distribution == "uniform_so3":
+            if guidance == "plan":
+                raise ScenarioError(
+                    "guidance='plan' flies a slew planned from the file's start attitude, which an initial attitude "
+                    "uniform on SO(3) ([montecarlo] initial_attitude) does not start from; disperse the initial "
+                    "attitude about the start (normal or uniform), or fly guidance='eigenaxis'"
+                )
             self._attitude_sigma = math.pi  # unknown attitude: the tracker's first update must decide it
         if mc is not None and mc.initial_attitude is not None and mc.initial_attitude.distribution == "uniform":
             self._attitude_sigma = spread / math.sqrt(3.0)  # standard deviation of U(-h, h)
@@ -767,6 +772,7 @@ def run_campaign_from_config(
     nodes: int = PLAN_NODES,
     consider_misalignment: bool = False,
     vectorized: bool = False,
+    resume: bool = True,
 ) -> CampaignResult:
     """The campaign of a spacecraft file: what ``attitude montecarlo FILE`` runs.
 
@@ -811,7 +817,9 @@ def run_campaign_from_config(
     vectorized : bool
         Advance the runs together in batches (:meth:`ClosedLoopScenario.run_batch`;
         each run's metrics equal the per-run path's to rounding), about
-        four batches per worker.
+        four batches per worker (at least 100 runs a batch).
+    resume : bool
+        Resume the campaign checkpointed in ``out_dir`` (default); False starts afresh.
     """
     if not isinstance(config, SpacecraftConfig):
         config = load_config(config)
@@ -839,9 +847,10 @@ def run_campaign_from_config(
     )
     runs_per_task = None
     if vectorized:
-        # Several batches per worker: every core busy, and a progress bar and checkpoints that move.
-        workers = workers or os.cpu_count() or 1
-        runs_per_task = max(1, min(1000, math.ceil(n / (4 * workers))))
+        # Several batches per worker (every core busy; a progress bar and checkpoints that move), but
+        # not below 100 runs a batch, where the per-batch set-up would cost more than the runs.
+        workers = workers or usable_cpus()
+        runs_per_task = min(1000, max(math.ceil(n / (4 * workers)), min(n, 100)))
     result = run_campaign(
         campaign,
         workers=workers,
@@ -850,6 +859,7 @@ def run_campaign_from_config(
         progress=progress,
         vectorized=vectorized,
         runs_per_task=runs_per_task,
+        resume=resume,
     )
     if out_dir is not None and figures:
         from attitude.montecarlo_plots import save_figures

@@ -15,13 +15,13 @@ Figures:
   with an empty kernel cache (the C compiler's CPU, a child process,
   included) and then warm (median of 3); and the numpy back end alone.
 
-CPU accounting. In one process, ``time.process_time`` (honest CPU). With
-worker processes the parent's process time misses the workers, so two
-figures are given: ``cpu_s_in_runs`` (the sum of each run's own
-``process_time``, measured inside its worker, plus the parent's: the CPU the
-simulation work took, without worker start-up and idle time) and
-``wall_x_workers`` (wall time times workers: an upper bound, what the
-machine was reserved for). Runs per minute are always wall-clock, start-up
+CPU accounting (``cpu_s``): this process's ``time.process_time`` plus the
+CPU of its reaped child processes (``RUSAGE_CHILDREN``: the local worker
+processes, and the C compiler that builds a vectorised kernel). A Dask
+cluster's workers are not children, so there the CPU each run measured
+inside its worker is added instead. ``cpu_s_in_runs`` (the sum of the runs'
+own CPU, without start-up and idle time) and ``wall_x_workers_s`` (what the
+machine was reserved for) are given too. Runs per minute are always wall-clock, start-up
 of the pool (or the cluster's first tasks) included; the cluster's own
 start-up is reported apart.
 """
@@ -57,26 +57,35 @@ def _measure(campaign: Campaign, **kwargs: Any) -> dict[str, Any]:
     wall0, cpu0, child0 = time.perf_counter(), time.process_time(), _children_cpu()
     result = run_campaign(campaign, progress=False, **kwargs)
     wall = time.perf_counter() - wall0
-    # The C compiler of the vectorised kernel runs as a child process: its CPU counts too.
-    parent_cpu = time.process_time() - cpu0 + (_children_cpu() - child0)
+    parent_cpu = time.process_time() - cpu0
+    # Reaped child processes: the C compiler of the vectorised kernel, and the pool's workers.
+    children_cpu = _children_cpu() - child0
+    in_runs = float(np.nansum(result.cpu_s))
     ok = int(np.sum(result.status == "ok"))
+    executor = result.info["executor"]
     workers = kwargs.get("workers") or 2
     out: dict[str, Any] = {
         "runs": campaign.runs,
         "completed": ok,
-        "executor": result.info["executor"],
+        "executor": executor,
         "wall_s": wall,
         "runs_per_minute": 60.0 * campaign.runs / wall,
         # Other processes on the machine slow the wall-clock figures (not the CPU ones): say how busy it was.
         "load_average_1min_before": load,
+        "cpu_s_in_runs": in_runs,
     }
-    if result.info["executor"] == "serial":
-        out["cpu_s"] = parent_cpu
-        out["runs_per_cpu_minute"] = 60.0 * campaign.runs / parent_cpu
-    else:
-        out["cpu_s_in_runs"] = float(np.nansum(result.cpu_s)) + parent_cpu
+    if executor == "dask":
+        # The cluster's workers are not this process's children: their CPU is what each run measured.
+        out["cpu_s"] = parent_cpu + in_runs
+        out["cpu_s_basis"] = "this process + the CPU measured inside each run on the workers"
         out["wall_x_workers_s"] = wall * workers
-    out["sim_s_per_cpu_s"] = campaign.runs * DURATION_S / out.get("cpu_s", out.get("cpu_s_in_runs"))
+    else:
+        out["cpu_s"] = parent_cpu + children_cpu
+        out["cpu_s_basis"] = "this process + its reaped children (worker processes, the C compiler)"
+        if executor == "processes":
+            out["wall_x_workers_s"] = wall * workers
+    out["runs_per_cpu_minute"] = 60.0 * campaign.runs / out["cpu_s"]
+    out["sim_s_per_cpu_s"] = campaign.runs * DURATION_S / out["cpu_s"]
     return out
 
 

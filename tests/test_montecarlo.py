@@ -192,6 +192,10 @@ class TestSeedsAndDispersions:
         z = quat.rotate(q, np.array([0.0, 0.0, 1.0]))
         for k in range(3):
             assert stats.kstest(z[:, k], stats.uniform(-1, 2).cdf).pvalue > 1e-3
+        # ... and the rotation angle has the Haar density (1 - cos t) / pi on [0, pi], CDF (t - sin t) / pi,
+        # which a distribution right about one axis but wrong in roll would not have.
+        angle = np.asarray(quat.error_angle(quat.identity(), q))
+        assert stats.kstest(angle, lambda t: (t - np.sin(t)) / np.pi).pvalue > 1e-3
 
     def test_attitude_and_misalignment_dispersions_have_the_asked_spread(self):
         rng = np.random.default_rng(4)

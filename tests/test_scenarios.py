@@ -205,3 +205,33 @@ def test_the_cli_runs_a_vectorised_campaign(tmp_path, capsys):
     assert campaign["info"]["vectorized"] is True
     all_passed = all(r["passed"] == r["runs"] for r in stats["requirements"].values())
     assert code == (0 if all_passed else 1)
+
+
+def test_a_planned_slew_with_an_attitude_uniform_on_so3_is_refused(study):
+    import dataclasses
+
+    so3 = dataclasses.replace(CONFIG.montecarlo.initial_attitude, distribution="uniform_so3")
+    config = dataclasses.replace(CONFIG, montecarlo=dataclasses.replace(CONFIG.montecarlo, initial_attitude=so3))
+    with pytest.raises(ScenarioError, match=r"uniform on SO\(3\).*guidance='eigenaxis'"):
+        ClosedLoopScenario(config, study=study)
+    assert ClosedLoopScenario(config, guidance="eigenaxis").guidance == "eigenaxis"
+
+
+def test_the_cli_refuses_bad_campaign_arguments_with_exit_code_2(tmp_path, capsys):
+    for argv, flag in (
+        (["--runs", "0"], "--runs"),
+        (["--workers", "-1"], "--workers"),
+        (["--seed", "-5"], "--seed"),
+        (["--scheduler", "localhost"], "--scheduler"),
+    ):
+        with pytest.raises(SystemExit) as exc:
+            main(["montecarlo", *argv, "--out", str(tmp_path / "x")])
+        assert exc.value.code == 2
+        assert flag in capsys.readouterr().err
+    # Another campaign in the same --out: refused with the way out, then --fresh starts over.
+    quick = ["montecarlo", "--runs", "1", "--guidance", "eigenaxis", "--duration-s", "2", "--out", str(tmp_path / "mc")]
+    # 2 s of a 60 deg slew cannot settle: the campaign runs and fails its requirements (exit 1).
+    assert main([*quick, "--seed", "1"]) == 1
+    assert main([*quick, "--seed", "2"]) == 2
+    assert "--fresh" in capsys.readouterr().err
+    assert main([*quick, "--seed", "2", "--fresh"]) == 1
