@@ -41,6 +41,26 @@ def _setup(seed: int = 11):
     return inertia, q0, omega0, mounting, seeds
 
 
+def _run_batch(inertia, q0, omega0, seeds, duration, **kwargs):
+    """The batch with fresh sensors, filter and streams (gyros and filters are stateful)."""
+    tracker = CONFIG.star_tracker()
+    gyros = [CONFIG.gyro(sampling="mean") for _ in range(len(seeds))]
+    mekf = MEKF.from_sensors(gyros[0], tracker, q0=Q_START, P0=P0)
+    return simulate_batch_estimated(
+        RigidBody(inertia),
+        q0,
+        omega0,
+        duration,
+        controller=CONTROLLER,
+        wheels=WHEELS,
+        gyro=GyroBatch(gyros),
+        tracker=tracker,
+        estimator=MEKFBatch(mekf, len(seeds)),
+        streams=NormalStreams([np.random.default_rng(s) for s in seeds]),
+        **kwargs,
+    )
+
+
 class _Mounted:
     """The tracker seen through a mounting rotation (what the batch's ``tracker_mounting`` models)."""
 
@@ -57,28 +77,13 @@ class _Mounted:
 def batch_and_singles():
     inertia, q0, omega0, mounting, seeds = _setup()
     tracker = CONFIG.star_tracker()
-    gyros = [CONFIG.gyro(sampling="mean") for _ in range(N_RUNS)]
-    mekf = MEKF.from_sensors(gyros[0], tracker, q0=Q_START, P0=P0)
     seen = {"q_hat": [], "updated": 0}
 
     def observer(k, t, x, q_hat, w_hat, updated):
         seen["q_hat"].append(q_hat.copy())
         seen["updated"] += int(updated)
 
-    out = simulate_batch_estimated(
-        RigidBody(inertia),
-        q0,
-        omega0,
-        DURATION,
-        controller=CONTROLLER,
-        wheels=WHEELS,
-        gyro=GyroBatch(gyros),
-        tracker=tracker,
-        estimator=MEKFBatch(mekf, N_RUNS),
-        streams=NormalStreams([np.random.default_rng(s) for s in seeds]),
-        tracker_mounting=mounting,
-        observer=observer,
-    )
+    out = _run_batch(inertia, q0, omega0, seeds, DURATION, tracker_mounting=mounting, observer=observer)
     singles = []
     for r in range(N_RUNS):
         gyro = CONFIG.gyro(sampling="mean")
@@ -115,24 +120,9 @@ def test_each_run_of_the_batch_is_the_single_run_engine_with_its_generator(batch
 
 def test_compiled_and_numpy_truth_steps_agree():
     inertia, q0, omega0, _, seeds = _setup(5)
-    tracker = CONFIG.star_tracker()
     finals = {}
     for backend in ("compiled", "numpy"):
-        gyros = [CONFIG.gyro(sampling="mean") for _ in range(N_RUNS)]
-        mekf = MEKF.from_sensors(gyros[0], tracker, q0=Q_START, P0=P0)
-        out = simulate_batch_estimated(
-            RigidBody(inertia),
-            q0,
-            omega0,
-            10.0,
-            controller=CONTROLLER,
-            wheels=WHEELS,
-            gyro=GyroBatch(gyros),
-            tracker=tracker,
-            estimator=MEKFBatch(mekf, N_RUNS),
-            streams=NormalStreams([np.random.default_rng(s) for s in seeds]),
-            backend=backend,
-        )
+        out = _run_batch(inertia, q0, omega0, seeds, 10.0, backend=backend)
         assert out["backend"] == backend
         finals[backend] = out["x"]
     # Rounding only (C vs numpy evaluation of the same component expressions).
@@ -141,21 +131,11 @@ def test_compiled_and_numpy_truth_steps_agree():
 
 def test_bad_arguments_are_named():
     inertia, q0, omega0, _, seeds = _setup()
-    tracker = CONFIG.star_tracker()
-    gyros = [CONFIG.gyro(sampling="mean") for _ in range(N_RUNS)]
-    kwargs = dict(
-        controller=CONTROLLER,
-        wheels=WHEELS,
-        gyro=GyroBatch(gyros),
-        tracker=tracker,
-        estimator=MEKFBatch(MEKF.from_sensors(gyros[0], tracker, q0=Q_START, P0=P0), N_RUNS),
-        streams=NormalStreams([np.random.default_rng(s) for s in seeds]),
-    )
     with pytest.raises(ValueError, match="whole number"):
-        simulate_batch_estimated(RigidBody(inertia), q0, omega0, 1.05, **kwargs)
+        _run_batch(inertia, q0, omega0, seeds, 1.05)
     with pytest.raises(ValueError, match="batch of inertias"):
-        simulate_batch_estimated(BODY, q0, omega0, 1.0, **kwargs)
+        _run_batch(BODY.inertia, q0, omega0, seeds, 1.0)
     with pytest.raises(ValueError, match="backend"):
-        simulate_batch_estimated(RigidBody(inertia), q0, omega0, 1.0, backend="gpu", **kwargs)
+        _run_batch(inertia, q0, omega0, seeds, 1.0, backend="gpu")
     with pytest.raises(ValueError, match="tracker_mounting"):
-        simulate_batch_estimated(RigidBody(inertia), q0, omega0, 1.0, tracker_mounting=np.ones((2, 4)), **kwargs)
+        _run_batch(inertia, q0, omega0, seeds, 1.0, tracker_mounting=np.ones((2, 4)))
