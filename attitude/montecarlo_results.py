@@ -240,13 +240,25 @@ class CampaignResult:
             f"Monte Carlo campaign: {s['runs']} runs (seed {self.seed}), {s['completed']} completed, "
             f"{s['errors']} errors, {s['not_run']} not run",
         ]
+        from attitude.montecarlo_plots import display_unit
+
         for m, st in s["metrics"].items():
+            scale, unit = display_unit(m)
+            label = f"{m} [{unit}]" if unit else m
             lines.append(
-                f"  {m}: median {st.get('p50', math.nan):.6g}, p95 {st.get('p95', math.nan):.6g}, "
-                f"max {st['max']:.6g} ({int(st['nonfinite'])} non-finite)"
+                f"  {label}: median {scale * st.get('p50', math.nan):.4g}, p95 {scale * st.get('p95', math.nan):.4g}, "
+                f"max {scale * st['max']:.4g} ({int(st['nonfinite'])} non-finite)"
             )
-        for name, r in s["requirements"].items():
-            lines.append(f"  requirement {name} ({r['rule']}): {r['passed']}/{r['runs']} passed")
+        for r in self.requirements:
+            scale, unit = display_unit(r.metric)
+            parts = [r.metric]
+            if r.min is not None:
+                parts.insert(0, f"{scale * r.min:.4g} {unit} <=".replace("  ", " "))
+            if r.max is not None:
+                parts.append(f"<= {scale * r.max:.4g} {unit}".rstrip())
+            rule = " ".join(parts)
+            n_pass = int(np.sum(self.requirement_passed(r)))
+            lines.append(f"  requirement {r.name} ({rule}): {n_pass}/{self.runs} passed")
         lines.append("  " + s["success"]["statement"])
         first_errors = [f"    run {i}: {self.errors[i]}" for i in np.nonzero(self.status == "error")[0][:5]]
         if first_errors:

@@ -541,3 +541,18 @@ def test_fraction_of_spins_that_flip_within_a_time_matches_the_closed_form():
     assert abs(p_hat - p_exact) <= 4.0 * math.sqrt(p_exact * (1 - p_exact) / n)
     # And no run sits within the 5 ms timing error of the threshold, so the count is exact.
     assert np.mean(truth <= tau) == p_hat
+
+
+def test_the_summary_speaks_review_units():
+    class Pointing:
+        def __call__(self, params, rng):
+            return {"final_pointing_error": math.radians(0.01 + 0.001 * rng.standard_normal()), "peak_rate": 0.1}
+
+    rule = Requirement("final_pointing_error", max=math.radians(0.05), name="pointing")
+    result = run_campaign(Campaign(Pointing(), {}, runs=20, seed=3, requirements=[rule]), workers=1)
+    text = result.summary()
+    # SI inside, degrees on the page: 0.05 deg, not 0.000872665 rad.
+    assert "requirement pointing (final_pointing_error <= 0.05 deg): 20/20 passed" in text
+    median = np.degrees(np.median(result.metrics["final_pointing_error"]))
+    assert f"final_pointing_error [deg]: median {median:.4g}" in text
+    assert "peak_rate [deg/s]: median 5.73" in text  # 0.1 rad/s
