@@ -485,8 +485,9 @@ def build_parser() -> argparse.ArgumentParser:
         description=(
             "Run the spacecraft's closed loop (wheels, gyro, star tracker, MEKF) many times with the\n"
             "dispersions of the file's [montecarlo] table (inertia, initial rate and attitude, sensor\n"
-            "misalignments). The guidance is the design's: the required slew planned once on the nominal\n"
-            "spacecraft (time-optimal around the keep-out cones, as `attitude design` plans it) and tracked\n"
+            "misalignments, gyro turn-on bias). The guidance is the design's: the required slew planned\n"
+            "once on the nominal spacecraft (time-optimal around the keep-out cones, as `attitude design`\n"
+            "plans it) and tracked\n"
             "with the plan's torque as feedforward; --guidance eigenaxis flies the rate-limited PD straight\n"
             "to the target instead, which cannot avoid a keep-out cone (add --no-keep-out to judge it on the\n"
             "other requirements). Settling and pointing are judged against the target attitude: the\n"

@@ -228,6 +228,7 @@ _DISPERSIONS: dict[str, tuple[str, str, str, tuple[str, ...]]] = {
     ),
     "gyro_misalignment": ("arcsec", "arcsec", "of the gyro triad misalignment, per axis", ()),
     "star_tracker_misalignment": ("arcsec", "arcsec", "of the star-tracker mounting misalignment, per axis", ()),
+    "gyro_bias": ("deg_per_h", "deg/h", "of the gyro turn-on bias about the file's bias, per axis", ()),
 }
 for _name, (_suffix, _unit, _meaning, _extra) in _DISPERSIONS.items():
     CONFIG_KEYS[f"montecarlo.{_name}"] = ("", f"dispersion {_meaning} [{_unit}]")
@@ -235,6 +236,10 @@ for _name, (_suffix, _unit, _meaning, _extra) in _DISPERSIONS.items():
     CONFIG_KEYS[f"montecarlo.{_name}.sigma_{_suffix}"] = (_unit, "standard deviation (normal)")
     CONFIG_KEYS[f"montecarlo.{_name}.half_width_{_suffix}"] = (_unit, "half-width: uniform on [-h, h] (uniform)")
 del _name, _suffix, _unit, _meaning, _extra
+CONFIG_KEYS["montecarlo.inertia.axis_sigma_deg"] = (
+    "deg",
+    "standard deviation of a rotation of the principal axes, per axis (normal; default 0: axes kept)",
+)
 
 
 def _children(path: str) -> tuple[str, ...]:
@@ -875,13 +880,20 @@ class Dispersion:
     distribution: str
     scale: float | None
     unit: str
+    axis_sigma_deg: float = 0.0  # inertia only: rotation of the principal axes, per axis (normal) [deg]
 
     @property
     def scale_si(self) -> float | None:
         """The scale in SI: a fraction for ``percent``, rad, rad/s."""
         if self.scale is None:
             return None
-        factor = {"percent": 0.01, "deg": math.pi / 180.0, "deg_per_s": math.pi / 180.0, "arcsec": ARCSEC}
+        factor = {
+            "percent": 0.01,
+            "deg": math.pi / 180.0,
+            "deg_per_s": math.pi / 180.0,
+            "deg_per_h": math.pi / 180.0 / 3600.0,
+            "arcsec": ARCSEC,
+        }
         return self.scale * factor[self.unit]
 
 
@@ -896,6 +908,7 @@ class MonteCarloConfig:
     initial_attitude: Dispersion | None = None
     gyro_misalignment: Dispersion | None = None
     star_tracker_misalignment: Dispersion | None = None
+    gyro_bias: Dispersion | None = None
 
 
 @dataclass(frozen=True)
@@ -1255,7 +1268,12 @@ def _read_dispersion(r: _Reader, t: _Table, name: str) -> Dispersion | None:
     _positive(r, scale_key, scale, allow_zero=True, unit=_unit_of(scale_key))
     if suffix == "percent":
         r.check(scale < 100.0, scale_key, "below 100 percent (moments must stay positive)", scale)
-    return Dispersion(distribution, scale, suffix)
+    axis = 0.0
+    if name == "inertia":
+        axis = dt.number("axis_sigma_deg", required=False, default=0.0)
+        _positive(r, dt.key("axis_sigma_deg"), axis, allow_zero=True, unit="deg")
+        r.check(axis <= 30.0, dt.key("axis_sigma_deg"), "at most 30 deg (principal axes known to a few degrees)", axis)
+    return Dispersion(distribution, scale, suffix, axis)
 
 
 def _read_montecarlo(r: _Reader, t: _Table) -> MonteCarloConfig:
@@ -1538,5 +1556,7 @@ def config_to_toml(config: SpacecraftConfig) -> str:
             entry: dict[str, Any] = {"distribution": d.distribution}
             if d.scale is not None:
                 entry[f"{'sigma' if d.distribution == 'normal' else 'half_width'}_{d.unit}"] = d.scale
+            if d.axis_sigma_deg:
+                entry["axis_sigma_deg"] = d.axis_sigma_deg
             w.key("montecarlo", name, entry)
     return "\n".join(w.lines) + "\n"

@@ -33,6 +33,7 @@ from 1,000 to 2,000 runs keeps the first 1,000. Below it:
 
 from __future__ import annotations
 
+import math
 import zlib
 from collections.abc import Mapping
 from typing import Any
@@ -407,8 +408,9 @@ def dispersions_from_config(montecarlo: Any, inertia: ArrayLike, q_start: ArrayL
     Returns
     -------
     dict
-        ``inertia`` (:class:`InertiaDispersion`, principal moments only),
-        ``initial_rate`` [rad/s] (:class:`Normal` or :class:`Uniform` about 0),
+        ``inertia`` (:class:`InertiaDispersion`: principal moments, and the
+        axes when ``axis_sigma_deg`` is given), ``initial_rate`` and
+        ``gyro_bias`` [rad/s] (:class:`Normal` or :class:`Uniform` about 0),
         ``initial_attitude`` (:class:`AttitudeDispersion` or
         :class:`RandomAttitude`), ``gyro_misalignment`` and
         ``star_tracker_misalignment`` [rad] (:class:`Misalignment`); the
@@ -421,13 +423,15 @@ def dispersions_from_config(montecarlo: Any, inertia: ArrayLike, q_start: ArrayL
 
     if montecarlo.inertia is not None:
         key = "moment_sigma" if montecarlo.inertia.distribution == "normal" else "moment_half_width"
-        out["inertia"] = InertiaDispersion(inertia, **{key: montecarlo.inertia.scale_si})
-    if montecarlo.initial_rate is not None:
-        entry = montecarlo.initial_rate
-        scale = entry.scale_si
-        out["initial_rate"] = (
-            Normal(np.zeros(3), scale) if entry.distribution == "normal" else Uniform.centered(np.zeros(3), scale)
-        )
+        axis_sigma = math.radians(montecarlo.inertia.axis_sigma_deg)
+        out["inertia"] = InertiaDispersion(inertia, **{key: montecarlo.inertia.scale_si}, axis_sigma=axis_sigma)
+    for name in ("initial_rate", "gyro_bias"):
+        entry = getattr(montecarlo, name, None)
+        if entry is not None:
+            scale = entry.scale_si
+            out[name] = (
+                Normal(np.zeros(3), scale) if entry.distribution == "normal" else Uniform.centered(np.zeros(3), scale)
+            )
     if montecarlo.initial_attitude is not None:
         entry = montecarlo.initial_attitude
         if entry.distribution == "uniform_so3":

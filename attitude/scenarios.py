@@ -323,7 +323,9 @@ class ClosedLoopScenario:
 
     Dispersion names it reads (all optional): ``inertia`` (3, 3) [kg m^2],
     ``initial_attitude`` (4,), ``initial_rate`` (3,) [rad/s],
-    ``gyro_misalignment`` and ``star_tracker_misalignment`` (3,) [rad].
+    ``gyro_misalignment`` and ``star_tracker_misalignment`` (3,) [rad],
+    ``gyro_bias`` (3,) [rad/s] (added to the file's turn-on bias; the MEKF's
+    initial bias uncertainty grows to cover it).
 
     Raises
     ------
@@ -381,6 +383,8 @@ class ClosedLoopScenario:
             self._attitude_sigma = math.pi  # unknown attitude: the tracker's first update must decide it
         if mc is not None and mc.initial_attitude is not None and mc.initial_attitude.distribution == "uniform":
             self._attitude_sigma = spread / math.sqrt(3.0)  # standard deviation of U(-h, h)
+        # The filter starts from zero bias: its uncertainty covers a dispersed turn-on bias.
+        self._bias_sigma = max(BIAS_SIGMA, math.sqrt(_variance(None if mc is None else mc.gyro_bias)))
         self._tracker_covariance = np.array(self._tracker.covariance_B, dtype=float)
         if self.consider_misalignment and mc is not None:
             self._tracker_covariance += _variance(mc.star_tracker_misalignment) * np.eye(3)
@@ -456,12 +460,15 @@ class ClosedLoopScenario:
             self._nominal, c.bandwidth_rad_per_s, c.damping, c.period_s, q_ref=self._q_target, gyroscopic=True
         )
 
-    def gyro(self, misalignment: np.ndarray | None) -> Gyro:
-        """The file's gyro with an extra misalignment rotation vector [rad]."""
+    def gyro(self, misalignment: np.ndarray | None, bias: np.ndarray | None = None) -> Gyro:
+        """The file's gyro with an extra misalignment rotation vector [rad] and turn-on bias [rad/s]."""
         g = self.config.gyro_config
         figures = g.figures()
         if misalignment is not None:
             figures["misalignment_rad"] = np.asarray(figures.get("misalignment_rad", np.zeros(3))) + misalignment
+        if bias is not None:
+            base = np.broadcast_to(np.asarray(figures.get("bias_deg_per_h", 0.0), dtype=float), (3,))
+            figures["bias_deg_per_h"] = base + np.degrees(np.asarray(bias, dtype=float)) * 3600.0
         # Interval-mean samples (an integrating gyro): what the MEKF models.
         if g.preset is not None:
             return Gyro.preset(g.preset, period=g.period_s, sampling="mean", **figures)
@@ -476,7 +483,7 @@ class ClosedLoopScenario:
             self._tracker_covariance,
             period=gyro.period,
             q0=self._q_start,
-            P0=initial_covariance(self._attitude_sigma, BIAS_SIGMA),
+            P0=initial_covariance(self._attitude_sigma, self._bias_sigma),
             gyro_name=gyro.name,
             tracker_name=self._tracker.name,
         )
@@ -485,7 +492,7 @@ class ClosedLoopScenario:
         body = RigidBody(params["inertia"]) if "inertia" in params else self._nominal
         q0 = params.get("initial_attitude", self._q_start)
         omega0 = params.get("initial_rate", np.zeros(3))
-        gyro = self.gyro(params.get("gyro_misalignment"))
+        gyro = self.gyro(params.get("gyro_misalignment"), params.get("gyro_bias"))
         tracker = self._tracker
         if "star_tracker_misalignment" in params:
             tracker = _MisalignedTracker(tracker, params["star_tracker_misalignment"])
@@ -538,7 +545,7 @@ class ClosedLoopScenario:
         body = RigidBody(_stacked(params_list, "inertia", self._nominal.inertia))
         q0 = _stacked(params_list, "initial_attitude", self._q_start)
         omega0 = _stacked(params_list, "initial_rate", np.zeros(3))
-        gyros = [self.gyro(p.get("gyro_misalignment")) for p in params_list]
+        gyros = [self.gyro(p.get("gyro_misalignment"), p.get("gyro_bias")) for p in params_list]
         theta = _stacked(params_list, "star_tracker_misalignment", np.zeros(3))
         mekf = MEKFBatch(self.estimator(gyros[0]), n)
         recorder = _BatchRecorder(self, n, mekf)

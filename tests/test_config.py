@@ -666,3 +666,29 @@ def test_a_non_unit_quaternion_is_rejected_with_its_key(key, tmp_path):
         load_config(path)
     assert info.value.key == f"requirements.slew.{key}"
     assert str(path) in str(info.value)
+
+
+def test_montecarlo_disperses_principal_axes_and_gyro_bias():
+    from attitude.montecarlo_dispersions import InertiaDispersion, Normal, dispersions_from_config
+
+    data = copy.deepcopy(DEFAULT_DATA)
+    data["montecarlo"]["inertia"]["axis_sigma_deg"] = 1.5
+    data["montecarlo"]["gyro_bias"] = {"distribution": "normal", "sigma_deg_per_h": 20.0}
+    config = config_from_dict(data, "mc.toml")
+    mc = config.montecarlo
+    assert mc.inertia.axis_sigma_deg == 1.5
+    assert mc.gyro_bias.scale_si == pytest.approx(math.radians(20.0) / 3600.0)
+    assert parse_config(config_to_toml(config), "again.toml") == config
+    dispersions = dispersions_from_config(mc, config.body().inertia, config.requirements.slew.q_start())
+    assert isinstance(dispersions["inertia"], InertiaDispersion)
+    assert dispersions["inertia"].axis_sigma == pytest.approx(math.radians(1.5))
+    assert isinstance(dispersions["gyro_bias"], Normal)
+    np.testing.assert_allclose(dispersions["gyro_bias"].sigma, math.radians(20.0) / 3600.0)
+    for value, rule in ((-1.0, "non-negative"), (45.0, "at most 30 deg")):
+        data["montecarlo"]["inertia"]["axis_sigma_deg"] = value
+        with pytest.raises(ConfigError, match=rf"montecarlo\.inertia\.axis_sigma_deg: .*{rule}"):
+            config_from_dict(data, "mc.toml")
+    data["montecarlo"]["inertia"]["axis_sigma_deg"] = 1.0
+    data["montecarlo"]["initial_rate"]["axis_sigma_deg"] = 1.0  # only the inertia has axes
+    with pytest.raises(ConfigError, match=r"montecarlo\.initial_rate\.axis_sigma_deg: unknown key"):
+        config_from_dict(data, "mc.toml")

@@ -172,9 +172,10 @@ def test_consider_misalignment_inflates_the_tracker_covariance_by_its_dispersion
 
 def test_vectorised_runs_are_the_per_run_runs(scenario):
     from attitude.montecarlo import Campaign, run_campaign
-    from attitude.montecarlo_dispersions import dispersions_from_config
+    from attitude.montecarlo_dispersions import Normal, dispersions_from_config
 
     dispersions = dispersions_from_config(CONFIG.montecarlo, CONFIG.body().inertia, REQ.slew.q_start())
+    dispersions["gyro_bias"] = Normal(np.zeros(3), math.radians(20.0) / 3600.0)  # turn-on bias, 20 deg/h
     campaign = Campaign(scenario, dispersions, runs=4, seed=SEED, requirements=requirements_from_config(CONFIG))
     per_run = run_campaign(campaign, workers=1)
     batch = run_campaign(campaign, vectorized=True)
@@ -235,3 +236,19 @@ def test_the_cli_refuses_bad_campaign_arguments_with_exit_code_2(tmp_path, capsy
     assert main([*quick, "--seed", "2"]) == 2
     assert "--fresh" in capsys.readouterr().err
     assert main([*quick, "--seed", "2", "--fresh"]) == 1
+
+
+def test_a_dispersed_gyro_bias_is_added_to_the_files_and_widens_the_filter_prior(study):
+    import dataclasses
+
+    from attitude.config import Dispersion
+
+    bias = np.radians([10.0, -20.0, 5.0]) / 3600.0
+    sc = ClosedLoopScenario(CONFIG, study=study)
+    np.testing.assert_allclose(sc.gyro(None, bias).initial_bias, bias, rtol=1e-12)
+    np.testing.assert_array_equal(sc.gyro(None).initial_bias, np.zeros(3))
+    wide = dataclasses.replace(CONFIG.montecarlo, gyro_bias=Dispersion("normal", 30.0, "deg_per_h"))
+    sc_wide = ClosedLoopScenario(dataclasses.replace(CONFIG, montecarlo=wide), study=study)
+    sigma_b = math.sqrt(sc_wide.estimator(sc_wide.gyro(None)).P[3, 3])
+    assert sigma_b == pytest.approx(math.radians(30.0) / 3600.0)  # above the 10 deg/h default prior
+    assert math.sqrt(sc.estimator(sc.gyro(None)).P[3, 3]) == pytest.approx(scenarios.BIAS_SIGMA)
