@@ -87,7 +87,7 @@ def _count(minimum: int) -> Any:
 
 
 def _scheduler_address(text: str) -> str:
-    if not re.match(r"^(tcp|tls|inproc|ucx|ws|wss)://\S+$", text):
+    if not re.match(r"^((tcp|tls|ws|wss)://[^\s:/]+:\d+|(inproc|ucx)://\S+)/?$", text):
         raise argparse.ArgumentTypeError(f"expected a Dask scheduler address like tcp://HOST:8786, got {text!r}")
     return text
 
@@ -312,6 +312,15 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
     if args.workers is not None and args.scheduler is not None:
         raise UsageError("--workers and --scheduler exclude each other (the cluster decides its workers)")
     out = Path(args.out)
+    mc = config.montecarlo
+    if args.runs is None and mc is None:
+        raise UsageError("--runs: the spacecraft file has no [montecarlo] table, so give the number of runs")
+    so3 = mc is not None and mc.initial_attitude is not None and mc.initial_attitude.distribution == "uniform_so3"
+    if so3 and args.guidance == "plan":
+        raise UsageError(
+            "--guidance plan: the file's montecarlo.initial_attitude is 'uniform_so3', but a planned slew starts "
+            "from the file's start attitude; disperse the attitude about the start, or use --guidance eigenaxis"
+        )
     _progress(f"Monte Carlo campaign of {config.name}: results in {out}/")
     if args.guidance == "plan":
         _progress(f"planning the slew ({args.nodes} intervals, once, on the nominal spacecraft) ...")
@@ -332,7 +341,8 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
             resume=not args.fresh,
         )
     except ScenarioError as exc:
-        raise UsageError(f"--duration-s {args.duration_s:g}: {exc}") from None
+        flag = f"--duration-s {args.duration_s:g}: " if str(exc).startswith("duration") else ""
+        raise UsageError(f"{flag}{exc}") from None
     except SlewPlanningError as exc:
         print(f"attitude montecarlo: {exc}", file=sys.stderr)
         return EXIT_FAIL
@@ -340,8 +350,10 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
         if "checkpoint of a different campaign" in str(exc):
             raise UsageError(f"--out {out}: {str(exc).split(';')[0]}; use another --out, or --fresh") from None
         raise
-    except OSError as exc:  # e.g. a scheduler address nobody answers at
-        raise UsageError(f"--scheduler {args.scheduler}: {exc}" if args.scheduler else str(exc)) from None
+    except OSError as exc:
+        if getattr(exc, "filename", None) is not None or not args.scheduler:  # the output folder
+            raise UsageError(f"--out {out}: {exc}") from None
+        raise UsageError(f"--scheduler {args.scheduler}: {exc}") from None  # nobody answers at that address
     if args.json:
         from attitude.report import dumps_json
 

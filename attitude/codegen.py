@@ -25,6 +25,7 @@ import functools
 import hashlib
 import os
 import platform
+import shlex
 import shutil
 import subprocess
 import tempfile
@@ -66,14 +67,17 @@ def cache_dir() -> Path:
     return Path(base) / "attitude" / "kernels"
 
 
-def find_compiler() -> str | None:
-    """The C compiler: ``$CC`` if set, else ``cc``, ``gcc`` or ``clang`` on the PATH (None if none)."""
+def find_compiler() -> list[str] | None:
+    """The C compiler command: ``$CC`` if set (it may hold arguments, e.g. ``ccache gcc``), else ``cc``,
+    ``gcc`` or ``clang`` on the PATH (None if none is found)."""
     if os.environ.get("CC"):
-        return shutil.which(os.environ["CC"])
+        parts = shlex.split(os.environ["CC"])
+        path = shutil.which(parts[0]) if parts else None
+        return None if path is None else [path, *parts[1:]]
     for name in ("cc", "gcc", "clang"):
         path = shutil.which(name)
         if path:
-            return path
+            return [path]
     return None
 
 
@@ -111,7 +115,10 @@ def compile_functions(functions: Sequence[ca.Function], *, flags: Sequence[str] 
             # file replaces the old one's directory entry; a process that has it loaded keeps the old one.
             library.unlink(missing_ok=True)
             _build(compiler, list(flags), source, library)
-            return [ca.external(name, str(library)) for name in names]
+            try:
+                return [ca.external(name, str(library)) for name in names]
+            except RuntimeError as exc:  # e.g. a cache on a noexec mount, or a cross-compiler in CC
+                raise CompilationError(f"{library} was built but cannot be loaded: {exc}") from exc
     except OSError as exc:  # an unwritable or missing cache directory, a full disk
         raise CompilationError(f"cannot build or load {library}: {exc} (set {CACHE_ENV} to a writable folder)") from exc
 
@@ -127,7 +134,7 @@ def library_path(functions: Sequence[ca.Function], *, flags: Sequence[str] = COM
     return _plan(functions, flags)[2]
 
 
-def _plan(functions: Sequence[ca.Function], flags: Sequence[str]) -> tuple[str, str, Path]:
+def _plan(functions: Sequence[ca.Function], flags: Sequence[str]) -> tuple[list[str], str, Path]:
     """Compiler, C source and cache path of a set of functions."""
     names = [f.name() for f in functions]
     if not names:
@@ -136,38 +143,41 @@ def _plan(functions: Sequence[ca.Function], flags: Sequence[str]) -> tuple[str, 
         raise ValueError(f"functions must have distinct names, got {names}")
     compiler = find_compiler()
     if compiler is None:
-        raise CompilationError("no C compiler found (set CC, or install cc/gcc/clang)")
+        cc = os.environ.get("CC")
+        where = f"CC={cc!r} is not on the PATH" if cc else "none of cc, gcc, clang is on the PATH"
+        raise CompilationError(f"no C compiler found ({where}; set CC, or install one)")
     generator = ca.CodeGenerator("kernel.c", {"with_header": False})
     for f in functions:
         generator.add(f)
     source = generator.dump()
-    identity = [source, compiler, _compiler_version(compiler), platform.machine(), platform.system(), *flags]
+    identity = [source, *compiler, _compiler_version(tuple(compiler)), platform.machine(), platform.system(), *flags]
     key = hashlib.sha256("\n".join([*identity, ca.__version__]).encode()).hexdigest()[:24]
     return compiler, source, cache_dir() / f"kernel_{key}.so"
 
 
 @functools.lru_cache(maxsize=8)
-def _compiler_version(compiler: str) -> str:
+def _compiler_version(compiler: tuple[str, ...]) -> str:
     """The compiler's ``--version`` banner (part of the cache key: another compiler, another library)."""
     try:
-        done = subprocess.run([compiler, "--version"], capture_output=True, text=True, check=False, timeout=30)
+        done = subprocess.run([*compiler, "--version"], capture_output=True, text=True, check=False, timeout=30)
     except (OSError, subprocess.TimeoutExpired):
         return "unknown"
     return done.stdout.strip()
 
 
-def _build(compiler: str, flags: list[str], source: str, library: Path) -> None:
+def _build(compiler: list[str], flags: list[str], source: str, library: Path) -> None:
     library.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=library.parent) as work:
         c_file = Path(work) / "kernel.c"
         c_file.write_text(source)
         built = Path(work) / library.name
         done = subprocess.run(
-            [compiler, *flags, "-shared", "-fPIC", str(c_file), "-o", str(built), "-lm"],
+            [*compiler, *flags, "-shared", "-fPIC", str(c_file), "-o", str(built), "-lm"],
             capture_output=True,
             text=True,
             check=False,
         )
         if done.returncode != 0:
-            raise CompilationError(f"{compiler} failed (exit {done.returncode}): {done.stderr.strip()[:2000]}")
+            command = " ".join(compiler)
+            raise CompilationError(f"{command} failed (exit {done.returncode}): {done.stderr.strip()[:2000]}")
         os.replace(built, library)

@@ -160,6 +160,10 @@ def _describe_error(exc: BaseException) -> str:
     return " ".join(text.split())
 
 
+def _identity(value: Any) -> Any:
+    return value
+
+
 def execute_task(scenario: Any, seed: int, items: Task, vectorized: bool) -> list[RunRecord]:
     """Run the runs of one task and return their records (never raises for a scenario error).
 
@@ -286,8 +290,11 @@ class Checkpoint:
             lines = f.read().splitlines()
         if not lines:
             return {}
-        header = json.loads(lines[0])
-        if header.get("fingerprint") != self.fingerprint:
+        try:
+            header = json.loads(lines[0])
+        except json.JSONDecodeError:
+            header = {}
+        if not isinstance(header, dict) or header.get("fingerprint") != self.fingerprint:
             raise ValueError(
                 f"out_dir {str(self.dir)!r} holds the checkpoint of a different campaign (other seed, dispersions, "
                 "scenario or mode); use another out_dir, or resume=False to start afresh"
@@ -514,8 +521,10 @@ def run_dask(
     tag = uuid.uuid4().hex[:8]
     futures = {}
     try:
-        # The scenario (a planned slew, a spacecraft) goes to every worker once, not once per task.
-        shared = client.scatter(scenario, broadcast=True, hash=False)
+        # The scenario (a planned slew, a spacecraft) goes to the cluster once, not once per task, as the
+        # result of a task: unlike scattered data, the scheduler can compute it again if every worker
+        # holding it dies.
+        shared = client.submit(_identity, scenario, pure=False, key=f"attitude-montecarlo-{tag}-scenario")
         for i, task in enumerate(tasks):
             fut = client.submit(
                 execute_task,

@@ -49,6 +49,7 @@ DISPLAY_UNITS: dict[str, tuple[float, str]] = {
     "inertia": (1.0, "kg m^2"),
     "gyro_misalignment": (_DEG * 3600.0, "arcsec"),
     "star_tracker_misalignment": (_DEG * 3600.0, "arcsec"),
+    "gyro_bias": (_DEG * 3600.0, "deg/h"),
 }
 
 

@@ -257,8 +257,8 @@ class CampaignResult:
             if r.max is not None:
                 parts.append(f"<= {scale * r.max:.4g} {unit}".rstrip())
             rule = " ".join(parts)
-            n_pass = int(np.sum(self.requirement_passed(r)))
-            lines.append(f"  requirement {r.name} ({rule}): {n_pass}/{self.runs} passed")
+            counts = s["requirements"][r.name]  # over the runs that ran (all of them unless interrupted)
+            lines.append(f"  requirement {r.name} ({rule}): {counts['passed']}/{counts['runs']} passed")
         lines.append("  " + s["success"]["statement"])
         first_errors = [f"    run {i}: {self.errors[i]}" for i in np.nonzero(self.status == "error")[0][:5]]
         if first_errors:

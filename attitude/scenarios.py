@@ -383,8 +383,12 @@ class ClosedLoopScenario:
             self._attitude_sigma = math.pi  # unknown attitude: the tracker's first update must decide it
         if mc is not None and mc.initial_attitude is not None and mc.initial_attitude.distribution == "uniform":
             self._attitude_sigma = spread / math.sqrt(3.0)  # standard deviation of U(-h, h)
-        # The filter starts from zero bias: its uncertainty covers a dispersed turn-on bias.
-        self._bias_sigma = max(BIAS_SIGMA, math.sqrt(_variance(None if mc is None else mc.gyro_bias)))
+        # The filter starts from zero bias: its uncertainty covers the file's constant bias and a dispersed
+        # turn-on bias.
+        g = config.gyro_config
+        constant = 0.0 if g.bias_deg_per_h is None else float(np.max(np.abs(np.atleast_1d(g.bias_deg_per_h))))
+        dispersed = math.sqrt(_variance(None if mc is None else mc.gyro_bias))
+        self._bias_sigma = max(BIAS_SIGMA, math.radians(constant) / 3600.0, dispersed)
         self._tracker_covariance = np.array(self._tracker.covariance_B, dtype=float)
         if self.consider_misalignment and mc is not None:
             self._tracker_covariance += _variance(mc.star_tracker_misalignment) * np.eye(3)

@@ -80,7 +80,8 @@ def _measure(campaign: Campaign, **kwargs: Any) -> dict[str, Any]:
         out["cpu_s_basis"] = "this process + the CPU measured inside each run on the workers"
         out["wall_x_workers_s"] = wall * workers
     else:
-        out["cpu_s"] = parent_cpu + children_cpu
+        # Workers started by a forkserver are not our children: never count less than the runs measured.
+        out["cpu_s"] = parent_cpu + max(children_cpu, in_runs)
         out["cpu_s_basis"] = "this process + its reaped children (worker processes, the C compiler)"
         if executor == "processes":
             out["wall_x_workers_s"] = wall * workers

@@ -426,6 +426,24 @@ def test_local_cluster_survives_a_killed_worker(dask_client, tmp_path):
     assert_tables_identical(result, run_campaign(campaign, workers=1))
 
 
+@pytest.mark.slow
+def test_a_one_worker_cluster_whose_worker_dies_loses_nothing(tmp_path):
+    # The only worker holds the scenario when it dies: the scheduler must be able to rebuild it.
+    distributed = pytest.importorskip("distributed")
+    campaign = Campaign(Quadratic(), X, runs=6, seed=12)
+    scenario = Dies(campaign.parameters(4)["x"], tmp_path / "marker")
+    with (
+        distributed.LocalCluster(
+            n_workers=1, processes=True, threads_per_worker=1, host="127.0.0.1", dashboard_address=None
+        ) as cluster,
+        distributed.Client(cluster) as client,
+    ):
+        result = run_campaign(Campaign(scenario, X, runs=6, seed=12), scheduler=client)
+    assert (tmp_path / "marker").exists()
+    assert np.all(result.status == "ok")
+    assert_tables_identical(result, run_campaign(campaign, workers=1))
+
+
 # ---------------------------------------------------------------------------
 # Vectorised path and built-in scenarios
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import shlex
+
 import numpy as np
 import pytest
 
@@ -178,10 +180,10 @@ def test_bad_arguments_are_rejected_with_their_name():
 def test_compiled_kernels_are_cached_on_disk_and_rebuilt_when_damaged(tmp_path, monkeypatch):
     import casadi as ca
 
-    real = codegen.find_compiler()
+    real = shlex.join(codegen.find_compiler())
     log = tmp_path / "calls.log"
     counting = tmp_path / "counting-cc"
-    counting.write_text(f'#!/bin/sh\necho "$@" >> "{log}"\nexec "{real}" "$@"\n')
+    counting.write_text(f'#!/bin/sh\necho "$@" >> "{log}"\nexec {real} "$@"\n')
     counting.chmod(0o755)
     monkeypatch.setenv("CC", str(counting))
     monkeypatch.setenv(codegen.CACHE_ENV, str(tmp_path / "cache"))
@@ -245,3 +247,22 @@ def test_batches_in_threads_share_the_compiled_kernel_safely():
         np.testing.assert_array_equal(a.q, b.q)
         for name in a.metrics:
             np.testing.assert_array_equal(a.metrics[name], b.metrics[name])
+
+
+def test_a_compiler_command_with_arguments_and_a_library_that_will_not_load(tmp_path, monkeypatch):
+    import casadi as ca
+
+    monkeypatch.setenv(codegen.CACHE_ENV, str(tmp_path / "cache"))
+    x = ca.SX.sym("x")
+    monkeypatch.setenv("CC", "env " + shlex.join(codegen.find_compiler()))  # a launcher, like "ccache gcc"
+    (f,) = codegen.compile_functions([ca.Function("twice", [x], [2.0 * x])])
+    assert float(f(3.0)) == 6.0
+    junk = tmp_path / "junk-cc"  # "compiles" into a file that is no shared library
+    junk.write_text('#!/bin/sh\nfor a; do o="$n"; n="$a"; [ "$o" = "-o" ] && echo junk > "$a"; done; exit 0\n')
+    junk.chmod(0o755)
+    monkeypatch.setenv("CC", str(junk))
+    with pytest.raises(codegen.CompilationError, match="cannot be loaded"):
+        codegen.compile_functions([ca.Function("thrice", [x], [3.0 * x])])
+    monkeypatch.setenv("CC", "no-such-compiler --fast")
+    with pytest.raises(codegen.CompilationError, match="CC='no-such-compiler --fast' is not on the PATH"):
+        codegen.compile_functions([ca.Function("four", [x], [4.0 * x])])

@@ -224,11 +224,26 @@ def test_the_cli_refuses_bad_campaign_arguments_with_exit_code_2(tmp_path, capsy
         (["--workers", "-1"], "--workers"),
         (["--seed", "-5"], "--seed"),
         (["--scheduler", "localhost"], "--scheduler"),
+        (["--scheduler", "tcp://host-without-port"], "--scheduler"),
     ):
         with pytest.raises(SystemExit) as exc:
             main(["montecarlo", *argv, "--out", str(tmp_path / "x")])
         assert exc.value.code == 2
         assert flag in capsys.readouterr().err
+    # A file without a [montecarlo] table needs --runs; a planned slew cannot start anywhere on SO(3).
+    from attitude.config import default_config_text
+
+    text = default_config_text()
+    bare = tmp_path / "bare.toml"
+    bare.write_text(text[: text.index("[montecarlo]")])
+    assert main(["montecarlo", str(bare), "--out", str(tmp_path / "y")]) == 2
+    assert "--runs" in capsys.readouterr().err
+    anywhere = tmp_path / "so3.toml"
+    start = text.index("initial_attitude = {")
+    end = text.index("}", start) + 1
+    anywhere.write_text(text[:start] + 'initial_attitude = { distribution = "uniform_so3" }' + text[end:])
+    assert main(["montecarlo", str(anywhere), "--out", str(tmp_path / "z")]) == 2
+    assert "--guidance plan" in capsys.readouterr().err
     # Another campaign in the same --out: refused with the way out, then --fresh starts over.
     quick = ["montecarlo", "--runs", "1", "--guidance", "eigenaxis", "--duration-s", "2", "--out", str(tmp_path / "mc")]
     # 2 s of a 60 deg slew cannot settle: the campaign runs and fails its requirements (exit 1).
@@ -236,6 +251,10 @@ def test_the_cli_refuses_bad_campaign_arguments_with_exit_code_2(tmp_path, capsy
     assert main([*quick, "--seed", "2"]) == 2
     assert "--fresh" in capsys.readouterr().err
     assert main([*quick, "--seed", "2", "--fresh"]) == 1
+    checkpoint = tmp_path / "mc" / "checkpoint.jsonl"
+    checkpoint.write_text('{"fingerpri')  # torn by a crash while the header was written
+    assert main([*quick, "--seed", "2"]) == 2
+    assert "--fresh" in capsys.readouterr().err
 
 
 def test_a_dispersed_gyro_bias_is_added_to_the_files_and_widens_the_filter_prior(study):
