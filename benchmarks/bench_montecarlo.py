@@ -117,7 +117,7 @@ def closed_loop_ekf(serial_runs: int = 3, parallel_runs: int = 8, vectorised_run
         out["local_cluster_2_workers"] = "skipped: dask.distributed is not installed"
         return out
     start = time.perf_counter()
-    cluster = LocalCluster(n_workers=2, processes=True, threads_per_worker=1, dashboard_address=None)
+    cluster = LocalCluster(n_workers=2, processes=True, threads_per_worker=1, dashboard_address=":0")
     client = Client(cluster)
     startup = time.perf_counter() - start
     try:

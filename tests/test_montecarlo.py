@@ -398,7 +398,7 @@ class TestExecutors:
 def dask_client():
     distributed = pytest.importorskip("distributed")
     cluster = distributed.LocalCluster(
-        n_workers=2, processes=True, threads_per_worker=1, host="127.0.0.1", dashboard_address=None
+        n_workers=2, processes=True, threads_per_worker=1, host="127.0.0.1", dashboard_address=":0"
     )
     client = distributed.Client(cluster)
     yield client
@@ -434,7 +434,7 @@ def test_a_one_worker_cluster_whose_worker_dies_loses_nothing(tmp_path):
     scenario = Dies(campaign.parameters(4)["x"], tmp_path / "marker")
     with (
         distributed.LocalCluster(
-            n_workers=1, processes=True, threads_per_worker=1, host="127.0.0.1", dashboard_address=None
+            n_workers=1, processes=True, threads_per_worker=1, host="127.0.0.1", dashboard_address=":0"
         ) as cluster,
         distributed.Client(cluster) as client,
     ):
