@@ -14,10 +14,13 @@ from numpy.typing import ArrayLike, NDArray
 
 __all__ = [
     "as_float_array",
+    "check_covariance",
     "check_positive",
     "check_time_grid",
     "check_vector",
     "describe",
+    "positive_scalar",
+    "scalar_time",
 ]
 
 
@@ -137,6 +140,88 @@ def check_positive(value: ArrayLike, name: str, *, allow_zero: bool = False) -> 
         rule = "non-negative" if allow_zero else "strictly positive"
         raise ValueError(f"{name} must be {rule}, got {describe(arr)}")
     return arr
+
+
+def positive_scalar(value: ArrayLike, name: str, *, allow_zero: bool = False, why: str = "") -> float:
+    """A finite scalar > 0 (>= 0 with ``allow_zero``) as a float.
+
+    Parameters
+    ----------
+    value : array_like
+        The value.
+    name : str
+        Argument name used in error messages.
+    allow_zero : bool
+        Accept zero.
+    why : str
+        Reason appended to the message when ``value`` is not a scalar.
+
+    Raises
+    ------
+    ValueError
+        As :func:`check_positive`, or if ``value`` is not a scalar.
+    """
+    arr = check_positive(value, name, allow_zero=allow_zero)
+    if arr.ndim != 0:
+        raise ValueError(f"{name} must be a scalar{f' ({why})' if why else ''}, got shape {arr.shape}")
+    return float(arr)
+
+
+def scalar_time(value: ArrayLike, name: str = "t") -> float:
+    """A finite scalar time [s] as a float (any sign).
+
+    Raises
+    ------
+    ValueError
+        If ``value`` is not numeric, not finite or not a scalar.
+    """
+    arr = as_float_array(value, name)
+    if arr.ndim != 0:
+        raise ValueError(f"{name} must be a scalar time [s], got shape {arr.shape}")
+    return float(arr)
+
+
+def check_covariance(value: ArrayLike, name: str, n: int, *, variances: bool = False) -> NDArray[np.float64]:
+    """A finite, symmetric, positive-definite (n, n) matrix, symmetrised.
+
+    Parameters
+    ----------
+    value : array_like (n, n), or (n,) with ``variances``
+        The covariance (any unit); ``(n,)`` variances make a diagonal one.
+    name : str
+        Argument name used in error messages.
+    n : int
+        Dimension.
+    variances : bool
+        Accept ``(n,)`` variances.
+
+    Raises
+    ------
+    ValueError
+        For the wrong shape, NaN/inf, an asymmetry beyond 1e-9 of the
+        largest entry (rounding of a typed-in matrix passes), or a matrix
+        that is not positive definite (its eigenvalues are named).
+    """
+    c = as_float_array(value, name)
+    if variances and c.shape == (n,):
+        c = np.diag(c)
+    if c.shape != (n, n):
+        alternative = f" or ({n},) (variances)" if variances else ""
+        raise ValueError(f"{name} must have shape ({n}, {n}){alternative}, got shape {c.shape}")
+    scale = max(float(np.abs(c).max()), np.finfo(float).tiny)
+    asym = float(np.abs(c - c.T).max())
+    if asym > 1e-9 * scale:
+        raise ValueError(f"{name} must be symmetric; found a relative asymmetry of {asym / scale:.3g}")
+    c = 0.5 * (c + c.T)
+    try:
+        np.linalg.cholesky(c)
+    except np.linalg.LinAlgError:
+        eig = np.linalg.eigvalsh(c)
+        raise ValueError(
+            f"{name} must be positive definite; its smallest eigenvalue is {eig.min():.6g} "
+            f"(eigenvalues {describe(eig)})"
+        ) from None
+    return c
 
 
 def check_time_grid(t: ArrayLike, name: str = "t") -> NDArray[np.float64]:

@@ -108,7 +108,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
-from attitude._validation import as_float_array, check_positive, check_vector, describe
+from attitude._validation import as_float_array, check_positive, check_vector, describe, positive_scalar, scalar_time
 from attitude.rng import NormalStreams, as_generator
 
 __all__ = [
@@ -218,20 +218,6 @@ def bias_instability_to_sigma_u(bias_instability_deg_per_h: float, correlation_t
 
 # ---------------------------------------------------------------------------
 # Validation helpers
-
-
-def _nonnegative_scalar(value: Any, name: str) -> float:
-    arr = check_positive(value, name, allow_zero=True)
-    if arr.ndim != 0:
-        raise ValueError(f"{name} must be a scalar, got shape {arr.shape}")
-    return float(arr)
-
-
-def _positive_scalar(value: Any, name: str) -> float:
-    arr = check_positive(value, name)
-    if arr.ndim != 0:
-        raise ValueError(f"{name} must be a scalar, got shape {arr.shape}")
-    return float(arr)
 
 
 def _per_axis(value: ArrayLike, name: str) -> NDArray[np.float64]:
@@ -419,16 +405,16 @@ class Gyro:
         if sampling not in GYRO_SAMPLING:
             raise ValueError(f"sampling must be one of {GYRO_SAMPLING}, got {sampling!r}")
         self.sampling = sampling
-        self.sigma_v = _nonnegative_scalar(sigma_v, "sigma_v")
-        self.sigma_u = _nonnegative_scalar(sigma_u, "sigma_u")
-        self.period = _positive_scalar(period, "period")
+        self.sigma_v = positive_scalar(sigma_v, "sigma_v", allow_zero=True)
+        self.sigma_u = positive_scalar(sigma_u, "sigma_u", allow_zero=True)
+        self.period = positive_scalar(period, "period")
         self.initial_bias = _per_axis(bias, "bias")
         self.scale_factor = _per_axis(scale_factor, "scale_factor")
         if np.any(self.scale_factor <= -1.0):
             raise ValueError(f"scale_factor must be > -1 on every axis (a positive gain), got {self.scale_factor}")
         self.misalignment = _misalignment_matrix(misalignment)
         self.misalignment.flags.writeable = False
-        self.quantization = _nonnegative_scalar(quantization, "quantization")
+        self.quantization = positive_scalar(quantization, "quantization", allow_zero=True)
         sat = as_float_array(saturation, "saturation", allow_nonfinite=True)
         if sat.ndim != 0 or np.isnan(sat) or sat <= 0:
             raise ValueError(f"saturation must be a positive scalar rate [rad/s] or inf, got {describe(sat)}")
@@ -517,7 +503,7 @@ class Gyro:
             single bias-driving noise; choose one), if the bias instability
             comes without its averaging time, or for any invalid figure.
         """
-        _positive_scalar(arw_deg_per_sqrt_h, "arw_deg_per_sqrt_h")
+        positive_scalar(arw_deg_per_sqrt_h, "arw_deg_per_sqrt_h")
         if rrw_deg_per_h_per_sqrt_h is not None and bias_instability_deg_per_h is not None:
             raise ValueError(
                 "give rrw_deg_per_h_per_sqrt_h or bias_instability_deg_per_h, not both: the Farrenkopf model has one "
@@ -544,7 +530,7 @@ class Gyro:
             bias=deg_per_h_to_rad_per_s(bias_deg_per_h),
             scale_factor=as_float_array(scale_factor_ppm, "scale_factor_ppm") * 1e-6,
             misalignment=misalignment_rad,
-            quantization=_nonnegative_scalar(quantization_deg_per_s, "quantization_deg_per_s") * _DEG,
+            quantization=positive_scalar(quantization_deg_per_s, "quantization_deg_per_s", allow_zero=True) * _DEG,
             saturation=float(saturation) * _DEG,
             name=name,
             sampling=sampling,
@@ -598,7 +584,7 @@ class Gyro:
     # -- discrete noise figures for estimators ---------------------------------------
 
     def _dt(self, dt: float | None) -> float:
-        return self.period if dt is None else _positive_scalar(dt, "dt")
+        return self.period if dt is None else positive_scalar(dt, "dt")
 
     def rate_noise_variance(self, dt: float | None = None) -> float:
         """Variance [rad^2/s^2] of the white part of one rate sample, per axis.
@@ -1070,10 +1056,7 @@ class GyroBatch:
             is not unit norm (nothing changes then).
         """
         n = self.n_runs
-        tt = as_float_array(t, "t")
-        if tt.ndim != 0:
-            raise ValueError(f"t must be a scalar time [s], got shape {tt.shape}")
-        t = float(tt)
+        t = scalar_time(t)
         w = check_vector(omega, "omega", 3)
         if w.shape != (n, 3):
             raise ValueError(f"omega must have shape ({n}, 3) (one true rate per run), got shape {w.shape}")
@@ -1190,9 +1173,9 @@ class StarTracker:
         sun_exclusion_rad: float | None = None,
         name: str = "star_tracker",
     ) -> None:
-        self.sigma_cross = _positive_scalar(sigma_cross_rad, "sigma_cross_rad")
-        self.sigma_roll = _positive_scalar(sigma_roll_rad, "sigma_roll_rad")
-        self.period = _positive_scalar(period, "period")
+        self.sigma_cross = positive_scalar(sigma_cross_rad, "sigma_cross_rad")
+        self.sigma_roll = positive_scalar(sigma_roll_rad, "sigma_roll_rad")
+        self.period = positive_scalar(period, "period")
         self.boresight_B = _unit_vector(boresight_B, "boresight_B")
         self.boresight_B.flags.writeable = False
         #: Sensor axes in body components (columns); the third is the boresight.
@@ -1207,7 +1190,7 @@ class StarTracker:
         self.sun_exclusion: float | None = None
         self.sun_direction_N: NDArray[np.float64] | Callable[[float], ArrayLike] | None = None
         if sun_direction_N is not None:
-            half = _positive_scalar(sun_exclusion_rad, "sun_exclusion_rad")
+            half = positive_scalar(sun_exclusion_rad, "sun_exclusion_rad")
             if half >= np.pi:
                 raise ValueError(f"sun_exclusion_rad must be in (0, pi) [rad], got {half!r}")
             self.sun_exclusion = half
@@ -1241,11 +1224,11 @@ class StarTracker:
         ``1 arcsec = pi / 648000 rad`` (:data:`ARCSEC`). Datasheets quote
         either 1 sigma or 3 sigma: divide a 3-sigma figure by 3 first.
         """
-        cross = _positive_scalar(cross_boresight_arcsec, "cross_boresight_arcsec")
-        roll = _positive_scalar(roll_arcsec, "roll_arcsec")
+        cross = positive_scalar(cross_boresight_arcsec, "cross_boresight_arcsec")
+        roll = positive_scalar(roll_arcsec, "roll_arcsec")
         exclusion = None
         if sun_exclusion_deg is not None:
-            exclusion = _positive_scalar(sun_exclusion_deg, "sun_exclusion_deg") * _DEG
+            exclusion = positive_scalar(sun_exclusion_deg, "sun_exclusion_deg") * _DEG
         return cls(
             cross * ARCSEC,
             roll * ARCSEC,

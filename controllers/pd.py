@@ -36,13 +36,16 @@ from numpy.typing import ArrayLike, NDArray
 
 from attitude import backend as bk
 from attitude import quaternion as quat
-from attitude._validation import as_float_array, check_positive
+from attitude._validation import as_float_array, check_positive, positive_scalar
 from attitude.integrators import quaternion_multiply_components
 from attitude.rigid_body import Components, RigidBody, cross
 
 __all__ = ["QuaternionPD", "RateLimitedPD", "quaternion_error_components"]
 
 Reference = Callable[[float], tuple[ArrayLike, ArrayLike]]
+
+#: Why the rate-limited PD takes scalar gains: one value for all axes keeps ``J^-1 K = k I``.
+_SCALAR_GAIN = "one value for all axes keeps J^-1 K = k I, which the eigenaxis property needs"
 
 
 def quaternion_error_components(q_ref: Components, q: Components) -> tuple[Components, Components]:
@@ -222,16 +225,6 @@ def _warn_if_above_tenth_of_sample_rate(wn_max: float, period: float, stacklevel
         )
 
 
-def _positive_scalar(value: ArrayLike, name: str) -> float:
-    arr = check_positive(value, name)
-    if arr.ndim != 0:
-        raise ValueError(
-            f"{name} must be a scalar (one value for all axes keeps J^-1 K = k I, which the eigenaxis "
-            f"property needs), got shape {arr.shape}"
-        )
-    return float(arr)
-
-
 class RateLimitedPD:
     """Quaternion feedback with a slew-rate limit (Wie and Lu, 1995).
 
@@ -357,13 +350,13 @@ class RateLimitedPD:
         gyroscopic: bool = True,
         saturation: str = "initial",
     ) -> None:
-        self.k = _positive_scalar(k, "k")
-        self.c = _positive_scalar(c, "c")
-        self.omega_max = _positive_scalar(omega_max, "omega_max")
+        self.k = positive_scalar(k, "k", why=_SCALAR_GAIN)
+        self.c = positive_scalar(c, "c", why=_SCALAR_GAIN)
+        self.omega_max = positive_scalar(omega_max, "omega_max", why=_SCALAR_GAIN)
         self.inertia = RigidBody(inertia).inertia
         if self.inertia.shape != (3, 3):
             raise ValueError(f"inertia must describe one body, got a batch of shape {self.inertia.shape[:-2]}")
-        self.period = _positive_scalar(period, "period")
+        self.period = positive_scalar(period, "period", why=_SCALAR_GAIN)
         if saturation not in SATURATION_MODES:
             raise ValueError(f"saturation must be one of {SATURATION_MODES}, got {saturation!r}")
         self.saturation = saturation
@@ -412,9 +405,9 @@ class RateLimitedPD:
         """
         if not isinstance(body, RigidBody) or body.batch_shape:
             raise ValueError("body must be a single RigidBody")
-        wn = _positive_scalar(wn, "wn")
-        zeta = _positive_scalar(zeta, "zeta")
-        period = _positive_scalar(period, "period")
+        wn = positive_scalar(wn, "wn", why=_SCALAR_GAIN)
+        zeta = positive_scalar(zeta, "zeta", why=_SCALAR_GAIN)
+        period = positive_scalar(period, "period", why=_SCALAR_GAIN)
         _warn_if_above_tenth_of_sample_rate(wn, period, stacklevel=2)
         return cls(2.0 * wn**2, 2.0 * zeta * wn, omega_max, body.inertia, period, **kwargs)
 

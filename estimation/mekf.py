@@ -145,7 +145,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import stats
 
 from attitude import quaternion as quat
-from attitude._validation import as_float_array, check_positive
+from attitude._validation import as_float_array, check_covariance, check_positive, positive_scalar, scalar_time
 from attitude.results import ResultIO
 from attitude.sensors import ARCSEC, Gyro, StarTracker, farrenkopf_process_noise
 from attitude.simulation import Estimate
@@ -338,38 +338,13 @@ def initial_covariance(attitude_sigma: float, bias_sigma: float) -> NDArray[np.f
     bias_sigma : float
         Initial gyro bias error per axis [rad/s] (> 0).
     """
-    a = _positive_scalar(attitude_sigma, "attitude_sigma")
-    b = _positive_scalar(bias_sigma, "bias_sigma")
+    a = positive_scalar(attitude_sigma, "attitude_sigma")
+    b = positive_scalar(bias_sigma, "bias_sigma")
     return np.diag([a**2] * 3 + [b**2] * 3)
 
 
 # ---------------------------------------------------------------------------
 # Validation
-
-
-def _positive_scalar(value: Any, name: str) -> float:
-    arr = check_positive(value, name)
-    if arr.ndim != 0:
-        raise ValueError(f"{name} must be a scalar, got shape {arr.shape}")
-    return float(arr)
-
-
-def _check_covariance(value: ArrayLike, name: str, n: int) -> NDArray[np.float64]:
-    """A finite, symmetric (to 1e-9 of its largest entry), positive definite (n, n) matrix, symmetrised."""
-    c = as_float_array(value, name)
-    if c.shape != (n, n):
-        raise ValueError(f"{name} must have shape ({n}, {n}), got shape {c.shape}")
-    scale = max(float(np.abs(c).max()), np.finfo(float).tiny)
-    asym = float(np.abs(c - c.T).max())
-    if asym > 1e-9 * scale:
-        raise ValueError(f"{name} must be symmetric; found a relative asymmetry of {asym / scale:.3g}")
-    c = 0.5 * (c + c.T)
-    try:
-        np.linalg.cholesky(c)
-    except np.linalg.LinAlgError:
-        eig = np.linalg.eigvalsh(c)
-        raise ValueError(f"{name} must be positive definite; its smallest eigenvalue is {eig.min():.6g}") from None
-    return c
 
 
 def _check_name(value: Any, name: str) -> str:
@@ -474,7 +449,7 @@ class MEKF:
         gate_probability: float | None = GATE_PROBABILITY,
         max_gyro_rate: float | None = None,
     ) -> None:
-        self.sigma_v = _positive_scalar(sigma_v, "sigma_v")
+        self.sigma_v = positive_scalar(sigma_v, "sigma_v")
         su = as_float_array(sigma_u, "sigma_u")
         if su.ndim != 0 or su <= 0:
             raise ValueError(
@@ -482,16 +457,16 @@ class MEKF:
                 f"bias covariance collapses and the filter stops learning the bias), got {su.tolist()!r}"
             )
         self.sigma_u = float(su)
-        self.tracker_covariance = _check_covariance(tracker_covariance, "tracker_covariance", 3)
+        self.tracker_covariance = check_covariance(tracker_covariance, "tracker_covariance", 3)
         self.tracker_covariance.flags.writeable = False
-        self.period = _positive_scalar(period, "period")
+        self.period = positive_scalar(period, "period")
         q = quat.as_unit_quaternion(q0, "q0")
         if q.shape != (4,):
             raise ValueError(f"q0 must have shape (4,), got shape {q.shape}")
         b = as_float_array(bias0, "bias0")
         if b.ndim > 1 or (b.ndim == 1 and b.size != 3):
             raise ValueError(f"bias0 must be a scalar or have shape (3,), got shape {b.shape}")
-        p0 = _check_covariance(P0, "P0", 6)
+        p0 = check_covariance(P0, "P0", 6)
         if covariance_reset not in _RESETS:
             raise ValueError(f"covariance_reset must be one of {_RESETS}, got {covariance_reset!r}")
         self.covariance_reset = covariance_reset
@@ -511,7 +486,7 @@ class MEKF:
             self.gate_threshold = float(stats.chi2.ppf(self.gate_probability, 3))
         #: Largest accepted gyro component [rad/s].
         self.max_gyro_rate = (
-            math.pi / self.period if max_gyro_rate is None else _positive_scalar(max_gyro_rate, "max_gyro_rate")
+            math.pi / self.period if max_gyro_rate is None else positive_scalar(max_gyro_rate, "max_gyro_rate")
         )
 
         self._q = q.copy()
@@ -992,10 +967,7 @@ class MEKFBatch:
             Every check runs before the state changes.
         """
         n = self.n_runs
-        tt = as_float_array(t, "t")
-        if tt.ndim != 0:
-            raise ValueError(f"t must be a scalar time [s], got shape {tt.shape}")
-        tk = float(tt)
+        tk = scalar_time(t)
         if self._t is not None and tk < self._t:
             raise ValueError(f"t must not go backwards: t = {tk!r} s < previous time {self._t!r} s")
         g = None
@@ -1519,10 +1491,10 @@ def steady_state_covariance(
     P_pre, P_post : ndarray (2, 2)
         Before and after an update, ``[[rad^2, rad^2/s], [rad^2/s, rad^2/s^2]]``.
     """
-    sv = _positive_scalar(sigma_v, "sigma_v")
-    su = _positive_scalar(sigma_u, "sigma_u")
-    sn = _positive_scalar(sigma_n, "sigma_n")
-    h = _positive_scalar(dt, "dt")
+    sv = positive_scalar(sigma_v, "sigma_v")
+    su = positive_scalar(sigma_u, "sigma_u")
+    sn = positive_scalar(sigma_n, "sigma_n")
+    h = positive_scalar(dt, "dt")
     r = sn**2
     s_v = sv**2 * h / r
     s_u = su**2 * h**3 / r

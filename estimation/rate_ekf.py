@@ -202,7 +202,14 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import stats
 
 from attitude import quaternion as quat
-from attitude._validation import as_float_array, check_positive, describe
+from attitude._validation import (
+    as_float_array,
+    check_covariance,
+    check_positive,
+    describe,
+    positive_scalar,
+    scalar_time,
+)
 from attitude.actuators import ReactionWheels
 from attitude.integrators import rk4_step
 from attitude.results import ResultIO
@@ -272,41 +279,6 @@ def _van_loan(a: NDArray[np.float64], g: NDArray[np.float64], dt: float) -> tupl
         e = e @ e
     phi = e[n:, n:].T
     return phi, (phi @ e[:n, n:]) / scale
-
-
-def _scalar(value: Any, name: str, *, allow_zero: bool) -> float:
-    arr = check_positive(value, name, allow_zero=allow_zero)
-    if arr.ndim != 0:
-        raise ValueError(f"{name} must be a scalar, got shape {arr.shape}")
-    return float(arr)
-
-
-def _covariance(value: ArrayLike, name: str, n: int) -> NDArray[np.float64]:
-    """A symmetric positive-definite (n, n) covariance, or (n,) variances on the diagonal."""
-    arr = as_float_array(value, name)
-    if arr.shape == (n,):
-        arr = np.diag(arr)
-    if arr.shape != (n, n):
-        raise ValueError(f"{name} must have shape ({n}, {n}) or ({n},) (variances), got shape {arr.shape}")
-    scale = max(float(np.abs(arr).max()), np.finfo(float).tiny)
-    asym = float(np.abs(arr - arr.T).max())
-    if asym > 1e-9 * scale:
-        raise ValueError(f"{name} must be symmetric; found a relative asymmetry of {asym / scale:.3g}")
-    arr = 0.5 * (arr + arr.T)
-    try:
-        np.linalg.cholesky(arr)
-    except np.linalg.LinAlgError as exc:
-        raise ValueError(
-            f"{name} must be positive definite; eigenvalues are {describe(np.linalg.eigvalsh(arr))}"
-        ) from exc
-    return arr
-
-
-def _time(value: Any, name: str) -> float:
-    arr = as_float_array(value, name)
-    if arr.ndim != 0:
-        raise ValueError(f"{name} must be a scalar time [s], got shape {arr.shape}")
-    return float(arr)
 
 
 def _vector3(value: Any, name: str) -> NDArray[np.float64]:
@@ -541,9 +513,9 @@ class RateEKF:
             raise ValueError(f"body must be a single RigidBody, got {body!r}")
         if wheels is not None and not isinstance(wheels, ReactionWheels):
             raise ValueError(f"wheels must be a ReactionWheels or None, got {wheels!r}")
-        self.sigma_v = _scalar(sigma_v, "sigma_v", allow_zero=False)
-        self.sigma_u = _scalar(sigma_u, "sigma_u", allow_zero=True)
-        self.gyro_period = _scalar(gyro_period, "gyro_period", allow_zero=False)
+        self.sigma_v = positive_scalar(sigma_v, "sigma_v")
+        self.sigma_u = positive_scalar(sigma_u, "sigma_u", allow_zero=True)
+        self.gyro_period = positive_scalar(gyro_period, "gyro_period")
         tn = check_positive(torque_noise, "torque_noise", allow_zero=True)
         if tn.ndim > 1 or (tn.ndim == 1 and tn.size != 3):
             raise ValueError(f"torque_noise must be a scalar or have shape (3,) [N m / sqrt(Hz)], got {tn.shape}")
@@ -585,7 +557,7 @@ class RateEKF:
             raise ValueError(f"x0 must have shape ({n},) [rad/s], got shape {x.shape}")
         kf = _FilterpyEKF(n, self.plant)
         kf.x = x.astype(np.float64).copy()
-        kf.P = _covariance(P0, "P0", n)
+        kf.P = check_covariance(P0, "P0", n, variances=True)
         #: The initial covariance (a copy) [rad^2/s^2].
         self.P0 = kf.P.copy()
         kf.x_prior, kf.P_prior = kf.x.copy(), kf.P.copy()
@@ -596,12 +568,12 @@ class RateEKF:
         kf.K = np.zeros((n, _DIM_Z))
         self.kf = kf
         self._H = np.hstack([np.eye(3), np.eye(3)]) if estimate_bias else np.eye(3)
-        self.t = _time(t0, "t0")
+        self.t = scalar_time(t0, "t0")
         self._t_start = self.t
         self._t_last_update: float | None = None
 
-        self.period = self.gyro_period if period is None else _scalar(period, "period", allow_zero=False)
-        self.max_step = self.gyro_period if max_step is None else _scalar(max_step, "max_step", allow_zero=False)
+        self.period = self.gyro_period if period is None else positive_scalar(period, "period")
+        self.max_step = self.gyro_period if max_step is None else positive_scalar(max_step, "max_step")
         self.q = quat.identity() if q0 is None else quat.as_unit_quaternion(q0, "q0").copy()
         if self.q.shape != (4,):
             raise ValueError(f"q0 must have shape (4,), got {self.q.shape}")
@@ -860,7 +832,7 @@ class RateEKF:
             message names the time and cause, and the filter is left as it
             was before the step).
         """
-        t = _time(t, "t")
+        t = scalar_time(t, "t")
         if t < self.t:
             raise ValueError(f"t must not go backwards: t = {t!r} s is before the filter time {self.t!r} s")
         dt = t - self.t
