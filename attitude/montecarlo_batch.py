@@ -55,7 +55,7 @@ from attitude.actuators import ReactionWheels
 from attitude.codegen import CompilationError
 from attitude.montecarlo_kernel import METRICS, CompiledTicks, command, observe
 from attitude.rigid_body import RigidBody, symmetric_entries
-from attitude.simulation import _PlantModel
+from attitude.simulation import _PlantModel, settling_time_after, ticks_per_period, whole_ticks
 
 __all__ = ["BATCH_CHUNK", "BatchResult", "closed_loop_metrics", "simulate_batch"]
 
@@ -208,12 +208,8 @@ def simulate_batch(
     duration = float(check_positive(duration, "duration"))
     period = float(check_positive(controller.period, "controller.period"))
     dt = period if dt is None else float(check_positive(dt, "dt"))
-    every = round(period / dt)
-    if every < 1 or abs(period / dt - every) > 1e-9 * max(1.0, period / dt):
-        raise ValueError(f"controller.period = {period!r} s must be a whole multiple of dt = {dt!r} s")
-    n_ticks = round(duration / dt)
-    if n_ticks < 1 or abs(n_ticks * dt - duration) > 1e-9 * duration:
-        raise ValueError(f"duration = {duration!r} s must be a whole number (>= 1) of ticks dt = {dt!r} s")
+    every = ticks_per_period(period, dt, "controller")
+    n_ticks = whole_ticks(duration, dt)
     if not isinstance(substeps, int) or substeps < 1:
         raise ValueError(f"substeps must be a positive integer, got {substeps!r}")
     tau_ext = None if disturbance is None else _batch(disturbance, "disturbance", 3, n)
@@ -304,11 +300,8 @@ def _compiled_ticks(wheels: Any, controller: Any, n_inputs: int, has_reference: 
 
 def _store(t, acc, err, sl, metrics, diverged) -> None:
     """Final metrics of a chunk from its running metrics (as :meth:`SimulationResult.settling_time`)."""
-    n_ticks = t.size - 1
     peak_rate, peak_speed, last_above, diverged_at = (np.broadcast_to(a, np.shape(err)) for a in acc)
-    last = np.where(np.isfinite(last_above), last_above, -1).astype(np.int64)
-    settle = np.where(last < 0, t[0], t[np.minimum(last + 1, n_ticks)])
-    settle = np.where(last == n_ticks, np.inf, settle)
+    settle = settling_time_after(t, np.where(np.isfinite(last_above), last_above, -1))
     alive = ~np.isfinite(diverged_at)
     values = {"settling_time": settle, "final_pointing_error": err, "peak_rate": peak_rate}
     if "peak_wheel_speed" in metrics:

@@ -46,19 +46,11 @@ from attitude.montecarlo_kernel import CompiledHold, command
 from attitude.rigid_body import RigidBody, symmetric_entries
 from attitude.rng import NormalStreams
 from attitude.sensors import GyroBatch, StarTracker
-from attitude.simulation import _PlantModel
+from attitude.simulation import _PlantModel, ticks_per_period, whole_ticks
 
 __all__ = ["simulate_batch_estimated"]
 
 Observer = Callable[[int, float, NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], bool], None]
-
-
-def _every(period: float, dt: float, name: str) -> int:
-    ratio = float(check_positive(period, name)) / dt
-    every = round(ratio)
-    if every < 1 or abs(ratio - every) > 1e-9 * max(1.0, ratio):
-        raise ValueError(f"{name} = {period!r} s must be a whole multiple of the tick dt = {dt!r} s")
-    return every
 
 
 def simulate_batch_estimated(
@@ -141,14 +133,10 @@ def simulate_batch_estimated(
         raise ValueError(f"substeps must be a positive integer, got {substeps!r}")
     dt = gyro.period if dt is None else float(check_positive(dt, "dt"))
     every = {
-        "gyro": _every(gyro.period, dt, "gyro.period"),
-        "tracker": _every(tracker.period, dt, "tracker.period"),
-        "estimator": _every(estimator.period, dt, "estimator.period"),
-        "controller": _every(controller.period, dt, "controller.period"),
+        name: ticks_per_period(float(check_positive(part.period, f"{name}.period")), dt, name)
+        for name, part in (("gyro", gyro), ("tracker", tracker), ("estimator", estimator), ("controller", controller))
     }
-    n_ticks = round(float(check_positive(duration, "duration")) / dt)
-    if n_ticks < 1 or abs(n_ticks * dt - duration) > 1e-9 * duration:
-        raise ValueError(f"duration = {duration!r} s must be a whole number (>= 1) of ticks dt = {dt!r} s")
+    n_ticks = whole_ticks(float(check_positive(duration, "duration")), dt)
     mounting = None if tracker_mounting is None else quat.as_unit_quaternion(tracker_mounting, "tracker_mounting")
     if mounting is not None and mounting.shape != (n, 4):
         raise ValueError(f"tracker_mounting must have shape ({n}, 4), got {mounting.shape}")

@@ -39,8 +39,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from attitude import backend as bk
+from attitude import quaternion as quat
 from attitude.codegen import compile_functions
-from attitude.integrators import quaternion_multiply_components
 from attitude.rigid_body import ParametricBody, split_components
 from attitude.simulation import _body_momentum, _PlantModel
 
@@ -85,8 +85,7 @@ def observe(model: _PlantModel, x: list, q_ref: list | None, threshold: Any, k: 
     if q_ref is None:
         err = 0.0 * rate
     else:
-        e = quaternion_multiply_components([q_ref[0], -q_ref[1], -q_ref[2], -q_ref[3]], x[:4])
-        err = 2.0 * bk.atan2(bk.sqrt(e[1] * e[1] + e[2] * e[2] + e[3] * e[3]), bk.fabs(e[0]))
+        err = quat.error_angle_components(q_ref, x[:4])
     last_above = bk.if_else(err > threshold, k + 0.0 * err, acc[2])
     diverged_at = bk.if_else(bk.is_finite(w[0] + w[1] + w[2]), acc[3], bk.fmin(acc[3], t_k))
     return [bk.fmax(acc[0], rate), peak_speed, last_above, diverged_at], err, speeds

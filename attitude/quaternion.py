@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from attitude import backend as bk
 from attitude._validation import as_float_array, check_vector
 from attitude.backend import cross
 from attitude.rng import as_generator
@@ -33,6 +34,7 @@ __all__ = [
     "conjugate",
     "derivative",
     "error_angle",
+    "error_angle_components",
     "error_quaternion",
     "exp",
     "from_axis_angle",
@@ -561,8 +563,20 @@ def error_angle(q_ref: ArrayLike, q: ArrayLike) -> NDArray[np.float64]:
         If either quaternion is not unit, not of shape ``(..., 4)``, or holds
         NaN/inf.
     """
-    e = multiply(conjugate(as_unit_quaternion(q_ref, "q_ref")), as_unit_quaternion(q, "q"))
-    return 2.0 * np.arctan2(_norm(e[..., 1:]), np.abs(e[..., 0]))
+    q_ref = as_unit_quaternion(q_ref, "q_ref")
+    q = as_unit_quaternion(q, "q")
+    angle = error_angle_components(_split(q_ref), _split(q))
+    return np.broadcast_to(angle, np.broadcast_shapes(q_ref.shape[:-1], q.shape[:-1])).copy()
+
+
+def error_angle_components(q_ref: list, q: list) -> Any:
+    """Error angle ``2 atan2(|v_err|, |w_err|)`` [rad] of ``q_err = q_ref* ⊗ q`` on components (any backend).
+
+    The one definition behind :func:`error_angle` and the compiled Monte
+    Carlo kernels (unit quaternions: the plain square root cannot overflow).
+    """
+    e = multiply_components(conjugate_components(q_ref), q)
+    return 2.0 * bk.atan2(bk.sqrt(e[1] * e[1] + e[2] * e[2] + e[3] * e[3]), bk.fabs(e[0]))
 
 
 def slerp(q0: ArrayLike, q1: ArrayLike, fraction: ArrayLike) -> NDArray[np.float64]:

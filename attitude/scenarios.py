@@ -62,7 +62,7 @@ from attitude.montecarlo_estimated import simulate_batch_estimated
 from attitude.rigid_body import RigidBody
 from attitude.rng import NormalStreams
 from attitude.sensors import Gyro, GyroBatch
-from attitude.simulation import Truth, simulate
+from attitude.simulation import Truth, settling_time_after, simulate
 from controllers.pd import QuaternionPD, RateLimitedPD
 from controllers.slew import SlewPlanningError
 from controllers.tracking import ReferenceTrajectory, TrackingController
@@ -202,19 +202,6 @@ class _TabulatedTracking:
         q, omega = list(np.asarray(estimate.q, float)), list(np.asarray(estimate.omega, float))
         out = self.inner.torque_components(q, omega, h_body, list(self._inputs[k]))
         return np.array([float(v) for v in out])
-
-
-def _arrival_time(t: np.ndarray, error: np.ndarray, threshold: float) -> float:
-    """First time [s] after which ``error`` stays within ``threshold`` (inf if it ends outside).
-
-    The definition of :meth:`attitude.simulation.SimulationResult.settling_time`, on any error history.
-    """
-    outside = np.nonzero(error > threshold)[0]
-    if outside.size == 0:
-        return float(t[0])
-    if outside[-1] == t.size - 1:
-        return math.inf
-    return float(t[outside[-1] + 1])
 
 
 def _variance(entry: Any) -> float:
@@ -519,7 +506,8 @@ class ClosedLoopScenario:
         metrics = closed_loop_metrics(result, accuracy)
         # Judged against the target attitude, not the moving reference (module docstring).
         to_target = np.asarray(quat.error_angle(self._q_target, result.q))
-        metrics["settling_time"] = _arrival_time(result.t, to_target, accuracy)
+        outside = np.nonzero(to_target > accuracy)[0]
+        metrics["settling_time"] = float(settling_time_after(result.t, outside[-1] if outside.size else -1))
         metrics["final_pointing_error"] = float(to_target[-1])
         q_hat = np.array(estimator.q)
         k = np.searchsorted(result.t, np.array(estimator.t))
@@ -629,10 +617,8 @@ class _BatchRecorder:
                 self.history.setdefault(name, []).append(value)
 
     def outputs(self, diverged_at: np.ndarray) -> list[RunOutput]:
-        t = np.array(self.t)
         last = self.last_outside
-        settle = np.where(last < 0, t[0], t[np.minimum(last + 1, self.n_ticks)])
-        settle = np.where(last == self.n_ticks, np.inf, settle)
+        settle = settling_time_after(self.t, last)
         history = {name: np.stack(rows, axis=1) for name, rows in self.history.items()}
         outputs = []
         for r in range(last.size):

@@ -59,7 +59,14 @@ from attitude.results import ResultIO
 from attitude.rigid_body import RigidBody, split_components
 from attitude.rng import as_generator
 
-__all__ = ["Estimate", "SimulationDivergedError", "SimulationResult", "Truth", "simulate"]
+__all__ = [
+    "Estimate",
+    "SimulationDivergedError",
+    "SimulationResult",
+    "Truth",
+    "settling_time_after",
+    "simulate",
+]
 
 
 @dataclass(frozen=True)
@@ -156,11 +163,7 @@ class SimulationResult(ResultIO):
     def settling_time(self, threshold_rad: float) -> float:
         """First time [s] after which the error angle stays below ``threshold_rad`` (inf if never)."""
         above = np.nonzero(self.error_angle > threshold_rad)[0]
-        if above.size == 0:
-            return float(self.t[0])
-        if above[-1] == self.t.size - 1:
-            return float("inf")
-        return float(self.t[above[-1] + 1])
+        return float(settling_time_after(self.t, above[-1] if above.size else -1))
 
     def plot(self) -> matplotlib.figure.Figure:
         """The standard review figure: error, rates, torques, wheel speeds."""
@@ -172,6 +175,28 @@ class SimulationResult(ResultIO):
 # ---------------------------------------------------------------------------
 
 
+def settling_time_after(t: ArrayLike, last_outside: ArrayLike) -> NDArray[np.float64]:
+    """The settling time from the last sample outside the threshold: the one definition.
+
+    Parameters
+    ----------
+    t : array_like (n,)
+        Sample times [s].
+    last_outside : int or array_like of int
+        Index of the last sample whose error exceeded the threshold (-1: none).
+
+    Returns
+    -------
+    ndarray
+        ``t[0]`` when no sample was outside, ``inf`` when the last one was,
+        else the time of the sample after the last one outside [s].
+    """
+    t = np.asarray(t, dtype=float)
+    last = np.asarray(last_outside, dtype=np.int64)
+    settle = np.where(last < 0, t[0], t[np.minimum(last + 1, t.size - 1)])
+    return np.where(last == t.size - 1, np.inf, settle)
+
+
 def _period(obj: Any, name: str) -> float:
     period = getattr(obj, "period", None)
     if period is None:
@@ -179,12 +204,24 @@ def _period(obj: Any, name: str) -> float:
     return float(check_positive(period, f"{name}.period"))
 
 
-def _multiple(period: float, dt: float, name: str) -> int:
+def ticks_per_period(period: float, dt: float, name: str) -> int:
+    """Ticks of ``dt`` [s] in a component's ``period`` [s], which must be a whole multiple of it (to 1e-9).
+
+    ``name`` is the component, named in the error (``"{name}.period"``).
+    """
     ratio = period / dt
     k = round(ratio)
     if k < 1 or abs(ratio - k) > 1e-9 * max(1.0, ratio):
         raise ValueError(f"{name}.period = {period!r} s must be a whole multiple of the tick dt = {dt!r} s")
     return int(k)
+
+
+def whole_ticks(duration: float, dt: float) -> int:
+    """Ticks of ``dt`` [s] in ``duration`` [s], which must be a whole number (>= 1) of them (to 1e-9)."""
+    n = round(duration / dt)
+    if n < 1 or abs(n * dt - duration) > 1e-9 * duration:
+        raise ValueError(f"duration = {duration!r} s must be a whole number (>= 1) of ticks dt = {dt!r} s")
+    return n
 
 
 def simulate(
@@ -291,7 +328,7 @@ def simulate(
     if dt is None:
         dt = min(periods.values()) if periods else 0.1
     dt = float(check_positive(dt, "dt"))
-    every = {name: _multiple(p, dt, name) for name, p in periods.items()}
+    every = {name: ticks_per_period(p, dt, name) for name, p in periods.items()}
     # Whole ticks: the run ends at the first tick at or after `duration`
     # (the 1e-9 slack keeps 600 s / 0.1 s at 6000 ticks despite rounding).
     n_ticks = max(1, int(np.ceil(duration / dt - 1e-9)))
