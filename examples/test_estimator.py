@@ -287,21 +287,7 @@ def main() -> None:
     )
     save(fig, args.out / "rate_ekf_errors.png", written)
     avg = nees(err, cov).mean(axis=0)
-    lo, hi = chi2_band(6, n_runs, CONFIDENCE)
-    inside = fraction_inside_band(avg, 6, n_runs, CONFIDENCE)
-    print(
-        f"   NEES averaged over {n_runs} runs: mean {avg.mean():.2f} (expected 6), "
-        f"{100 * inside:.1f} % of steps inside the 95 % band [{lo:.2f}, {hi:.2f}]"
-    )
-    fig = plot_nees(
-        t_ekf,
-        avg,
-        6,
-        n_runs,
-        title=f"Rate EKF, tumbling: NEES over {n_runs} runs, {100 * inside:.1f} % of steps inside the 95 % band",
-    )
-    tidy_nees(fig, avg, hi)
-    save(fig, args.out / "rate_ekf_nees.png", written)
+    inside, (lo, hi) = report_nees("Rate EKF", t_ekf, avg, n_runs, args.out / "rate_ekf_nees.png", written)
     rows.append(("rate EKF RMS rate error / gyro noise", f"{sigma_rate / raw:.3f}", f"{rms_rate / raw:.3f}"))
     rows.append(("rate EKF average NEES (6 dof)", f"6 [{lo:.2f}, {hi:.2f}]", f"{avg.mean():.2f}"))
     rows.append(("rate EKF steps inside the NEES band", f"{100 * CONFIDENCE:.0f} %", f"{100 * inside:.1f} %"))
@@ -356,20 +342,7 @@ def main() -> None:
     rms_b = np.sqrt(np.mean(e_mekf[:, -1, 3:] ** 2)) / DEG_H
     print(f"   bias: sigma {TURN_ON_BIAS_DEG_H:.1f} -> {sig_b:.2f} deg/h at {duration:g} s (RMS over runs {rms_b:.2f})")
     avg_m = nees(e_mekf, batch.P).mean(axis=0)
-    inside_m = fraction_inside_band(avg_m, 6, n_runs, CONFIDENCE)
-    print(
-        f"   NEES averaged over {n_runs} runs: mean {avg_m.mean():.2f} (expected 6), "
-        f"{100 * inside_m:.1f} % of steps inside the 95 % band [{lo:.2f}, {hi:.2f}]"
-    )
-    fig = plot_nees(
-        t,
-        avg_m,
-        6,
-        n_runs,
-        title=f"MEKF, tumbling: NEES over {n_runs} runs, {100 * inside_m:.1f} % of steps inside the 95 % band",
-    )
-    tidy_nees(fig, avg_m, hi)
-    save(fig, args.out / "mekf_nees.png", written)
+    inside_m, _ = report_nees("MEKF", t, avg_m, n_runs, args.out / "mekf_nees.png", written)
     rows.append(("MEKF average NEES (6 dof)", f"6 [{lo:.2f}, {hi:.2f}]", f"{avg_m.mean():.2f}"))
     rows.append(("MEKF steps inside the NEES band", f"{100 * CONFIDENCE:.0f} %", f"{100 * inside_m:.1f} %"))
 
@@ -624,6 +597,23 @@ def fly_slew_rate_ekf(body: RigidBody, tracker: StarTracker, duration: float, se
         "gated": int(ekf.n_gated),
         "flagged": int(np.nansum(res.logs["estimator.health_flag"])),
     }
+
+
+def report_nees(
+    label: str, t: np.ndarray, avg: np.ndarray, n_runs: int, path: Path, written: list[Path]
+) -> tuple[float, tuple[float, float]]:
+    """Print and plot a 6-dof NEES averaged over the runs against its chi-square band; (fraction inside, band)."""
+    lo, hi = chi2_band(6, n_runs, CONFIDENCE)
+    inside = fraction_inside_band(avg, 6, n_runs, CONFIDENCE)
+    print(
+        f"   NEES averaged over {n_runs} runs: mean {avg.mean():.2f} (expected 6), "
+        f"{100 * inside:.1f} % of steps inside the 95 % band [{lo:.2f}, {hi:.2f}]"
+    )
+    title = f"{label}, tumbling: NEES over {n_runs} runs, {100 * inside:.1f} % of steps inside the 95 % band"
+    fig = plot_nees(t, avg, 6, n_runs, title=title)
+    tidy_nees(fig, avg, hi)
+    save(fig, path, written)
+    return inside, (lo, hi)
 
 
 def tidy_nees(fig: Figure, avg: np.ndarray, hi: float) -> None:
