@@ -1,8 +1,8 @@
-"""``python -m attitude``: the ``attitude`` command (see :mod:`attitude.cli`)."""
+"""``python -m attitude``: the ``attitude`` command (see :mod:`attitude.app.cli`)."""
 
 import sys
 
-from attitude.cli import main
+from attitude.app.cli import main
 
 if __name__ == "__main__":
     sys.exit(main())

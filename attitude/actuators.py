@@ -32,8 +32,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from attitude import backend as bk
-from attitude._validation import as_float_array, check_positive, describe
 from attitude.rigid_body import Components, RigidBody
+from attitude.validation import as_float_array, check_positive, describe
 
 __all__ = ["RANK_TOLERANCE", "ReactionWheels"]
 

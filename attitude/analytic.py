@@ -49,7 +49,7 @@ the component that never changes sign:
 
 These signs were checked by substitution into ``I1 w1' = (I2 - I3) w2 w3``
 (and cyclic) and against a tight numerical integration
-(``tests/test_analytic.py``).
+(``tests/attitude/test_analytic.py``).
 
 Why the elliptic functions are evaluated here, not with ``scipy.special.ellipj``
 --------------------------------------------------------------------------------
@@ -89,8 +89,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.special import ellipkm1, elliprf
 
 from attitude import quaternion as quat
-from attitude._validation import as_float_array, check_vector, describe
 from attitude.rigid_body import RigidBody
+from attitude.validation import as_float_array, check_vector, describe
 
 __all__ = [
     "AXISYMMETRY_TOLERANCE",

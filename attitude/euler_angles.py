@@ -62,7 +62,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
-from attitude._validation import as_float_array, check_vector
+from attitude.validation import as_float_array, check_vector
 
 __all__ = [
     "GIMBAL_LOCK_TOLERANCE",

@@ -76,7 +76,7 @@ controllability matrix has rank 6) and, being on the imaginary axis, not
 stabilisable: the continuous Riccati equation has no stabilising solution.
 ``control.lqr`` then either fails ("Failed to find a finite solution") or,
 when ``Q`` does not weight that direction, silently returns a gain that leaves
-a closed-loop pole at exactly 0 (``tests/test_linearize.py`` shows both). The
+a closed-loop pole at exactly 0 (``tests/attitude/test_linearize.py`` shows both). The
 6-state chart is valid for error angles below 180 degrees (at 180 degrees
 ``q_e0 = 0`` and the square root is not differentiable).
 
@@ -101,9 +101,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from attitude import backend as bk
-from attitude._validation import check_vector, describe
 from attitude.integrators import quaternion_multiply_components
 from attitude.rigid_body import Components, RigidBody, quaternion_rate
+from attitude.validation import check_vector, describe
 
 __all__ = [
     "INPUT_NAMES",

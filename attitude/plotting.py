@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 if TYPE_CHECKING:
     from attitude.propagate import Trajectory
     from attitude.rigid_body import RigidBody
-    from attitude.simulation import SimulationResult
+    from attitude.simulation.engine import SimulationResult
 
 __all__ = [
     "AXIS_COLORS",
@@ -558,7 +558,7 @@ def plot_simulation(result: SimulationResult) -> Figure:
     Parameters
     ----------
     result : SimulationResult
-        Output of :func:`attitude.simulation.simulate`.
+        Output of :func:`attitude.simulation.engine.simulate`.
 
     Returns
     -------

@@ -40,7 +40,6 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import solve_ivp
 
 from attitude import quaternion as quat
-from attitude._validation import as_float_array, check_positive, check_time_grid, check_vector
 from attitude.integrators import (
     casadi_rk4_step,
     normalize_quaternion_components,
@@ -50,6 +49,7 @@ from attitude.integrators import (
 )
 from attitude.results import ResultIO
 from attitude.rigid_body import Components, RigidBody
+from attitude.validation import as_float_array, check_positive, check_time_grid, check_vector
 
 __all__ = ["METHODS", "Trajectory", "propagate"]
 

@@ -24,9 +24,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from attitude import backend as bk
-from attitude._validation import as_float_array, check_vector
 from attitude.backend import cross
 from attitude.rng import as_generator
+from attitude.validation import as_float_array, check_vector
 
 __all__ = [
     "UNIT_NORM_TOLERANCE",

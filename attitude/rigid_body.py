@@ -12,7 +12,7 @@ wheels; the reaction torque ``-h_dot`` is part of ``tau``). The equations are
 written once, component by component, with nothing but ``+ - *``, so the same
 code evaluates on numpy arrays of any batch shape (the simulation path) and on
 casadi ``SX``/``MX`` symbols (exact Jacobians for linearisation and optimal
-control). ``tests/test_rigid_body.py`` proves the two evaluations agree.
+control). ``tests/attitude/test_rigid_body.py`` proves the two evaluations agree.
 """
 
 from __future__ import annotations
@@ -26,9 +26,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
-from attitude._validation import as_float_array, check_vector, describe
 from attitude.backend import cross
 from attitude.quaternion import derivative_components as quaternion_rate
+from attitude.validation import as_float_array, check_vector, describe
 
 __all__ = [
     "REALISABILITY_TOLERANCE",
@@ -507,7 +507,7 @@ class RigidBody(_EulerEquations):
 class ParametricBody(_EulerEquations):
     """A body whose inertia entries are given directly, for generated code.
 
-    The compiled Monte Carlo kernels (:mod:`attitude.montecarlo_kernel`)
+    The compiled Monte Carlo kernels (:mod:`attitude.simulation.kernel`)
     evaluate :meth:`omega_dot_components` with the inertia and its inverse
     as casadi symbols, so that one compiled function serves every dispersed
     inertia. Nothing is checked here: the numbers fed to those symbols come

@@ -57,7 +57,7 @@ class NormalStreams:
     sequence: numpy's :meth:`numpy.random.Generator.standard_normal` (ziggurat)
     consumes the bit stream sequentially and keeps no cached value between
     calls, so drawing ``a`` then ``b`` normals gives the same numbers as
-    drawing ``a + b`` at once (tests/test_sensors_batch.py checks this for
+    drawing ``a + b`` at once (tests/attitude/test_sensors_batch.py checks this for
     any block size and any interleaving of sizes and active masks).
 
     The streams own the generators: after construction, draw from them only

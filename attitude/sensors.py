@@ -1,6 +1,6 @@
 """Attitude sensors: a rate-integrating gyro (Farrenkopf model) and a star tracker.
 
-Both meet the sensor protocol of :mod:`attitude.simulation`: a ``name``, a
+Both meet the sensor protocol of :mod:`attitude.simulation.engine`: a ``name``, a
 ``period`` [s] and ``measure(t, truth, rng)`` returning an array, or None when
 the sensor has nothing to report. Everything inside is SI (rad, rad/s, s);
 datasheet units (deg/sqrt(h), deg/h, deg/h/sqrt(h), ppm, arcsec) appear only
@@ -64,7 +64,7 @@ rate over the interval since the previous sample, formed exactly from the
 attitude increment ``rotvec(q_prev* ⊗ q) / dt`` (a rate-integrating gyro's
 angle increment). The two differ by ``O(dt * d omega/dt)``: about ``dt/2``
 times the angular acceleration. :class:`estimation.rate_ekf.RateEKF` models
-the first, :class:`estimation.mekf.MEKF` the second, and their constructors
+the first, :class:`estimation.mekf.filter.MEKF` the second, and their constructors
 from a :class:`Gyro` check it. :meth:`Gyro.measure_history` reproduces
 :meth:`Gyro.measure` bit for bit in both modes (it needs the attitude history
 for ``"mean"``).
@@ -108,8 +108,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
-from attitude._validation import as_float_array, check_positive, check_vector, describe, positive_scalar, scalar_time
 from attitude.rng import NormalStreams, as_generator
+from attitude.validation import as_float_array, check_positive, check_vector, describe, positive_scalar, scalar_time
 
 __all__ = [
     "ARCSEC",
@@ -291,7 +291,7 @@ def farrenkopf_process_noise(sigma_v2: float, sigma_u2: float, dt: float) -> NDA
 
     ``Q = [[(sv2 dt + su2 dt^3 / 3) I, -(su2 dt^2 / 2) I], [-(su2 dt^2 / 2) I, su2 dt I]]``
     (Crassidis and Junkins, 2nd ed., sec. 7.2.1): the one definition used by
-    :meth:`Gyro.process_noise` and :mod:`estimation.mekf`. No argument checks
+    :meth:`Gyro.process_noise` and :mod:`estimation.mekf.filter`. No argument checks
     (callers validate).
 
     Parameters
@@ -339,7 +339,7 @@ class Gyro:
 
     The model and its exact discrete-time sampling are described in the
     module docstring. The object is a sensor for
-    :func:`attitude.simulation.simulate`; it carries state (the current bias
+    :func:`attitude.simulation.engine.simulate`; it carries state (the current bias
     and the time of the previous sample), so call :meth:`reset` (or build a
     new gyro) before reusing it in another run. :meth:`sample_errors` and
     :meth:`measure_history` are pure vectorised paths that share the same
@@ -375,7 +375,7 @@ class Gyro:
         interval since the previous sample, ``rotvec(q_prev* ⊗ q) / dt`` (a
         rate-integrating gyro's angle increment, as fibre-optic and
         ring-laser gyros deliver). :class:`estimation.rate_ekf.RateEKF`
-        models the first, :class:`estimation.mekf.MEKF` the second (its
+        models the first, :class:`estimation.mekf.filter.MEKF` the second (its
         propagation holds each sample as the mean rate over the interval);
         ``RateEKF.from_gyro`` and ``MEKF.from_sensors`` check the match.
         The first sample of a run reports the instantaneous rate.
@@ -763,7 +763,7 @@ class Gyro:
         ----------
         t : float
             Sample time [s]; must increase from call to call.
-        truth : attitude.simulation.Truth
+        truth : attitude.simulation.engine.Truth
             Anything with ``omega`` (3,) [rad/s], the true body rate.
         rng : Generator, int or None
             Random source. Pass one Generator for a sequence of samples (an
@@ -1363,7 +1363,7 @@ class StarTracker:
         ----------
         t : float
             Time [s] (for a time-varying Sun direction).
-        truth : attitude.simulation.Truth
+        truth : attitude.simulation.engine.Truth
             Anything with ``q`` (4,), the true attitude ``q_BN``.
         rng : Generator, int or None
             Random source.

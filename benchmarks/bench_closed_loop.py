@@ -14,7 +14,7 @@ import numpy as np
 from attitude import RigidBody
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
-from attitude.simulation import simulate
+from attitude.simulation.engine import simulate
 from controllers.pd import QuaternionPD
 
 try:

@@ -37,13 +37,13 @@ from typing import Any
 
 import numpy as np
 
-from attitude import codegen
-from attitude import montecarlo_batch as mb
-from attitude.config import default_config
-from attitude.montecarlo import Campaign, run_campaign
-from attitude.montecarlo_dispersions import dispersions_from_config
+from attitude.app.scenarios import ClosedLoopScenario, PDWheelsScenario
+from attitude.config.model import default_config
+from attitude.montecarlo.campaign import Campaign, run_campaign
+from attitude.montecarlo.dispersions import dispersions_from_config
 from attitude.rigid_body import RigidBody
-from attitude.scenarios import ClosedLoopScenario, PDWheelsScenario
+from attitude.simulation import batch as mb
+from attitude.simulation import codegen
 
 CONFIG = default_config()
 DISPERSIONS = dispersions_from_config(CONFIG.montecarlo, CONFIG.body().inertia, CONFIG.requirements.slew.q_start())

@@ -20,7 +20,7 @@ from attitude import RigidBody
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
 from attitude.sensors import Gyro
-from attitude.simulation import simulate
+from attitude.simulation.engine import simulate
 from estimation.rate_ekf import RateEKF, run_rate_ekf
 
 try:

@@ -28,7 +28,7 @@ from attitude import RigidBody
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
 from attitude.propagate import propagate
-from controllers.slew import PUBLISHED_BILIMORIA_WIE, InfeasibleSlewError, KeepOutCone, SlewPlan, plan_slew
+from controllers.slew.planner import PUBLISHED_BILIMORIA_WIE, InfeasibleSlewError, KeepOutCone, SlewPlan, plan_slew
 
 try:
     from benchmarks._timing import cpu_time_median

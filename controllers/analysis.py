@@ -66,9 +66,9 @@ import scipy.optimize
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
 
-from attitude._validation import as_float_array, check_positive
 from attitude.results import ResultIO
 from attitude.rigid_body import RigidBody
+from attitude.validation import as_float_array, check_positive
 
 __all__ = [
     "Margins",

@@ -19,7 +19,7 @@ eigenvalues that are not strictly stable), so a bad design fails with a
 ``ValueError`` naming the culprit instead of a solver's ``LinAlgError`` or a
 silently non-stabilising gain.
 
-:class:`LQRController` flies the gain in :func:`attitude.simulation.simulate`:
+:class:`LQRController` flies the gain in :func:`attitude.simulation.engine.simulate`:
 ``tau = -K [q_ev; omega - omega_ref]`` with ``q_e = q_ref* ⊗ q`` on the
 shortest way, through the Python path (``torque``) and the compiled path
 (``compiled_inputs`` and backend-neutral ``torque_components``).
@@ -36,8 +36,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
-from attitude._validation import as_float_array, check_positive, check_vector, describe
 from attitude.rigid_body import Components
+from attitude.validation import as_float_array, check_positive, check_vector, describe
 from controllers.pd import quaternion_error_components
 
 __all__ = [

@@ -36,9 +36,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from attitude import backend as bk
 from attitude import quaternion as quat
-from attitude._validation import as_float_array, check_positive, positive_scalar
 from attitude.integrators import quaternion_multiply_components
 from attitude.rigid_body import Components, RigidBody, cross
+from attitude.validation import as_float_array, check_positive, positive_scalar
 
 __all__ = ["QuaternionPD", "RateLimitedPD", "quaternion_error_components"]
 

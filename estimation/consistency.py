@@ -38,7 +38,7 @@ from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
 from scipy import stats
 
-from attitude._validation import as_float_array, describe
+from attitude.validation import as_float_array, describe
 
 __all__ = [
     "NisHealth",

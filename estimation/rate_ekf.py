@@ -202,7 +202,13 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import stats
 
 from attitude import quaternion as quat
-from attitude._validation import (
+from attitude.actuators import ReactionWheels
+from attitude.integrators import rk4_step
+from attitude.results import ResultIO
+from attitude.rigid_body import RigidBody, split_components
+from attitude.sensors import Gyro
+from attitude.simulation.engine import Estimate
+from attitude.validation import (
     as_float_array,
     check_covariance,
     check_positive,
@@ -210,12 +216,6 @@ from attitude._validation import (
     positive_scalar,
     scalar_time,
 )
-from attitude.actuators import ReactionWheels
-from attitude.integrators import rk4_step
-from attitude.results import ResultIO
-from attitude.rigid_body import RigidBody, split_components
-from attitude.sensors import Gyro
-from attitude.simulation import Estimate
 from estimation.consistency import nees, nis_health, plot_errors_with_bounds
 
 __all__ = ["GATE_PROBABILITY", "NOISE_MODELS", "RateEKF", "RateEKFResult", "StepReport", "run_rate_ekf"]
@@ -428,7 +428,7 @@ class RateEKF:
     t0 : float
         Time of ``x0`` [s].
     period : float, optional
-        Estimator period for :func:`attitude.simulation.simulate` [s]
+        Estimator period for :func:`attitude.simulation.engine.simulate` [s]
         (default ``gyro_period``).
     max_step : float, optional
         Longest prediction substep [s] (default ``gyro_period``).
@@ -964,9 +964,9 @@ class RateEKF:
 
         ``measurements`` maps sensor names to their newest sample (None: no
         sample) plus ``"torque_command"`` and ``"wheel_momentum"`` (see
-        :mod:`attitude.simulation`). The gyro is read under ``gyro_name``,
+        :mod:`attitude.simulation.engine`). The gyro is read under ``gyro_name``,
         an attitude sample under ``attitude_name``. The returned
-        :class:`attitude.simulation.Estimate` carries the filtered rate,
+        :class:`attitude.simulation.engine.Estimate` carries the filtered rate,
         the open-loop attitude (module docstring) and the covariance of
         ``[omega, beta]``. A non-finite attitude sample is skipped and
         counted (:attr:`n_attitude_nan_skipped`).

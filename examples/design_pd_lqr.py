@@ -35,7 +35,7 @@ from attitude import RigidBody
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
 from attitude.linearize import linearize
-from attitude.simulation import simulate
+from attitude.simulation.engine import simulate
 from controllers.analysis import (
     attitude_closed_loop,
     loop_gain,

@@ -34,8 +34,8 @@ from matplotlib.figure import Figure
 from attitude import RigidBody
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
-from attitude.simulation import SimulationResult, simulate
-from controllers.slew import PUBLISHED_BILIMORIA_WIE, KeepOutCone, SlewPlan, eigenaxis_slew, plan_slew
+from attitude.simulation.engine import SimulationResult, simulate
+from controllers.slew.planner import PUBLISHED_BILIMORIA_WIE, KeepOutCone, SlewPlan, eigenaxis_slew, plan_slew
 from controllers.tracking import TrackingController
 
 INERTIA = np.array([[12.0, 0.4, -0.3], [0.4, 10.5, 0.2], [-0.3, 0.2, 8.5]])  # kg m^2

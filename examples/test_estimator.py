@@ -23,7 +23,7 @@ what the runs measure:
    sample (the filter beats the gyro by averaging through the dynamics);
    then a Monte Carlo campaign: the NEES averaged over the runs against its
    95 % chi-square band.
-3. **MEKF on the same tumble** (:mod:`estimation.mekf`): attitude and bias
+3. **MEKF on the same tumble** (:mod:`estimation.mekf.filter`): attitude and bias
    from gyro and star tracker. One run's errors (arcsec, deg/h) with +-3
    sigma; the steady-state attitude sigma of the filter and of the runs
    against the closed form :func:`steady_state_attitude_sigma` (Farrenkopf;
@@ -39,7 +39,7 @@ what the runs measure:
    errors agree with the filter to within their sampling error (8.87 and
    9.32 arcsec roll).
 4. **Closed loop.** A 45 deg slew with :class:`controllers.pd.QuaternionPD`
-   flying on the MEKF estimate (:func:`attitude.simulation.simulate` with the
+   flying on the MEKF estimate (:func:`attitude.simulation.engine.simulate` with the
    gyro and the star tracker as sensors, the MEKF as estimator, a four-wheel
    pyramid as actuators): the true pointing error against the one the
    controller sees, and the estimation error against the filter's 3 sigma.
@@ -113,10 +113,10 @@ from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
 from attitude.propagate import propagate
 from attitude.sensors import ARCSEC, Gyro, StarTracker, arw_from_sigma_v
-from attitude.simulation import simulate
+from attitude.simulation.engine import simulate
 from controllers.pd import QuaternionPD
 from estimation.consistency import chi2_band, fraction_inside_band, nees, plot_errors_with_bounds, plot_nees
-from estimation.mekf import MEKF, run_mekf, steady_state_attitude_sigma
+from estimation.mekf.filter import MEKF, run_mekf, steady_state_attitude_sigma
 from estimation.rate_ekf import RateEKF, run_rate_ekf
 
 #: Small satellite, body axes, wheels included [kg m^2] (illustrative; principal moments ~6, 9, 11).

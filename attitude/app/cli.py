@@ -1,0 +1,605 @@
+"""The ``attitude`` command: design, slew, physics and init (top floor: may import controllers and estimation).
+
+Run ``attitude --help`` (or ``python -m attitude --help``) and
+``attitude COMMAND --help``. Every command reads a spacecraft file (TOML,
+see ``attitude init``) or, without one, the built-in default spacecraft.
+
+Exit codes
+    0: every requirement passes (``physics`` and ``init``: done);
+    1: a requirement fails (or the slew could not be planned);
+    2: bad input: the file or the command line cannot be used. The message
+    names the file and the key, with no traceback.
+
+Progress of long steps goes to stderr; results go to stdout (with
+``--json``, stdout holds only the JSON document).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import re
+import sys
+import time
+import tomllib
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from attitude import __version__
+from attitude.config.model import (
+    ConfigError,
+    SpacecraftConfig,
+    config_from_dict,
+    config_to_toml,
+    default_config,
+    default_config_text,
+    load_config,
+)
+
+__all__ = ["main"]
+
+EXIT_PASS, EXIT_FAIL, EXIT_BAD_INPUT = 0, 1, 2
+
+_FILE_HELP = "spacecraft file (TOML); default: the built-in 12U CubeSat (write it out with `attitude init FILE`)"
+_EPILOG = """\
+exit codes: 0 all requirements pass, 1 a requirement fails, 2 bad input
+(the message names the file and the key).
+
+examples:
+  attitude init my_sat.toml              # a commented starting point
+  attitude design my_sat.toml --out report/
+  attitude slew my_sat.toml --to "angle_deg=90 axis_B=0,1,0"
+  attitude physics my_sat.toml --json
+"""
+
+
+class UsageError(ValueError):
+    """A command-line value that cannot be used (exit code 2)."""
+
+
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text!r}")
+    return value
+
+
+def _count(minimum: int) -> Any:
+    """An argparse type: an integer at least ``minimum``."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be at least {minimum}, got {value}")
+        return value
+
+    return parse
+
+
+def _scheduler_address(text: str) -> str:
+    if not re.match(r"^((tcp|tls|ws|wss)://[^\s:/]+:\d+|(inproc|ucx)://\S+)/?$", text):
+        raise argparse.ArgumentTypeError(f"expected a Dask scheduler address like tcp://HOST:8786, got {text!r}")
+    return text
+
+
+def _nodes(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if value < 4:
+        raise argparse.ArgumentTypeError(f"must be at least 4, got {value}")
+    return value
+
+
+def _progress(message: str) -> None:
+    print(message, file=sys.stderr, flush=True)
+
+
+def _load(file: str | None) -> SpacecraftConfig:
+    if file is None:
+        return default_config()
+    return load_config(file)
+
+
+# ---------------------------------------------------------------------------
+# design
+
+
+def _cmd_design(args: argparse.Namespace) -> int:
+    from attitude.app.design.run import DesignOptions, run_design
+    from attitude.app.report.writer import dumps_json, requirements_text, write_report
+
+    if args.out.exists() and not args.out.is_dir():
+        raise UsageError(f"--out {args.out}: exists and is not a folder")
+    config = _load(args.file)
+    options = DesignOptions(quick=args.quick, spin_rate_deg_per_s=args.spin_rate_deg_per_s, seed=args.seed)
+    start = time.perf_counter()
+    _progress(f"attitude design: {config.name} ({config.source}) -> {args.out}/")
+    result = run_design(config, options, progress=_progress)
+    _progress("writing the report ...")
+    try:
+        paths = write_report(result, args.out)
+    except OSError as exc:
+        raise UsageError(f"--out {args.out}: cannot write the report: {exc}") from exc
+    _progress(f"report written in {time.perf_counter() - start:.1f} s: {paths['report_html']}")
+    if args.json:
+        sys.stdout.write(dumps_json(result.results))
+    else:
+        print(requirements_text(result.results))
+        print(f"Report: {paths['report_md']} and {paths['report_html']} (numbers in {paths['results_json']})")
+    return EXIT_PASS if result.passed else EXIT_FAIL
+
+
+# ---------------------------------------------------------------------------
+# slew
+
+#: Keys ``--to`` accepts: those of ``[requirements.slew]``.
+SLEW_KEYS = ("angle_deg", "axis_B", "target_q_BN", "start_q_BN", "max_time_s", "rate_max_deg_per_s")
+
+
+def _parse_value(text: str) -> Any:
+    parts = [p.strip() for p in text.split(",")]
+    values: list[Any] = []
+    for p in parts:
+        try:
+            values.append(float(p))
+        except ValueError:
+            values.append(p)  # left as text: the file validation names the key and the problem
+    return values[0] if len(values) == 1 else values
+
+
+def with_slew(config: SpacecraftConfig, spec: str) -> SpacecraftConfig:
+    """``config`` with ``[requirements.slew]`` keys replaced by ``KEY=VALUE`` pairs (``--to``).
+
+    Validated exactly as the file is, so a bad value raises :class:`ConfigError`
+    naming ``requirements.slew.KEY``. ``target_q_BN`` replaces ``angle_deg``
+    and ``axis_B`` of the file and the other way round.
+    """
+    pairs: dict[str, Any] = {}
+    for token in spec.split():
+        key, sep, value = token.partition("=")
+        if not sep or not key or not value:
+            raise UsageError(
+                f'--to: expected KEY=VALUE pairs separated by spaces (e.g. "angle_deg=90 axis_B=0,1,0"), got {token!r}'
+            )
+        pairs[key] = _parse_value(value)
+    if not pairs:
+        raise UsageError('--to: give at least one KEY=VALUE pair (e.g. "angle_deg=90 axis_B=0,1,0")')
+    data = tomllib.loads(config_to_toml(config))
+    slew = data["requirements"]["slew"]
+    if "target_q_BN" in pairs:
+        slew.pop("angle_deg", None)
+        slew.pop("axis_B", None)
+    if "angle_deg" in pairs or "axis_B" in pairs:
+        slew.pop("target_q_BN", None)
+    slew.update(pairs)
+    return config_from_dict(data, file=f"{config.source} with --to {spec!r}")
+
+
+def _quat_text(q: Sequence[float]) -> str:
+    return "[" + ", ".join(f"{v:.6g}" for v in q) + "]"
+
+
+def _cmd_slew(args: argparse.Namespace) -> int:
+    from attitude.app.design.run import plan_verdicts
+    from attitude.app.design.slew import plan_slews
+    from attitude.app.report.sections import fmt
+    from attitude.app.report.writer import dumps_json, requirements_text
+
+    config = _load(args.file)
+    if args.to is not None:
+        config = with_slew(config, args.to)
+    if args.duration_s is not None and args.objective != "energy":
+        raise UsageError("--duration-s is only for --objective energy (minimum time chooses its own duration)")
+    _progress(f"planning the slew ({args.objective}, {args.nodes} intervals) ...")
+    study = plan_slews(config, nodes=args.nodes, objective=args.objective, duration_s=args.duration_s)
+    results = {
+        "spacecraft": {"name": config.name, "description": config.description, "source": config.source},
+        "slews": study.summary,
+        **plan_verdicts(config, study.summary),
+    }
+    passed = bool(results["verdict"]["pass"])
+    if args.json:
+        sys.stdout.write(dumps_json(results))
+        return EXIT_PASS if passed else EXIT_FAIL
+    s = study.summary
+    print(
+        f"Slew of {config.name}: {fmt(s['angle_deg'])} deg, q_BN {_quat_text(s['q_start_BN'])} -> "
+        f"{_quat_text(s['q_target_BN'])}"
+    )
+    if study.error:
+        print(f"  planning problem: {study.error}")
+    labels = [
+        ("duration [s]", "duration_s"),
+        ("peak body rate [deg/s]", "peak_rate_deg_per_s"),
+        ("peak torque [mN m]", "peak_torque_mNm"),
+        ("energy [N^2 m^2 s]", "energy_N2m2s"),
+    ]
+    table = [["", "optimal plan", "eigenaxis"]]
+    for label, key in labels:
+        table.append([label] + [fmt(None if x is None else x[key]) for x in (s["plan"], s["eigenaxis"])])
+    for cone in s["keep_out"]:
+        name = cone["name"]
+        table.append(
+            [f"separation '{name}' [deg]"]
+            + [fmt(None if x is None else x["min_separation_deg"][name]) for x in (s["plan"], s["eigenaxis"])]
+        )
+    widths = [max(len(r[i]) for r in table) for i in range(3)]
+    for row in table:
+        print("  " + row[0].ljust(widths[0]) + "  " + "  ".join(c.rjust(w) for c, w in zip(row[1:], widths[1:])))
+    print(requirements_text(results))
+    return EXIT_PASS if passed else EXIT_FAIL
+
+
+# ---------------------------------------------------------------------------
+# physics
+
+
+def _cmd_physics(args: argparse.Namespace) -> int:
+    from attitude.app.design.body import body_analysis
+    from attitude.app.report.sections import fmt
+    from attitude.app.report.writer import dumps_json
+
+    config = _load(args.file)
+    b = body_analysis(config, args.spin_rate_deg_per_s)
+    if args.json:
+        sys.stdout.write(dumps_json({"spacecraft": {"name": config.name, "source": config.source}, "body": b}))
+        return EXIT_PASS
+    spin = fmt(b["spin_rate_deg_per_s"])
+    print(f"Torque-free behaviour of {config.name} (whole spacecraft, wheels at rest), spin of {spin} deg/s")
+    header = [
+        "axis",
+        "moment [kg m^2]",
+        "closest body axis",
+        "torque-free",
+        "with dissipation",
+        "nutation [s]",
+        "e-fold [s]",
+    ]
+    rows = [header]
+    for a in b["axes"]:
+        rows.append(
+            [
+                a["name"],
+                fmt(a["moment_kg_m2"]),
+                f"{a['closest_body_axis']} ({fmt(a['angle_from_body_axis_deg'], 2)} deg)",
+                a["torque_free"],
+                a["with_energy_dissipation"],
+                fmt(a["nutation_period_exact_s"] or a["nutation_period_s"]),
+                fmt(a["e_folding_time_s"]),
+            ]
+        )
+    widths = [max(len(r[i]) for r in rows) for i in range(len(header))]
+    for row in rows:
+        print("  " + "  ".join(c.ljust(w) for c, w in zip(row, widths)))
+    if b["flip_period_s"] is not None:
+        print(
+            f"  middle-axis spin perturbed by {fmt(b['perturbation_percent'])} %: "
+            f"flips every {fmt(b['flip_period_s'])} s"
+        )
+    gg = b["gravity_gradient"]
+    if gg is None:
+        print("Gravity gradient: no [orbit] in the file")
+    else:
+        print(f"Gravity gradient at {fmt(gg['altitude_km'])} km: peak torque {fmt(gg['peak_torque_uNm'])} uN m")
+        for o in gg["orientations"]:
+            pitch = "stable" if o["pitch_stable"] else "unstable"
+            roll_yaw = "stable" if o["roll_yaw_stable"] else "unstable"
+            print(f"  {o['orientation']}: {o['region']} (pitch {pitch}, roll-yaw {roll_yaw})")
+    return EXIT_PASS
+
+
+# ---------------------------------------------------------------------------
+# montecarlo
+
+
+def _cmd_montecarlo(args: argparse.Namespace) -> int:
+    from attitude.app.scenarios import ScenarioError, run_campaign_from_config
+    from controllers.slew.planner import SlewPlanningError
+
+    config = _load(args.file)
+    if args.workers is not None and args.scheduler is not None:
+        raise UsageError("--workers and --scheduler exclude each other (the cluster decides its workers)")
+    out = Path(args.out)
+    mc = config.montecarlo
+    if args.runs is None and mc is None:
+        raise UsageError("--runs: the spacecraft file has no [montecarlo] table, so give the number of runs")
+    so3 = mc is not None and mc.initial_attitude is not None and mc.initial_attitude.distribution == "uniform_so3"
+    if so3 and args.guidance == "plan":
+        raise UsageError(
+            "--guidance plan: the file's montecarlo.initial_attitude is 'uniform_so3', but a planned slew starts "
+            "from the file's start attitude; disperse the attitude about the start, or use --guidance eigenaxis"
+        )
+    _progress(f"Monte Carlo campaign of {config.name}: results in {out}/")
+    if args.guidance == "plan":
+        _progress(f"planning the slew ({args.nodes} intervals, once, on the nominal spacecraft) ...")
+    try:
+        result = run_campaign_from_config(
+            config,
+            runs=args.runs,
+            workers=args.workers,
+            scheduler=args.scheduler,
+            out_dir=out,
+            seed=args.seed,
+            duration=args.duration_s,
+            progress=False if args.json else None,  # None: a bar when stderr is a terminal
+            keep_out=not args.no_keep_out,
+            guidance=args.guidance,
+            nodes=args.nodes,
+            vectorized=args.vectorized,
+            resume=not args.fresh,
+        )
+    except ScenarioError as exc:
+        flag = f"--duration-s {args.duration_s:g}: " if str(exc).startswith("duration") else ""
+        raise UsageError(f"{flag}{exc}") from None
+    except SlewPlanningError as exc:
+        print(f"attitude montecarlo: {exc}", file=sys.stderr)
+        return EXIT_FAIL
+    except ValueError as exc:
+        if "checkpoint of a different campaign" in str(exc):
+            raise UsageError(f"--out {out}: {str(exc).split(';')[0]}; use another --out, or --fresh") from None
+        raise
+    except OSError as exc:
+        if getattr(exc, "filename", None) is not None or not args.scheduler:  # the output folder
+            raise UsageError(f"--out {out}: {exc}") from None
+        raise UsageError(f"--scheduler {args.scheduler}: {exc}") from None  # nobody answers at that address
+    if args.json:
+        from attitude.app.report.writer import dumps_json
+
+        sys.stdout.write(dumps_json(result.statistics()))
+    else:
+        print(result.summary())
+    # Signed off only when every run completed (no error, nothing left undone) and met every requirement.
+    return EXIT_PASS if bool(np.all(result.status == "ok")) and bool(np.all(result.passed)) else EXIT_FAIL
+
+
+# ---------------------------------------------------------------------------
+# init
+
+
+def _cmd_init(args: argparse.Namespace) -> int:
+    path = Path(args.file)
+    if path.exists() and not args.force:
+        raise UsageError(f"{path}: the file exists; not overwritten (use --force to replace it)")
+    if not path.parent.exists():
+        raise UsageError(f"{path}: the folder {path.parent} does not exist")
+    path.write_text(default_config_text(), encoding="utf-8")
+    print(f"Wrote {path}: the built-in 12U CubeSat, every key commented. Edit it, then run `attitude design {path}`.")
+    return EXIT_PASS
+
+
+# ---------------------------------------------------------------------------
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``attitude`` and its subcommands."""
+    fmt_class = argparse.RawDescriptionHelpFormatter
+    parser = argparse.ArgumentParser(
+        prog="attitude",
+        description="Spacecraft attitude-control design: from a spacecraft description (TOML) to a design report.",
+        epilog=_EPILOG,
+        formatter_class=fmt_class,
+    )
+    parser.add_argument("--version", action="version", version=f"attitude {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    p = sub.add_parser(
+        "design",
+        help="the whole design and its report (requirements pass/fail)",
+        formatter_class=fmt_class,
+        description=(
+            "Run the whole design of a spacecraft and write the report: 1 the body (principal axes, torque-free\n"
+            "stability, gravity gradient), 2 linear design (PD and LQR gains, poles, margins, Bode and step),\n"
+            "3 slews (the required slew time-optimal and eigenaxis), 4 closed loop (the slew flown with tracking\n"
+            "control, wheels, gyro, star tracker and MEKF), 5 estimation (rate EKF and MEKF errors, NEES over a\n"
+            "Monte Carlo set), 6 requirements (pass/fail). Writes report.md, report.html (self-contained),\n"
+            "figures/*.png, results.json (every number of the report) and spacecraft.toml (the resolved file)\n"
+            "into --out, and prints the requirements table. About 30 s for the default spacecraft."
+        ),
+        epilog=_EPILOG,
+    )
+    p.add_argument("file", nargs="?", metavar="FILE", help=_FILE_HELP)
+    p.add_argument(
+        "--out", type=Path, default=Path("attitude-report"), metavar="DIR", help="report folder (default: %(default)s)"
+    )
+    p.add_argument("--json", action="store_true", help="print results.json to stdout instead of the table")
+    p.add_argument(
+        "--quick",
+        action="store_true",
+        help="a first look: 30 planner intervals instead of 60, 8 MEKF and 4 rate-EKF Monte Carlo runs "
+        "instead of 50 and 20 (same verdict rules)",
+    )
+    p.add_argument("--seed", type=int, default=None, help="master seed (default: montecarlo.seed of the file, else 0)")
+    p.add_argument(
+        "--spin-rate-deg-per-s",
+        type=_positive,
+        default=10.0,
+        metavar="RATE",
+        help="reference spin rate of the torque-free analysis [deg/s] (default: %(default)s)",
+    )
+    p.set_defaults(run=_cmd_design)
+
+    p = sub.add_parser(
+        "slew",
+        help="plan one slew (time-optimal or minimum energy) against the eigenaxis slew",
+        formatter_class=fmt_class,
+        description=(
+            "Plan one slew with the wheels' torque (80 %), the rate limit (95 %) and the keep-out cones of the\n"
+            "file, and the eigenaxis slew with the same limits; print duration [s], peak rate [deg/s], peak\n"
+            "torque [mN m], energy and keep-out separation [deg] side by side, and judge the plan against\n"
+            "[requirements.slew] and [[requirements.keep_out]]. Without --to, the file's required slew."
+        ),
+        epilog=_EPILOG,
+    )
+    p.add_argument("file", nargs="?", metavar="FILE", help=_FILE_HELP)
+    p.add_argument(
+        "--to",
+        metavar="'KEY=VALUE ...'",
+        help="the slew to plan, as [requirements.slew] keys replacing the file's: angle_deg=60 axis_B=1,0,0 "
+        "(a rotation about a body axis from start_q_BN, in deg) or target_q_BN=w,x,y,z (scalar first); "
+        "also start_q_BN, max_time_s [s], rate_max_deg_per_s [deg/s]",
+    )
+    p.add_argument(
+        "--objective",
+        choices=("time", "energy"),
+        default="time",
+        help="minimum time, or minimum integral of |torque|^2 over --duration-s (default: %(default)s)",
+    )
+    p.add_argument(
+        "--duration-s",
+        type=_positive,
+        default=None,
+        metavar="S",
+        help="slew time for --objective energy [s] (default: requirements.slew.max_time_s)",
+    )
+    p.add_argument("--nodes", type=_nodes, default=60, help="planner intervals, at least 4 (default: %(default)s)")
+    p.add_argument("--json", action="store_true", help="print the figures as JSON")
+    p.set_defaults(run=_cmd_slew)
+
+    p = sub.add_parser(
+        "physics",
+        help="torque-free behaviour of the body: stable axes, nutation and flip, gravity gradient",
+        formatter_class=fmt_class,
+        description=(
+            "The torque-free behaviour of the body (wheels included, at rest): principal moments and axes, which\n"
+            "spin axes are stable (and with energy dissipation), nutation periods, the middle-axis e-folding\n"
+            "time and flip period at a reference spin rate, and gravity-gradient stability if the file has an\n"
+            "[orbit]. Exit code 0 (no requirement is judged)."
+        ),
+        epilog=_EPILOG,
+    )
+    p.add_argument("file", nargs="?", metavar="FILE", help=_FILE_HELP)
+    p.add_argument(
+        "--spin-rate-deg-per-s",
+        type=_positive,
+        default=10.0,
+        metavar="RATE",
+        help="reference spin rate [deg/s]; every rate scales with it (default: %(default)s)",
+    )
+    p.add_argument("--json", action="store_true", help="print the figures as JSON")
+    p.set_defaults(run=_cmd_physics)
+
+    p = sub.add_parser(
+        "montecarlo",
+        help="a dispersed closed-loop campaign from the file's [montecarlo] table",
+        formatter_class=fmt_class,
+        description=(
+            "Run the spacecraft's closed loop (wheels, gyro, star tracker, MEKF) many times with the\n"
+            "dispersions of the file's [montecarlo] table (inertia, initial rate and attitude, sensor\n"
+            "misalignments, gyro turn-on bias). The guidance is the design's: the required slew planned\n"
+            "once on the nominal spacecraft (time-optimal around the keep-out cones, as `attitude design`\n"
+            "plans it) and tracked\n"
+            "with the plan's torque as feedforward; --guidance eigenaxis flies the rate-limited PD straight\n"
+            "to the target instead, which cannot avoid a keep-out cone (add --no-keep-out to judge it on the\n"
+            "other requirements). Settling and pointing are judged against the target attitude: the\n"
+            "settling time is when the error to the target enters the pointing accuracy for good, required\n"
+            "within max_time_s + settling_time_s. Seeds come from one master seed, so a campaign is\n"
+            "reproducible whatever the number of workers. Writes the per-run table (CSV), statistics, time\n"
+            "histories (npz), a checkpoint (an interrupted campaign resumes) and figures to --out. Exit code\n"
+            "0 when every completed run meets every requirement; 1 also when the slew cannot be planned.\n\n"
+            "On a Dask cluster: start `dask scheduler` on one machine and `dask worker tcp://HOST:8786` on\n"
+            "each of the others (with this package installed), then pass --scheduler tcp://HOST:8786."
+        ),
+        epilog=_EPILOG,
+    )
+    p.add_argument("file", nargs="?", metavar="FILE", help="spacecraft TOML file (default: the built-in one)")
+    p.add_argument("--runs", type=_count(1), default=None, help="number of runs (default: montecarlo.runs of the file)")
+    p.add_argument("--workers", type=_count(1), default=None, help="local worker processes (default: all cores)")
+    p.add_argument(
+        "--scheduler",
+        type=_scheduler_address,
+        default=None,
+        metavar="ADDR",
+        help="Dask scheduler address tcp://HOST:PORT",
+    )
+    p.add_argument("--out", default="montecarlo", metavar="DIR", help="output folder (default: montecarlo)")
+    p.add_argument("--seed", type=_count(0), default=None, help="master seed (default: montecarlo.seed of the file)")
+    p.add_argument(
+        "--fresh",
+        action="store_true",
+        help="start afresh: discard the checkpoint in --out (default: resume the campaign it holds, if the same)",
+    )
+    p.add_argument(
+        "--duration-s",
+        type=_positive,
+        default=600.0,
+        help="simulated time per run [s] (default 600); with the planned slew at least the slew plus settling_time_s",
+    )
+    p.add_argument(
+        "--guidance",
+        choices=("plan", "eigenaxis"),
+        default="plan",
+        help="plan: the design's planned slew, tracked (default); eigenaxis: rate-limited PD straight to the target",
+    )
+    p.add_argument(
+        "--nodes",
+        type=_nodes,
+        default=60,
+        help="planner intervals of the planned slew, at least 4 (default: %(default)s)",
+    )
+    p.add_argument(
+        "--no-keep-out",
+        action="store_true",
+        help="do not count the keep-out cones as requirements (for --guidance eigenaxis, which cannot avoid them)",
+    )
+    p.add_argument(
+        "--vectorized",
+        action="store_true",
+        help="advance the runs together in batches (truth, sensors, MEKF, control as batched states; same metrics "
+        "to rounding, tens of times less CPU; the plant step compiled to C when a C compiler is found)",
+    )
+    p.add_argument("--json", action="store_true", help="print the statistics as JSON")
+    p.set_defaults(run=_cmd_montecarlo)
+
+    p = sub.add_parser(
+        "init",
+        help="write the built-in spacecraft file, commented, as a starting point",
+        formatter_class=fmt_class,
+        description=(
+            "Write the built-in default spacecraft (a 12U CubeSat; the source of every figure is in its\n"
+            "comments) to FILE as a starting point. Refuses to overwrite an existing file unless --force."
+        ),
+        epilog=_EPILOG,
+    )
+    p.add_argument("file", metavar="FILE", help="where to write the spacecraft file")
+    p.add_argument("--force", action="store_true", help="overwrite FILE if it exists")
+    p.set_defaults(run=_cmd_init)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``attitude`` command; returns the exit code (module docstring)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if getattr(args, "run", None) is None:
+        parser.print_help(sys.stderr)
+        return EXIT_BAD_INPUT
+    try:
+        code = args.run(args)
+        sys.stdout.flush()  # a pipe closed early fails here, inside the handler, not at interpreter exit
+        return code
+    except BrokenPipeError:
+        # The reader went away (`attitude physics | head -5`): exit quietly, as Unix tools do.
+        # Point stdout at devnull so the interpreter's final flush does not raise again.
+        try:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (OSError, ValueError):
+            pass
+        return 141  # 128 + SIGPIPE, what a shell reports for a tool killed by the broken pipe
+    except ConfigError as exc:
+        print(f"attitude {args.command}: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except UsageError as exc:
+        print(f"attitude {args.command}: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT

@@ -1,0 +1,115 @@
+"""Section 2 of the design report: linear design (top floor: imports :mod:`controllers`).
+
+* Quaternion PD from the file's ``control.bandwidth_rad_per_s`` and
+  ``control.damping`` (:meth:`controllers.pd.QuaternionPD.from_bandwidth`,
+  gyroscopic compensation on), its closed-loop poles on the body linearised
+  at rest (:func:`controllers.analysis.attitude_closed_loop`) and its step
+  responses.
+* Discrete LQR at ``control.period_s`` with Bryson's rule from
+  ``[control.lqr]`` (when the file has it), with its closed-loop poles as
+  s-plane equivalents.
+* Loop-at-a-time margins per axis (gain, phase, delay) of the continuous
+  loops and of the sampled loops (zero-order hold at ``control.period_s``,
+  :func:`controllers.analysis.sampled_loop`), with Bode figures.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from attitude.config.model import SpacecraftConfig
+from attitude.linearize import linearize
+from attitude.plain import plain_float as _f
+from attitude.plain import plain_matrix as _mat
+from attitude.plain import plain_vector as _vec
+from controllers.analysis import attitude_closed_loop, loop_gain, margins, plot_bode, plot_step, sampled_loop
+from controllers.lqr import bryson_weights, design_lqr
+from controllers.pd import QuaternionPD
+
+__all__ = ["linear_design"]
+
+_AXES = "xyz"
+
+
+def _pole(p: complex) -> dict[str, float]:
+    wn = abs(p)
+    return {"real": _f(p.real), "imag": _f(p.imag), "wn_rad_per_s": _f(wn), "zeta": _f(-p.real / wn) if wn else 1.0}
+
+
+def _poles(poles: Any) -> list[dict[str, float]]:
+    """Poles sorted by frequency, one of each conjugate pair (the one with Im >= 0)."""
+    p = np.asarray(poles, dtype=complex)
+    p = p[p.imag >= -1e-12 * np.maximum(1.0, np.abs(p))]
+    return [_pole(complex(v)) for v in sorted(p, key=lambda v: (abs(v), v.imag))]
+
+
+def _margin_row(controller: str, loop_name: str, axis: str, loop: Any) -> dict[str, Any]:
+    m = margins(loop)
+    return {
+        "controller": controller,
+        "loop": loop_name,
+        "axis": axis,
+        "gain_margin_db": _f(m.gain_margin_db),
+        "gain_margin_lower_db": _f(m.gain_margin_lower_db),
+        "phase_margin_deg": _f(m.phase_margin_deg),
+        "delay_margin_s": _f(m.delay_margin_s),
+        "gain_crossover_rad_per_s": _f(m.gain_crossover),
+        "phase_crossover_rad_per_s": _f(m.phase_crossover),
+        "stable": bool(m.stable),
+    }
+
+
+def linear_design(config: SpacecraftConfig) -> tuple[dict[str, Any], dict[str, Figure]]:
+    """Section 2: PD and LQR gains, closed-loop poles, margins per axis, Bode and step figures."""
+    body = config.body()
+    c = config.control
+    period = c.period_s
+    pd = QuaternionPD.from_bandwidth(body, c.bandwidth_rad_per_s, c.damping, period, gyroscopic=True)
+    closed = attitude_closed_loop(body, pd)
+    loops = loop_gain(body, pd)
+    sampled = [sampled_loop(loop, period) for loop in loops]
+    sampled_name = f"sampled ({1.0 / period:g} Hz, zero-order hold)"
+    rows = [_margin_row("PD", "continuous", a, loop) for a, loop in zip(_AXES, loops)]
+    rows += [_margin_row("PD", sampled_name, a, loop) for a, loop in zip(_AXES, sampled)]
+    out: dict[str, Any] = {
+        "period_s": period,
+        "rate_Hz": 1.0 / period,
+        "pd": {
+            "bandwidth_rad_per_s": c.bandwidth_rad_per_s,
+            "damping": c.damping,
+            "K_Nm": _mat(pd.K),
+            "C_Nms": _mat(pd.C),
+            "gyroscopic_compensation": True,
+            "poles": _poles(np.linalg.eigvals(closed.A)),
+        },
+        "lqr": None,
+        "margins": rows,
+    }
+    figures = {
+        "pd_step": plot_step(closed),
+        "pd_bode": plot_bode(loops, labels=[f"PD, {a} axis, continuous" for a in _AXES]),
+        "pd_bode_sampled": plot_bode(sampled, labels=[f"PD, {a} axis, {1.0 / period:g} Hz ZOH" for a in _AXES]),
+    }
+    if c.lqr is not None:
+        q_w, r_w = bryson_weights(c.lqr.max_angle_rad, c.lqr.max_rate_rad_per_s, c.lqr.max_torque)
+        plant = linearize(body)
+        lqr = design_lqr(plant, q_w, r_w, period=period)
+        lqr_loops = loop_gain(plant, lqr.K)
+        lqr_sampled = [sampled_loop(loop, period) for loop in lqr_loops]
+        rows += [_margin_row("LQR", "continuous", a, loop) for a, loop in zip(_AXES, lqr_loops)]
+        rows += [_margin_row("LQR", sampled_name, a, loop) for a, loop in zip(_AXES, lqr_sampled)]
+        out["lqr"] = {
+            "max_angle_deg": _vec(np.degrees(c.lqr.max_angle_rad)),
+            "max_rate_deg_per_s": _vec(np.degrees(c.lqr.max_rate_rad_per_s)),
+            "max_torque_Nm": _vec(c.lqr.max_torque),
+            "K": _mat(lqr.K),
+            "poles": _poles(lqr.s_poles),
+            "slowest_decay_rate_per_s": _f(lqr.slowest_decay_rate),
+        }
+        figures["lqr_bode_sampled"] = plot_bode(
+            lqr_sampled, labels=[f"LQR, {a} axis, {1.0 / period:g} Hz ZOH" for a in _AXES]
+        )
+    return out, figures

@@ -1,0 +1,443 @@
+"""The design computation behind ``attitude design``: a spacecraft file in, every figure of the report out.
+
+Top floor (DESIGN.md): like :mod:`attitude.app.cli`, this module and its parts
+(:mod:`attitude.app.design.body`, :mod:`attitude.app.design.linear`,
+:mod:`attitude.app.design.slew`, :mod:`attitude.app.design.estimation`) tie the
+toolkit together and import :mod:`controllers` and :mod:`estimation`; no
+ground-floor module imports them. Writing the report (markdown, HTML, JSON,
+PNG) is :mod:`attitude.app.report.writer`'s job; these modules only compute.
+
+:func:`run_design` runs the six steps of the report in order and returns a
+:class:`DesignResult`: ``results``, a JSON-ready dict holding every number
+the report shows (keys carry their units as in the spacecraft file: ``_s``,
+``_deg``, ``_deg_per_s``, ``_mNm``, ``_arcsec`` ...), and ``figures``
+(matplotlib Figures by file stem).
+
+1. The body (:func:`attitude.app.design.body.body_analysis`).
+2. Linear design (:func:`attitude.app.design.linear.linear_design`).
+3. Slews (:func:`attitude.app.design.slew.plan_slews`).
+4. Closed loop (:func:`attitude.app.design.slew.fly_slew`).
+5. Estimation (:func:`attitude.app.design.estimation.estimation_study`).
+6. Requirements (:func:`requirement_verdicts`; :func:`plan_verdicts` judges a
+   plan alone for ``attitude slew``): each requirement of the
+   file against the achieved figure, judged from the numbers stored in
+   ``results`` and nowhere else, so the report, ``results.json`` and the
+   exit code cannot disagree. Advisory design checks (margin guidelines,
+   wheel momentum, filter consistency) are listed apart and do not change
+   the verdict.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from attitude.app.design.body import DEFAULT_SPIN_RATE_DEG_PER_S, body_analysis, body_figures
+from attitude.app.design.estimation import MIN_FRACTION_INSIDE, estimation_study
+from attitude.app.design.linear import linear_design
+from attitude.app.design.slew import check_periods, fly_slew, plan_slews, slew_figures
+from attitude.config.model import SpacecraftConfig
+
+__all__ = [
+    "GAIN_MARGIN_GUIDELINE_DB",
+    "PHASE_MARGIN_GUIDELINE_DEG",
+    "DesignOptions",
+    "DesignResult",
+    "plan_verdicts",
+    "requirement_verdicts",
+    "run_design",
+]
+
+#: Classical margin guidelines of the advisory checks (not requirements of the file).
+GAIN_MARGIN_GUIDELINE_DB = 6.0
+PHASE_MARGIN_GUIDELINE_DEG = 30.0
+
+
+@dataclass(frozen=True)
+class DesignOptions:
+    """How much work the design does.
+
+    Attributes
+    ----------
+    quick : bool
+        Fewer planner nodes and Monte Carlo runs (a first look, and the test
+        suite); the verdict rules are the same.
+    spin_rate_deg_per_s : float
+        Reference spin rate of the torque-free analysis [deg/s].
+    seed : int or None
+        Master seed; None takes ``montecarlo.seed`` from the file, else 0.
+    """
+
+    quick: bool = False
+    spin_rate_deg_per_s: float = DEFAULT_SPIN_RATE_DEG_PER_S
+    seed: int | None = None
+
+    @property
+    def nodes(self) -> int:
+        """Planner intervals."""
+        return 30 if self.quick else 60
+
+    @property
+    def mekf_runs(self) -> int:
+        """Monte Carlo runs of the MEKF consistency check (batched: cheap)."""
+        return 8 if self.quick else 50
+
+    @property
+    def rate_ekf_runs(self) -> int:
+        """Monte Carlo runs of the rate-EKF consistency check (one filterpy filter per run)."""
+        return 4 if self.quick else 20
+
+
+@dataclass
+class DesignResult:
+    """What :func:`run_design` computed.
+
+    Attributes
+    ----------
+    config : SpacecraftConfig
+        The validated spacecraft.
+    results : dict
+        JSON-ready: every number the report shows (module docstring).
+    figures : dict of str to Figure
+        Figures by file stem; ``results["figures"]`` holds their section and caption.
+    """
+
+    config: SpacecraftConfig
+    results: dict[str, Any]
+    figures: dict[str, Figure] = field(default_factory=dict)
+
+    @property
+    def passed(self) -> bool:
+        """True when every requirement passes."""
+        return bool(self.results["verdict"]["pass"])
+
+
+Progress = Callable[[str], None]
+
+
+# ---------------------------------------------------------------------------
+# 6. Requirements
+
+
+def _row(rid: str, text: str, key: str, required: Any, achieved: Any, unit: str, comparison: str) -> dict[str, Any]:
+    if achieved is None:
+        ok = False
+    elif comparison == "<=":
+        ok = bool(achieved <= required)
+    else:
+        ok = bool(achieved >= required)
+    return {
+        "id": rid,
+        "requirement": text,
+        "key": key,
+        "required": required,
+        "achieved": achieved,
+        "unit": unit,
+        "comparison": comparison,
+        "pass": ok,
+    }
+
+
+def _slew_rows(
+    config: SpacecraftConfig,
+    angle_deg: float,
+    figures: dict[str, Any] | None,
+    source: str,
+    time_label: str,
+    slew_time_s: float | None,
+) -> list[dict[str, Any]]:
+    """The slew requirements (time, rate limit, keep-out cones) judged on ``figures`` of a plan or a flight.
+
+    ``figures`` holds ``peak_rate_deg_per_s`` and ``min_separation_deg`` (None: not computed, so failed);
+    ``source`` ("plan" or "flown") labels the rows.
+    """
+    req = config.requirements
+    rows = [
+        _row(
+            "slew_time",
+            f"slew time for {angle_deg:.1f} deg ({time_label})",
+            "requirements.slew.max_time_s",
+            req.slew.max_time_s,
+            slew_time_s,
+            "s",
+            "<=",
+        )
+    ]
+    if req.slew.rate_max_deg_per_s is not None:
+        rows.append(
+            _row(
+                "slew_rate",
+                f"largest body rate ({source})",
+                "requirements.slew.rate_max_deg_per_s",
+                req.slew.rate_max_deg_per_s,
+                None if figures is None else figures["peak_rate_deg_per_s"],
+                "deg/s",
+                "<=",
+            )
+        )
+    for i, cone in enumerate(req.keep_out):
+        rows.append(
+            _row(
+                f"keep_out_{i}",
+                f"keep-out '{cone.name}': smallest separation ({source})",
+                f"requirements.keep_out[{i}].half_angle_deg",
+                cone.half_angle_deg,
+                None if figures is None else figures["min_separation_deg"][cone.name],
+                "deg",
+                ">=",
+            )
+        )
+    return rows
+
+
+def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> dict[str, Any]:
+    """Section 6: each requirement of the file against the achieved figure (from ``results`` only).
+
+    A requirement passes when ``achieved <= required`` (or ``>=``, per row);
+    a figure that could not be computed (``None``) fails. Returns
+    ``{"requirements": [...], "checks": [...], "verdict": {...}}``; the
+    ``checks`` are advisory design guidelines that do not change the verdict.
+    """
+    req = config.requirements
+    slews = results["slews"]
+    flight = results["closed_loop"]
+    # The slew time is judged on the FLOWN slew: the first time after which the attitude error stays
+    # within the pointing accuracy (the plan's duration is shown beside it, in sections 3 and 4).
+    rows = _slew_rows(
+        config,
+        slews["angle_deg"],
+        flight,
+        "flown",
+        "flown: error within the pointing accuracy from then on",
+        None if flight is None else flight["flown_slew_time_s"],
+    )
+    rows.append(
+        _row(
+            "settling_time",
+            "settling time after the end of the slew (flown)",
+            "requirements.settling_time_s",
+            req.settling_time_s,
+            None if flight is None else flight["settling_time_after_slew_s"],
+            "s",
+            "<=",
+        )
+    )
+    rows.append(
+        _row(
+            "pointing_accuracy",
+            "largest pointing error after settling (flown)",
+            "requirements.pointing_accuracy_deg",
+            req.pointing_accuracy_deg,
+            None if flight is None else flight["max_pointing_error_in_window_deg"],
+            "deg",
+            "<=",
+        )
+    )
+    checks = []
+    sampled = [m for m in results["linear"]["margins"] if m["loop"] != "continuous"]
+    for ctrl in sorted({m["controller"] for m in sampled}):
+        ms = [m for m in sampled if m["controller"] == ctrl]
+        checks.append(
+            _row(
+                f"{ctrl.lower()}_gain_margin",
+                f"{ctrl} sampled loop: smallest gain margin (guideline)",
+                "",
+                GAIN_MARGIN_GUIDELINE_DB,
+                min(m["gain_margin_db"] for m in ms) if all(m["stable"] for m in ms) else None,
+                "dB",
+                ">=",
+            )
+        )
+        checks.append(
+            _row(
+                f"{ctrl.lower()}_phase_margin",
+                f"{ctrl} sampled loop: smallest phase margin (guideline)",
+                "",
+                PHASE_MARGIN_GUIDELINE_DEG,
+                min(m["phase_margin_deg"] for m in ms) if all(m["stable"] for m in ms) else None,
+                "deg",
+                ">=",
+            )
+        )
+    if flight is not None:
+        checks.append(
+            _row(
+                "wheel_momentum",
+                "peak wheel momentum below the wheel limit",
+                "wheels.momentum_max_Nms",
+                flight["wheel_momentum_limit_Nms"],
+                flight["peak_wheel_momentum_Nms"],
+                "N m s",
+                "<=",
+            )
+        )
+    est = results.get("estimation")
+    if est is not None:
+        for name in ("mekf", "rate_ekf"):
+            e = est[name]
+            checks.append(
+                _row(
+                    f"{name}_nees",
+                    f"{e['label']}: fraction of steps with the average NEES inside its 95 % band",
+                    "",
+                    est["min_fraction_inside"],
+                    e["fraction_inside"],
+                    "",
+                    ">=",
+                )
+            )
+    failed = [r["id"] for r in rows if not r["pass"]]
+    return {"requirements": rows, "checks": checks, "verdict": {"pass": not failed, "failed": failed}}
+
+
+def plan_verdicts(config: SpacecraftConfig, slews: dict[str, Any]) -> dict[str, Any]:
+    """The slew requirements judged on a plan alone (``attitude slew``): time, plan rate, plan separation.
+
+    ``slews`` is :attr:`attitude.app.design.slew.SlewStudy.summary`. Returns
+    ``{"requirements": [...], "verdict": {...}}``.
+    """
+    plan = slews["plan"]
+    duration = None if plan is None else plan["duration_s"]
+    rows = _slew_rows(config, slews["angle_deg"], plan, "plan", "optimal plan", duration)
+    failed = [r["id"] for r in rows if not r["pass"]]
+    return {"requirements": rows, "verdict": {"pass": not failed, "failed": failed}}
+
+
+# ---------------------------------------------------------------------------
+# The whole design
+
+
+def _caption_table() -> dict[str, tuple[str, str]]:
+    return {
+        "body_polhodes": (
+            "body",
+            "Torque-free polhodes: rates circle the minor and major axes, the middle axis is unstable (separatrix).",
+        ),
+        "pd_step": ("linear", "PD closed-loop step responses (linearised at rest)."),
+        "pd_bode": ("linear", "PD loop gain broken at the plant input, per axis, continuous."),
+        "pd_bode_sampled": ("linear", "PD loop gain of the sampled loop (zero-order hold at the controller rate)."),
+        "lqr_bode_sampled": ("linear", "LQR loop gain of the sampled loop, per axis."),
+        "slew_plan": (
+            "slews",
+            "Optimal plan: torque, rates, attitude and keep-out separation (dashed: the cone as planned, widened "
+            "by the planning margin).",
+        ),
+        "slew_comparison": ("slews", "Optimal plan and eigenaxis slew: body rate and keep-out separation."),
+        "closed_loop": ("closed_loop", "Flown slew: attitude error, body rates, torques, wheel speeds."),
+        "pointing": ("closed_loop", "Pointing error (truth) and knowledge error (MEKF) with the requirement."),
+        "mekf_errors": (
+            "estimation",
+            "MEKF attitude and gyro-bias errors of the first Monte Carlo runs with the 3-sigma envelope.",
+        ),
+        "rate_ekf_errors": ("estimation", "Rate EKF rate and bias errors (run 1) with 3-sigma bounds."),
+        "mekf_nees": ("estimation", "MEKF: average NEES over the Monte Carlo runs with its 95 % chi-square band."),
+        "rate_ekf_nees": ("estimation", "Rate EKF: average NEES with its 95 % chi-square band."),
+    }
+
+
+def run_design(
+    config: SpacecraftConfig, options: DesignOptions | None = None, progress: Progress | None = None
+) -> DesignResult:
+    """Run the whole design (module docstring) and judge the requirements.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        A validated spacecraft.
+    options : DesignOptions, optional
+        Size of the computation (default: the full design).
+    progress : callable, optional
+        Called with a short message before and after each step.
+
+    Raises
+    ------
+    ConfigError
+        When the sample periods cannot share one simulation clock.
+    """
+    options = options or DesignOptions()
+    say = progress or (lambda _msg: None)
+    check_periods(config)
+    seed = options.seed
+    if seed is None:
+        seed = 0 if config.montecarlo is None else config.montecarlo.seed
+    seeds = np.random.SeedSequence(seed).spawn(2)
+    timing: dict[str, float] = {}
+    caught: list[str] = []
+    figures: dict[str, Figure] = {}
+
+    def step(number: int, name: str, label: str, fun: Callable[[], Any]) -> Any:
+        say(f"[{number}/6] {label} ...")
+        start = time.perf_counter()
+        with warnings.catch_warnings(record=True) as record:
+            warnings.simplefilter("always")
+            value = fun()
+        for w in record:
+            text = f"{name}: {w.category.__name__}: {w.message}"
+            if text not in caught:
+                caught.append(text)
+        timing[name] = time.perf_counter() - start
+        say(f"[{number}/6] {label}: done in {timing[name]:.1f} s")
+        return value
+
+    results: dict[str, Any] = {
+        "schema": "attitude-design-results/1",
+        "spacecraft": {"name": config.name, "description": config.description, "source": config.source},
+        "settings": {
+            "quick": options.quick,
+            "seed": int(seed),
+            "planner_nodes": options.nodes,
+            "mekf_runs": options.mekf_runs,
+            "rate_ekf_runs": options.rate_ekf_runs,
+            "spin_rate_deg_per_s": options.spin_rate_deg_per_s,
+        },
+    }
+    results["body"] = step(
+        1, "body", "body: principal axes, stability", lambda: body_analysis(config, options.spin_rate_deg_per_s)
+    )
+    figures.update(body_figures(config, results["body"]))
+    linear, figs = step(2, "linear", "linear design: PD, LQR, margins", lambda: linear_design(config))
+    results["linear"] = linear
+    figures.update(figs)
+    study = step(
+        3,
+        "slews",
+        f"slews: optimal plan ({options.nodes} nodes) and eigenaxis",
+        lambda: plan_slews(config, nodes=options.nodes),
+    )
+    results["slews"] = study.summary
+    figures.update(slew_figures(study))
+    flight, figs, sim = step(
+        4,
+        "closed_loop",
+        "closed loop: tracking, wheels, gyro, star tracker, MEKF",
+        lambda: fly_slew(config, study, seeds[0]),
+    )
+    results["closed_loop"] = flight
+    figures.update(figs)
+    label = f"estimation: MEKF ({options.mekf_runs} runs) and rate EKF ({options.rate_ekf_runs} runs)"
+    est, figs = step(
+        5,
+        "estimation",
+        label,
+        lambda: estimation_study(config, sim, options.mekf_runs, options.rate_ekf_runs, seeds[1]),
+    )
+    results["estimation"] = est
+    figures.update(figs)
+    if est is not None:
+        est["min_fraction_inside"] = MIN_FRACTION_INSIDE
+    verdicts = step(6, "requirements", "requirements", lambda: requirement_verdicts(config, results))
+    results.update(verdicts)
+    captions = _caption_table()
+    results["figures"] = {
+        name: {"section": captions[name][0], "caption": captions[name][1], "file": f"figures/{name}.png"}
+        for name in figures
+    }
+    results["warnings"] = caught
+    results["timing_s"] = timing
+    return DesignResult(config=config, results=results, figures=figures)

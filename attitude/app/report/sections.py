@@ -1,0 +1,589 @@
+"""The content of the design report: the six sections as a list of blocks, built from ``results`` only.
+
+Every number in a block comes from the results dict of
+:func:`attitude.app.design.run.run_design` (the same dict ``results.json`` holds),
+formatted by :func:`fmt`; :mod:`attitude.app.report.writer` renders the blocks to
+markdown and HTML. Nothing here computes a figure of merit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+__all__ = ["Block", "Figure", "Heading", "Paragraph", "Table", "build_blocks", "fmt", "requirement_rows"]
+
+SECTIONS = (
+    ("body", "1. The body"),
+    ("linear", "2. Linear design"),
+    ("slews", "3. Slews"),
+    ("closed_loop", "4. Closed loop"),
+    ("estimation", "5. Estimation"),
+    ("requirements", "6. Requirements"),
+)
+
+
+@dataclass(frozen=True)
+class Heading:
+    """A heading of ``level`` 1-3 with an anchor."""
+
+    level: int
+    text: str
+    anchor: str = ""
+
+
+@dataclass(frozen=True)
+class Paragraph:
+    """A paragraph of plain text."""
+
+    text: str
+
+
+@dataclass(frozen=True)
+class Table:
+    """A table: header cells, rows of cells (strings), first column left-aligned, the others right."""
+
+    header: tuple[str, ...]
+    rows: tuple[tuple[str, ...], ...]
+    caption: str = ""
+
+
+@dataclass(frozen=True)
+class Figure:
+    """A figure of the report: file stem (``figures/<name>.png``) and caption."""
+
+    name: str
+    caption: str
+
+
+Block = Heading | Paragraph | Table | Figure
+
+
+def fmt(value: Any, digits: int = 4) -> str:
+    """Format a number for the report: ``digits`` significant digits; None is "n/a"; inf is "inf".
+
+    The one number format of the report (tests use it to find values of
+    ``results.json`` in ``report.md``).
+    """
+    if value is None:
+        return "n/a"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, int):
+        return str(value)
+    x = float(value)
+    if math.isnan(x):
+        return "nan"
+    if math.isinf(x):
+        return "inf" if x > 0 else "-inf"
+    if x == 0.0:
+        return "0"
+    return f"{x:.{digits}g}"
+
+
+def _vec(values: Any, digits: int = 4) -> str:
+    return "[" + ", ".join(fmt(v, digits) for v in values) + "]"
+
+
+def _t(header: list[str], rows: list[list[str]], caption: str = "") -> Table:
+    return Table(tuple(header), tuple(tuple(r) for r in rows), caption)
+
+
+def _figure(results: dict[str, Any], name: str) -> list[Block]:
+    info = results.get("figures", {}).get(name)
+    return [] if info is None else [Figure(name, info["caption"])]
+
+
+def verdict_text(ok: bool) -> str:
+    """The verdict cell: PASS or FAIL."""
+    return "PASS" if ok else "FAIL"
+
+
+# ---------------------------------------------------------------------------
+# 1. The body
+
+
+def _body(results: dict[str, Any]) -> list[Block]:
+    b = results["body"]
+    spin = fmt(b["spin_rate_deg_per_s"])
+    pct = fmt(b["perturbation_percent"])
+    out: list[Block] = [
+        Paragraph(
+            "The whole spacecraft, reaction wheels included and at rest. Inertia tensor about the centre of mass "
+            "in body axes [kg m^2]: " + "; ".join(_vec(row) for row in b["inertia_B_kg_m2"]) + "."
+        ),
+        Paragraph(
+            f"Torque-free spin about each principal axis at the reference rate of {spin} deg/s (every rate scales "
+            "with it). Linear theory gives the nutation period of a stable axis and the e-folding time of the "
+            f"unstable one; the exact period is that of the elliptic solution for a spin {pct} % off the axis."
+        ),
+    ]
+    rows = []
+    for a in b["axes"]:
+        rows.append(
+            [
+                a["name"],
+                fmt(a["moment_kg_m2"]),
+                _vec(a["axis_B"], 3),
+                f"{a['closest_body_axis']} ({fmt(a['angle_from_body_axis_deg'], 2)} deg)",
+                a["torque_free"],
+                a["with_energy_dissipation"],
+                fmt(a["nutation_period_s"]),
+                fmt(a["nutation_period_exact_s"]),
+                fmt(a["e_folding_time_s"]),
+            ]
+        )
+    out.append(
+        _t(
+            [
+                "principal axis",
+                "moment [kg m^2]",
+                "direction (body axes)",
+                "closest body axis",
+                "torque-free spin",
+                "with energy dissipation",
+                "nutation period, linear [s]",
+                "nutation period, exact [s]",
+                "divergence e-folding time [s]",
+            ],
+            rows,
+        )
+    )
+    if b["flip_period_s"] is not None:
+        out.append(
+            Paragraph(
+                f"A {spin} deg/s spin about the intermediate axis, perturbed by {pct} %, flips over every "
+                f"{fmt(b['flip_period_s'])} s (exact elliptic solution; the tennis-racket effect). With energy "
+                "dissipation (flexible parts, fuel, dampers) only the major axis is a stable spin axis."
+            )
+        )
+    else:
+        out.append(Paragraph("The body is axisymmetric (two equal principal moments): there is no middle-axis flip."))
+    gg = b["gravity_gradient"]
+    if gg is None:
+        out.append(Paragraph("No [orbit] table in the spacecraft file: gravity gradient not analysed."))
+    else:
+        out.append(
+            Paragraph(
+                f"Gravity gradient on the circular orbit at {fmt(gg['altitude_km'])} km (orbit period "
+                f"{fmt(gg['orbit_period_min'])} min): the largest gravity-gradient torque on this body is "
+                f"{fmt(gg['peak_torque_uNm'])} uN m (3 n^2 (I3 - I1) / 2, at 45 deg from the principal axes). "
+                "Stability of the nadir-pointing attitude (linearised about the LVLH frame):"
+            )
+        )
+        rows = []
+        for o in gg["orientations"]:
+            ry = o["roll_yaw_periods_s"]
+            rows.append(
+                [
+                    o["orientation"],
+                    _vec(o["roll_pitch_yaw_moments_kg_m2"]),
+                    o["region"],
+                    "stable" if o["pitch_stable"] else "unstable",
+                    "stable" if o["roll_yaw_stable"] else "unstable",
+                    fmt(o["pitch_libration_period_min"]),
+                    "n/a" if ry is None else ", ".join(fmt(p) for p in o["roll_yaw_periods_min"]),
+                ]
+            )
+        out.append(
+            _t(
+                [
+                    "orientation",
+                    "roll, pitch, yaw moments [kg m^2]",
+                    "region",
+                    "pitch",
+                    "roll-yaw",
+                    "pitch libration period [min]",
+                    "roll-yaw periods [min]",
+                ],
+                rows,
+            )
+        )
+    out += _figure(results, "body_polhodes")
+    return out
+
+
+# ---------------------------------------------------------------------------
+# 2. Linear design
+
+
+def _poles_table(poles: list[dict[str, Any]]) -> Table:
+    rows = []
+    for p in poles:
+        im = p["imag"]
+        pole = fmt(p["real"]) + (f" ± {fmt(im)}j" if abs(im) > 0 else "")
+        rows.append([pole, fmt(p["wn_rad_per_s"]), fmt(p["zeta"])])
+    return _t(["closed-loop pole [1/s]", "natural frequency [rad/s]", "damping"], rows)
+
+
+def _linear(results: dict[str, Any]) -> list[Block]:
+    lin = results["linear"]
+    pd = lin["pd"]
+    period = lin["period_s"]
+    out: list[Block] = [
+        Paragraph(
+            f"Controller sample period {fmt(period)} s ({fmt(lin['rate_Hz'])} Hz). Quaternion-feedback PD from "
+            f"the natural frequency {fmt(pd['bandwidth_rad_per_s'])} rad/s and damping {fmt(pd['damping'])}: "
+            "K = 2 I wn^2 and C = 2 I zeta wn with the full inertia tensor (the factor 2 because the error "
+            "quaternion's vector part is half the angle), plus gyroscopic compensation."
+        ),
+        _t(
+            ["row", "K x [N m]", "K y [N m]", "K z [N m]", "C x [N m s]", "C y [N m s]", "C z [N m s]"],
+            [[a] + [fmt(v) for v in k] + [fmt(v) for v in c] for a, k, c in zip("xyz", pd["K_Nm"], pd["C_Nms"])],
+            "PD gains (torque = -K sgn(q_e0) q_ev - C omega_e)",
+        ),
+        _poles_table(pd["poles"]),
+    ]
+    lqr = lin["lqr"]
+    if lqr is None:
+        out.append(Paragraph("No [control.lqr] table in the spacecraft file: no LQR design."))
+    else:
+        out.append(
+            Paragraph(
+                f"Discrete LQR at {fmt(period)} s by Bryson's rule: largest acceptable attitude error "
+                f"{_vec(lqr['max_angle_deg'])} deg, rate error {_vec(lqr['max_rate_deg_per_s'])} deg/s and torque "
+                f"{_vec(lqr['max_torque_Nm'])} N m per axis. Closed-loop poles as s-plane equivalents; the "
+                f"slowest decays at {fmt(lqr['slowest_decay_rate_per_s'])} 1/s."
+            )
+        )
+        out.append(
+            _t(
+                ["row", "q_e1", "q_e2", "q_e3", "omega_1 [s]", "omega_2 [s]", "omega_3 [s]"],
+                [[a] + [fmt(v) for v in row] for a, row in zip("xyz", lqr["K"])],
+                "LQR gain K [N m per state unit]: torque = -K [q_ev, omega]",
+            )
+        )
+        out.append(_poles_table(lqr["poles"]))
+    out.append(
+        Paragraph(
+            "Margins per axis, loop broken at the plant input with the other axes closed: the continuous loops and "
+            f"the sampled loops (zero-order hold at {fmt(period)} s). The delay margin is the extra computation "
+            "delay each loop tolerates."
+        )
+    )
+
+    def margin(m: dict, key: str) -> str:
+        # Margins of an unstable closed loop are not margins (no stable gain interval to bound).
+        return fmt(m[key]) if m["stable"] else "n/a"
+
+    rows = [
+        [
+            m["controller"],
+            m["loop"],
+            m["axis"],
+            margin(m, "gain_margin_db"),
+            margin(m, "phase_margin_deg"),
+            margin(m, "delay_margin_s"),
+            margin(m, "gain_crossover_rad_per_s"),
+            "stable" if m["stable"] else "UNSTABLE",
+        ]
+        for m in lin["margins"]
+    ]
+    out.append(
+        _t(
+            [
+                "controller",
+                "loop",
+                "axis",
+                "gain margin [dB]",
+                "phase margin [deg]",
+                "delay margin [s]",
+                "crossover [rad/s]",
+                "closed loop",
+            ],
+            rows,
+        )
+    )
+    for name in ("pd_step", "pd_bode", "pd_bode_sampled", "lqr_bode_sampled"):
+        out += _figure(results, name)
+    return out
+
+
+# ---------------------------------------------------------------------------
+# 3. Slews
+
+
+def _slews(results: dict[str, Any]) -> list[Block]:
+    s = results["slews"]
+    plan, eig = s["plan"], s["eigenaxis"]
+    cones = s["keep_out"]
+    rate = s["plan_rate_limit_deg_per_s"]
+    text = (
+        f"The required slew: {fmt(s['angle_deg'])} deg from q_BN = {_vec(s['q_start_BN'])} to "
+        f"{_vec(s['q_target_BN'])}. Both are planned with {fmt(s['plan_torque_percent'])} % of the wheels' "
+        f"torque (body envelope {_vec(s['torque_envelope_mNm'])} mN m per axis)"
+    )
+    if rate is not None:
+        text += f" and {fmt(s['plan_rate_percent'])} % of the rate limit ({fmt(rate)} deg/s)"
+    text += ", leaving the feedback authority on top of the feedforward."
+    if s.get("momentum_rate_limit_deg_per_s") is not None:
+        text += (
+            f" The wheels hold -I omega during the slew, so both are also rate-limited to keep the wheel momentum "
+            f"within {fmt(100.0 * s['plan_momentum_fraction'])} % of its limit: "
+            f"{fmt(s['planner_rate_limit_deg_per_s'])} deg/s for the optimal plan (any direction) and "
+            f"{fmt(s['eigenaxis_rate_limit_deg_per_s'])} deg/s along the eigenaxis."
+        )
+    if cones and plan is None:
+        text += (
+            " The optimal plan could not be made (below), so no slew here is shown to keep out of "
+            + ", ".join(f"'{c['name']}'" for c in cones)
+            + "; the eigenaxis slew cannot avoid a cone."
+        )
+    elif cones:
+        text += (
+            " The optimal plan keeps out of "
+            + ", ".join(f"'{c['name']}' (planned at {fmt(c['planned_half_angle_deg'])} deg)" for c in cones)
+            + "; the eigenaxis slew cannot avoid a cone."
+        )
+    out: list[Block] = [Paragraph(text)]
+    if s["error"]:
+        out.append(Paragraph(f"Planning problem: {s['error']}"))
+    names = [
+        "quantity",
+        "optimal plan" if plan is None else f"{plan['name']} (optimal plan)",
+        "eigenaxis",
+        "requirement",
+    ]
+    rows = []
+
+    def row(label: str, key: str, required: str = "") -> list[str]:
+        return [label] + [fmt(None if x is None else x[key]) for x in (plan, eig)] + [required]
+
+    rows.append(row("duration [s]", "duration_s", f"<= {fmt(s['max_time_s'])}"))
+    limit = s["rate_limit_deg_per_s"]
+    rows.append(row("peak body rate [deg/s]", "peak_rate_deg_per_s", "" if limit is None else f"<= {fmt(limit)}"))
+    rows.append(row("peak torque [mN m]", "peak_torque_mNm"))
+    rows.append(row("energy, integral of |torque|^2 [N^2 m^2 s]", "energy_N2m2s"))
+    for c in cones:
+        vals = [None if x is None else x["min_separation_deg"][c["name"]] for x in (plan, eig)]
+        rows.append([f"smallest separation '{c['name']}' [deg]", *map(fmt, vals), f">= {fmt(c['half_angle_deg'])}"])
+    out.append(_t(names, rows, "Side by side (the requirements are judged on the flown slew, section 4)"))
+    if plan is not None:
+        detail = (
+            f"Planner: {s['nodes']} intervals, IPOPT status {plan['status']}, "
+            f"{'switch times refined' if plan['refined'] else 'not refined'} (grid duration "
+            f"{fmt(plan['grid_duration_s'])} s), {fmt(plan['solve_time_s'])} s in IPOPT; the open-loop "
+            f"re-simulation of the plan ends {fmt(plan['open_loop_final_error_deg'])} deg from the target."
+        )
+        if s["speedup_percent"] is not None:
+            if s["speedup_percent"] >= 0:
+                detail += f" The plan is {fmt(s['speedup_percent'])} % faster than the eigenaxis slew."
+            else:
+                detail += (
+                    f" The plan takes {fmt(s['slowdown_percent'])} % longer than the eigenaxis slew: the price of the "
+                    "keep-out detour and of respecting the limits on every axis."
+                )
+        out.append(Paragraph(detail))
+    out += _figure(results, "slew_plan") + _figure(results, "slew_comparison")
+    return out
+
+
+# ---------------------------------------------------------------------------
+# 4. Closed loop
+
+
+def _settling_text(f: dict[str, Any]) -> str:
+    text = fmt(f["settling_time_after_slew_s"])
+    if math.isinf(float(f["settled_at_s"])):
+        text += " (never stays within the accuracy)"
+    elif float(f["settled_at_s"]) <= f["slew_end_s"]:
+        text += f" (within the accuracy from {fmt(f['settled_at_s'])} s, before the slew ended)"
+    return text
+
+
+def _closed_loop(results: dict[str, Any]) -> list[Block]:
+    f = results["closed_loop"]
+    if f is None:
+        return [Paragraph("Nothing to fly: neither the optimal plan nor the eigenaxis slew could be made.")]
+    out: list[Block] = [
+        Paragraph(
+            f"The {f['reference']} flown on the nonlinear plant for {fmt(f['duration_s'])} s (tick "
+            f"{fmt(f['tick_s'])} s): tracking control (plan torque as feedforward, quaternion PD feedback at "
+            f"{fmt(f['tracking_wn_rad_per_s'])} rad/s and damping {fmt(f['tracking_damping'])}), reaction wheels "
+            "with their torque and momentum limits, the gyro and the star tracker of the file, and the MEKF in the "
+            f"loop from an initial knowledge error of {fmt(f.get('drawn_initial_knowledge_error_arcsec'))} arcsec "
+            "(drawn from the filter's initial covariance; "
+            f"{fmt(f['initial_knowledge_error_arcsec'])} arcsec after the first star-tracker update). The slew "
+            f"ends at {fmt(f['slew_end_s'])} s; pointing is judged from {fmt(f['pointing_window_start_s'])} s "
+            "(end of slew plus the required settling time) to the end of the run."
+        )
+    ]
+    rows = [
+        ["slew time, planned [s]", fmt(f.get("plan_slew_time_s"))],
+        ["slew time, flown (error within the pointing accuracy from then on) [s]", fmt(f.get("flown_slew_time_s"))],
+        ["settling time after the end of the slew [s]", _settling_text(f)],
+        ["largest pointing error after the end of the slew [deg]", fmt(f.get("max_pointing_error_after_slew_deg"))],
+        ["largest pointing error after settling [deg]", fmt(f["max_pointing_error_in_window_deg"])],
+        ["pointing error at the end [deg]", fmt(f["pointing_error_end_deg"])],
+        ["pointing error at the end [arcsec]", fmt(f["pointing_error_end_arcsec"])],
+        ["knowledge error after settling, RMS [arcsec]", fmt(f["knowledge_error_rms_in_window_arcsec"])],
+        ["knowledge error after settling, largest [arcsec]", fmt(f["knowledge_error_max_in_window_arcsec"])],
+        ["peak body rate [deg/s]", fmt(f["peak_rate_deg_per_s"])],
+    ]
+    for name, sep in f["min_separation_deg"].items():
+        rows.append([f"smallest separation '{name}' [deg]", fmt(sep)])
+    rows += [
+        ["peak wheel speed [rpm]", f"{fmt(f['peak_wheel_speed_rpm'])} (limit {fmt(f['wheel_speed_limit_rpm'])})"],
+        [
+            "peak wheel momentum [N m s]",
+            f"{fmt(f['peak_wheel_momentum_Nms'])} (limit {fmt(f['wheel_momentum_limit_Nms'])})",
+        ],
+        ["peak motor torque [mN m]", f"{fmt(f['peak_motor_torque_mNm'])} (limit {fmt(f['motor_torque_limit_mNm'])})"],
+        [
+            "star-tracker updates (blinded samples)",
+            f"{fmt(f['tracker_updates'])} ({fmt(f['tracker_blinded_samples'])})",
+        ],
+    ]
+    out.append(_t(["closed-loop figure", "value"], rows))
+    out += _figure(results, "pointing") + _figure(results, "closed_loop")
+    return out
+
+
+# ---------------------------------------------------------------------------
+# 5. Estimation
+
+
+def _estimation(results: dict[str, Any]) -> list[Block]:
+    e = results["estimation"]
+    if e is None:
+        return [Paragraph("No flown slew to serve as the truth: estimation not analysed.")]
+    m, r = e["mekf"], e["rate_ekf"]
+    out: list[Block] = [
+        Paragraph(
+            f"Both filters run over {e['truth']} ({e['steps']} gyro steps of {fmt(e['gyro_period_s'])} s; star "
+            f"tracker every {e['tracker_every_steps']} steps, {e['tracker_blinded_steps']} steps blinded by the "
+            "Sun). Each Monte Carlo run draws its own gyro noise (the file's angle and rate random walk), "
+            "star-tracker noise and initial errors from the filters' initial covariance: "
+            f"{fmt(e['attitude_sigma0_deg'])} deg attitude, {fmt(e['bias_sigma0_deg_per_h'])} deg/h bias and "
+            f"{fmt(e['rate_sigma0_deg_per_s'])} deg/s rate (1 sigma per axis). A consistent filter keeps the "
+            f"average NEES (6 degrees of freedom) inside its {fmt(e['confidence_percent'])} % chi-square band. The "
+            f"rate EKF uses a torque uncertainty of {fmt(r['torque_noise_Nm_per_sqrt_Hz'])} N m/sqrt(Hz) and the "
+            "wheel tachometers; a gyro alone separates rate and bias only through the gyroscopic dynamics, so its "
+            "bias uncertainty stays large during a slow slew."
+        )
+    ]
+    rows = []
+    for f in (m, r):
+        rows.append(
+            [
+                f["label"],
+                fmt(f["runs"]),
+                fmt(f["nees_mean"]),
+                f"[{fmt(f['band_low'])}, {fmt(f['band_high'])}]",
+                fmt(f["percent_inside"]),
+            ]
+        )
+    out.append(_t(["filter", "runs", "average NEES, mean over time", "95 % band", "steps inside the band [%]"], rows))
+    out.append(
+        _t(
+            ["filter", "error at the end, RMS over runs", "3-sigma at the end (largest axis)"],
+            [
+                [
+                    "MEKF attitude [arcsec]",
+                    fmt(m["attitude_error_rms_end_arcsec"]),
+                    fmt(m["attitude_3sigma_end_arcsec"]),
+                ],
+                ["MEKF gyro bias [deg/h]", fmt(m["bias_error_rms_end_deg_per_h"]), fmt(m["bias_3sigma_end_deg_per_h"])],
+                [
+                    "rate EKF body rate [deg/h]",
+                    fmt(r["rate_error_rms_end_deg_per_h"]),
+                    fmt(r["rate_3sigma_end_deg_per_h"]),
+                ],
+                [
+                    "rate EKF gyro bias [deg/h]",
+                    fmt(r["bias_error_rms_end_deg_per_h"]),
+                    fmt(r["bias_3sigma_end_deg_per_h"]),
+                ],
+            ],
+        )
+    )
+    for name in ("mekf_errors", "mekf_nees", "rate_ekf_errors", "rate_ekf_nees"):
+        out += _figure(results, name)
+    return out
+
+
+# ---------------------------------------------------------------------------
+# 6. Requirements
+
+
+def requirement_rows(rows: list[dict[str, Any]]) -> list[list[str]]:
+    """Table rows (requirement, key, required, achieved, verdict) shared by the report and the terminal."""
+    out = []
+    for r in rows:
+        unit = f" {r['unit']}" if r["unit"] else ""
+        out.append(
+            [
+                r["requirement"],
+                r["key"] or "(guideline)",
+                f"{r['comparison']} {fmt(r['required'])}{unit}",
+                fmt(r["achieved"]) + (unit if r["achieved"] is not None else ""),
+                verdict_text(r["pass"]),
+            ]
+        )
+    return out
+
+
+def _requirements(results: dict[str, Any]) -> list[Block]:
+    verdict = results["verdict"]
+    header = ["requirement", "file key", "required", "achieved", "verdict"]
+    n_fail = len(verdict["failed"])
+    summary = (
+        "All requirements pass."
+        if verdict["pass"]
+        else f"{n_fail} of {len(results['requirements'])} requirements FAIL: {', '.join(verdict['failed'])}."
+    )
+    return [
+        Paragraph(
+            "Each requirement of the spacecraft file against the achieved figure of the sections above (the same "
+            "numbers, from results.json). 'Flown' figures come from the closed-loop run of section 4; the pointing "
+            "error is the largest from the end of the slew plus the required settling time to the end of the run. "
+            + summary
+        ),
+        _t(header, requirement_rows(results["requirements"]), "Requirements (they decide the exit code)"),
+        Paragraph(
+            "Advisory design checks: classical guidelines and consistency checks that are not requirements of "
+            "the file and do not change the verdict."
+        ),
+        _t(header, requirement_rows(results["checks"]), "Advisory checks"),
+    ]
+
+
+# ---------------------------------------------------------------------------
+
+
+def build_blocks(results: dict[str, Any]) -> list[Block]:
+    """The whole report as blocks: title, summary, the six sections and the notes."""
+    sc = results["spacecraft"]
+    verdict = results["verdict"]
+    out: list[Block] = [Heading(1, f"Attitude-control design report: {sc['name']}", "top")]
+    intro = f"{sc['description']}. " if sc["description"] else ""
+    out.append(
+        Paragraph(
+            f"{intro}Spacecraft file: {sc['source']} (resolved copy: spacecraft.toml). Verdict: "
+            + ("all requirements PASS." if verdict["pass"] else f"requirements FAIL ({', '.join(verdict['failed'])}).")
+        )
+    )
+    builders = {
+        "body": _body,
+        "linear": _linear,
+        "slews": _slews,
+        "closed_loop": _closed_loop,
+        "estimation": _estimation,
+        "requirements": _requirements,
+    }
+    for key, title in SECTIONS:
+        out.append(Heading(2, title, key))
+        out += builders[key](results)
+    out.append(Heading(2, "Notes", "notes"))
+    st = results["settings"]
+    out.append(
+        Paragraph(
+            f"Settings: seed {st['seed']}, {st['planner_nodes']} planner intervals, {st['mekf_runs']} MEKF and "
+            f"{st['rate_ekf_runs']} rate-EKF Monte Carlo runs" + (" (quick run)" if st["quick"] else "") + ". "
+            "Wall time per step [s]: " + ", ".join(f"{k} {v:.2f}" for k, v in results["timing_s"].items()) + "."
+        )
+    )
+    if results["warnings"]:
+        out.append(Paragraph("Warnings raised during the design: " + " | ".join(results["warnings"])))
+    return out

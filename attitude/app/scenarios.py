@@ -1,0 +1,865 @@
+"""Built-in Monte Carlo scenarios (top floor: ties ``attitude`` to ``controllers`` and ``estimation``).
+
+Like :mod:`attitude.app.cli`, this module may import the controllers and the
+estimators; :mod:`attitude.montecarlo.campaign` never does (a scenario is any callable
+``scenario(params, rng)``).
+
+:class:`ClosedLoopScenario`
+    The spacecraft file's closed loop: dispersed plant, reaction wheels, a
+    gyro and a star tracker (with dispersed misalignments) feeding an MEKF,
+    and a controller designed on the *nominal* inertia. By default
+    (``guidance="plan"``) it flies the design's guidance: the required slew
+    planned once, on the nominal spacecraft, by
+    :func:`attitude.app.design.slew.plan_slews` (minimum time around the
+    keep-out cones, within the rate limit and the wheels' torque and
+    momentum), tracked by :class:`controllers.tracking.TrackingController`
+    with the plan's torque as feedforward, as ``attitude design`` flies it.
+    ``guidance="eigenaxis"`` is the earlier scenario: a Wie-Lu rate-limited
+    quaternion PD straight to the target (an eigenaxis slew, which cannot
+    avoid a keep-out cone). With ``run_batch`` (``vectorized=True``) all
+    runs advance together: truth, sensors, MEKF and control law as batched
+    states (:mod:`attitude.simulation.batch_estimated`).
+:class:`PDWheelsScenario`
+    PD + wheels with the controller seeing the truth: runs per run in the
+    engine's compiled path and, with ``run_batch``, all runs at once in
+    :func:`attitude.simulation.batch.simulate_batch`.
+:func:`run_campaign_from_config`
+    What ``attitude montecarlo FILE`` calls: the campaign of the file's
+    ``[montecarlo]`` table, written with its figures to an output directory.
+
+Metrics (SI), all judged against the TARGET attitude of the slew (not the
+moving reference a tracking controller follows): ``settling_time`` [s]
+(first time after which the true error angle to the target stays within the
+pointing accuracy, from the start of the run: the arrival time, the design
+report's "flown slew time"; inf if it never does), ``final_pointing_error``
+[rad] (true error angle to the target at the end), ``peak_rate`` [rad/s],
+``peak_wheel_speed`` [rad/s] (relative to the body), ``nees`` (mean
+attitude NEES of the MEKF over the run, 3 degrees of freedom: about 3 for a
+consistent filter; see :class:`ClosedLoopScenario` for what misalignments do
+to it) and ``keep_out_margin.<cone>`` [rad] (smallest angle between
+boresight and direction minus the cone's half-angle over the whole run;
+negative: the cone was entered). For :class:`PDWheelsScenario` and
+``guidance="eigenaxis"`` the controller's reference *is* the target, so
+these are the definitions those scenarios always had.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from attitude import quaternion as quat
+from attitude.app.design.slew import SlewStudy, plan_slews
+from attitude.config.model import SpacecraftConfig, load_config
+from attitude.montecarlo.campaign import Campaign, CampaignResult, Requirement, RunOutput, run_campaign, usable_cpus
+from attitude.montecarlo.dispersions import dispersions_from_config
+from attitude.rigid_body import RigidBody
+from attitude.rng import NormalStreams
+from attitude.sensors import Gyro, GyroBatch
+from attitude.simulation.batch import closed_loop_metrics, simulate_batch
+from attitude.simulation.batch_estimated import simulate_batch_estimated
+from attitude.simulation.engine import Truth, settling_time_after, simulate
+from controllers.pd import QuaternionPD, RateLimitedPD
+from controllers.slew.planner import SlewPlanningError
+from controllers.tracking import ReferenceTrajectory, TrackingController
+from estimation.consistency import nees
+from estimation.mekf.filter import MEKF, MEKFBatch, initial_covariance
+
+__all__ = [
+    "GUIDANCES",
+    "PLAN_NODES",
+    "ClosedLoopScenario",
+    "PDWheelsScenario",
+    "ScenarioError",
+    "requirements_from_config",
+    "run_campaign_from_config",
+]
+
+#: Initial gyro-bias uncertainty of the MEKF [rad/s] (10 deg/h, above the MEMS preset's 8 deg/h in-run stability).
+BIAS_SIGMA = math.radians(10.0) / 3600.0
+#: Initial attitude uncertainty of the MEKF when the attitude is not dispersed [rad].
+ATTITUDE_SIGMA = math.radians(1.0)
+#: What :class:`ClosedLoopScenario` can fly: the planned slew (default) or the eigenaxis rate-limited PD.
+GUIDANCES = ("plan", "eigenaxis")
+#: Planner intervals of ``guidance="plan"``: the design report's (``attitude design``; 30 with ``--quick``).
+#: Planning takes about 2 s for the default spacecraft (1 s with 30), once per campaign, in the parent process.
+PLAN_NODES = 60
+
+
+class ScenarioError(ValueError):
+    """A scenario argument that cannot be used (the message names it, the rule and the value)."""
+
+
+def requirements_from_config(config: SpacecraftConfig, *, keep_out: bool = True) -> tuple[Requirement, ...]:
+    """The file's ``[requirements]`` as Monte Carlo pass/fail rules on the metrics (module docstring).
+
+    ``pointing``: final pointing error to the target <= pointing accuracy;
+    ``settling``: settling time (arrival at the target within the pointing
+    accuracy for good, from the start of the run) <= slew max time +
+    settling time: the slew and its settling within their combined allowed
+    time (the design report, on its one nominal flight, is stricter: the
+    arrival within ``max_time_s`` and the settling after the planned slew
+    within ``settling_time_s``); ``rate``: peak rate <= the slew rate
+    limit (when given); ``keep_out.<name>``: margin >= 0 for each keep-out
+    cone. ``keep_out=False`` leaves the cones out, for a guidance that does
+    not plan around them (``ClosedLoopScenario(guidance="eigenaxis")``).
+    """
+    req = config.requirements
+    out = [
+        Requirement("final_pointing_error", max=req.pointing_accuracy_rad, name="pointing"),
+        Requirement("settling_time", max=req.slew.max_time_s + req.settling_time_s, name="settling"),
+    ]
+    if req.slew.rate_max_rad_per_s is not None:
+        out.append(Requirement("peak_rate", max=req.slew.rate_max_rad_per_s, name="rate"))
+    if keep_out:
+        for cone in req.keep_out:
+            out.append(Requirement(f"keep_out_margin.{cone.name}", min=0.0, name=f"keep_out.{cone.name}"))
+    return tuple(out)
+
+
+def _history(result: Any, stride: int | None, extra: Mapping[str, np.ndarray] | None = None) -> dict | None:
+    if not stride:
+        return None
+    h = {
+        "t": result.t[::stride],
+        "error_angle": result.error_angle[::stride],
+        "omega": result.omega[::stride],
+        "wheel_speed": result.wheel_speed[::stride],
+    }
+    for k, v in (extra or {}).items():
+        h[k] = v[::stride]
+    return h
+
+
+class _MisalignedTracker:
+    """A star tracker mounted with a small rotation ``theta`` [rad]: it reports ``q_BN ⊗ exp(theta/2)``."""
+
+    def __init__(self, tracker: Any, theta: np.ndarray) -> None:
+        self.tracker = tracker
+        self.name = tracker.name
+        self.period = tracker.period
+        self._dq = quat.from_rotation_vector(np.asarray(theta, dtype=float))
+
+    def measure(self, t: float, truth: Truth, rng: Any) -> Any:
+        seen = Truth(truth.t, quat.multiply(truth.q, self._dq), truth.omega, truth.h_wheels)
+        return self.tracker.measure(t, seen, rng)
+
+
+class _RecordingEstimator:
+    """Passes an estimator through and keeps its attitude estimates and covariances (for the NEES)."""
+
+    def __init__(self, inner: Any) -> None:
+        self.inner = inner
+        self.period = inner.period
+        self.t: list[float] = []
+        self.q: list[np.ndarray] = []
+        self.P: list[np.ndarray] = []
+
+    def update(self, t: float, measurements: Any) -> Any:
+        estimate = self.inner.update(t, measurements)
+        self.t.append(t)
+        self.q.append(estimate.q)
+        self.P.append(estimate.covariance[:3, :3])
+        return estimate
+
+    def log(self) -> dict[str, Any]:
+        return self.inner.log()
+
+
+class _TabulatedTracking:
+    """A :class:`TrackingController` whose reference is sampled once per run, vectorised, on the control ticks.
+
+    The same law and the same reference values (``compiled_inputs``, the
+    vectorised form of what ``torque`` samples per tick), looked up instead
+    of slerped per tick: bit-identical runs (tests/app/test_scenarios.py), and a
+    600 s run of the default file takes 3.8 s instead of 6.8 s. A time off
+    the table falls back to the controller itself.
+    """
+
+    def __init__(self, inner: TrackingController, duration: float) -> None:
+        self.inner = inner
+        self.period = inner.period
+        n = math.floor(duration / self.period + 1e-9) + 1
+        self._t = np.arange(n) * self.period
+        self._inputs = np.asarray(inner.compiled_inputs(self._t), dtype=float).T  # (n, 10)
+
+    def reference(self, t: float) -> tuple[np.ndarray, np.ndarray]:
+        return self.inner.reference(t)
+
+    def reference_samples(self, t: Any) -> tuple[np.ndarray, np.ndarray]:
+        return self.inner.reference_samples(t)
+
+    def torque(self, t: float, estimate: Any) -> np.ndarray:
+        k = round(t / self.period)
+        if not (0 <= k < self._t.size and abs(self._t[k] - t) <= 1e-9 * self.period):
+            return self.inner.torque(t, estimate)
+        h_body = getattr(estimate, "h_body", None)
+        h_body = [0.0] * 3 if h_body is None else list(np.asarray(h_body, float))
+        q, omega = list(np.asarray(estimate.q, float)), list(np.asarray(estimate.omega, float))
+        out = self.inner.torque_components(q, omega, h_body, list(self._inputs[k]))
+        return np.array([float(v) for v in out])
+
+
+def _variance(entry: Any) -> float:
+    """Per-axis variance [SI^2] of a ``[montecarlo]`` dispersion (0 when absent)."""
+    if entry is None or not entry.scale_si:
+        return 0.0
+    s = float(entry.scale_si)
+    return s * s if entry.distribution == "normal" else s * s / 3.0  # U(-h, h): h^2 / 3
+
+
+class ClosedLoopScenario:
+    """The spacecraft file's closed loop with an MEKF in the loop (module docstring).
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft (nominal values; the campaign's dispersions perturb them).
+    duration : float
+        Simulated time [s] (default 600). With ``guidance="plan"`` it must
+        cover the planned slew plus the required settling time
+        (``requirements.settling_time_s``), else ScenarioError names both.
+    history_stride : int, optional
+        Keep time histories every this many ticks (None: metrics only).
+        Histories: ``error_angle`` (true error to the target) [rad],
+        ``tracking_error`` (true error to the controller's reference) [rad],
+        ``omega`` [rad/s], ``wheel_speed`` [rad/s], ``estimation_error``
+        (MEKF attitude error at its updates, NaN between them) [rad].
+    rate_margin : float
+        ``guidance="eigenaxis"`` only: the controller's slew-rate limit is
+        ``rate_margin`` times the requirement's (default 0.9): the Wie-Lu
+        bound holds for the design inertia and the true rate, so a dispersed
+        inertia and a noisy rate estimate overshoot a limit set exactly at
+        the requirement (by about 0.5 % for the default spacecraft). The
+        plan has its own margins (:data:`attitude.app.design.slew.PLAN_RATE_FRACTION`).
+    guidance : {"plan", "eigenaxis"}
+        ``"plan"`` (default): the design's optimal slew, planned once here
+        on the nominal spacecraft (:func:`attitude.app.design.slew.plan_slews`,
+        ``nodes`` intervals) and flown by
+        :class:`controllers.tracking.TrackingController` (feedback at the
+        file's bandwidth and damping, designed on the nominal inertia; the
+        plan's torque as feedforward), exactly as ``attitude design`` flies
+        it. When planning fails there is no fallback: SlewPlanningError says
+        why (a campaign silently flying another guidance would sign off the
+        wrong thing; pass ``guidance="eigenaxis"`` to fly that one on
+        purpose). ``"eigenaxis"``: the Wie-Lu rate-limited quaternion PD
+        straight to the target (no planning; cannot avoid a keep-out cone).
+    nodes : int
+        Planner intervals for ``guidance="plan"`` (default :data:`PLAN_NODES`,
+        the design report's).
+    study : SlewStudy, optional
+        A study already made by :func:`attitude.app.design.slew.plan_slews` for
+        this ``config`` (e.g. the design report's) to fly instead of planning
+        again; its start and target must be the file's.
+    consider_misalignment : bool
+        Add the per-axis variance of the file's ``star_tracker_misalignment``
+        dispersion to the tracker measurement covariance the MEKF uses
+        (default False; see Notes).
+
+    Notes
+    -----
+    The plan is computed in the parent process when the scenario is built;
+    the scenario keeps only numpy copies of it
+    (:class:`controllers.tracking.ReferenceTrajectory`: the plan resampled
+    at the control period, and the plan's own torque steps for the
+    feedforward), so it pickles small and workers (local processes or Dask)
+    never plan. Attributes: ``slew_end`` (planned slew duration [s], None
+    for the eigenaxis guidance), ``plan_min_separation`` (the plan's own
+    smallest boresight separation per cone [rad]), ``plan_summary`` (the
+    study's JSON-ready summary).
+
+    The MEKF models neither misalignment: it takes the star tracker's
+    attitude for the body's and the gyro triad for the body axes. A tracker
+    misalignment ``theta`` is a constant offset of every measurement, which
+    the filter cannot observe, so its estimate converges to the tracker's
+    frame: the true attitude error keeps about ``|theta|`` while the
+    filter's covariance shrinks to the tracker-noise level, and the attitude
+    NEES grows like ``|theta|^2 / P``. A gyro misalignment adds a rate error
+    ``theta x omega`` during the slew only, which the 5 Hz tracker updates
+    correct. Measured on the default spacecraft file with the tracker
+    misalignment dispersed at 30 arcsec per axis, an uncalibrated mount
+    (8 runs, seed 12345, 600 s, planned guidance; each case keeps the other
+    dispersions' draws): mean NEES 44.8 with both misalignment dispersions
+    (30 arcsec tracker, 100 arcsec gyro, 1 sigma per axis), 44.9 with the
+    tracker's alone, 3.00 with the gyro's alone and 3.00 with neither (3 is
+    consistent). The NEES is a diagnostic, not a requirement: the pointing
+    requirements are judged on the truth, where the tracker misalignment
+    shows as a pointing offset (with it, 3 of those 8 runs were still
+    leaving the 0.05 deg accuracy now and then long after arriving, last at
+    about 238, 410 and 579 s, so their settling time failed; without it,
+    none did; over 200 runs, 64 with it). The file now disperses a
+    calibrated mount (10 arcsec per axis): over 200 runs, mean NEES 8.1
+    and 12 settling failures, from the same pointing noise on a smaller
+    offset.
+
+    ``consider_misalignment=True`` is the standard 'consider' remedy for an
+    unestimated measurement bias of known variance: the tracker covariance
+    the MEKF uses becomes ``R + sigma_theta^2 I``, so the filter no longer
+    trusts the tracker beyond the mounting knowledge. Measured on the same
+    8 runs: mean NEES 9.2 (from 44.8), keep-out margins and peak rates
+    unchanged within 0.01 deg and 0.001 deg/s, final pointing errors up to
+    0.0022 deg larger, and one more run leaving the accuracy long after
+    arriving (4 instead of 3). It only reduces the inconsistency: a constant offset
+    is not white noise, so averaging many measurements still shrinks ``P``
+    below ``sigma_theta^2``; estimating the misalignment (augmented states)
+    is the complete remedy and is not done here.
+
+    Dispersion names it reads (all optional): ``inertia`` (3, 3) [kg m^2],
+    ``initial_attitude`` (4,), ``initial_rate`` (3,) [rad/s],
+    ``gyro_misalignment`` and ``star_tracker_misalignment`` (3,) [rad],
+    ``gyro_bias`` (3,) [rad/s] (added to the file's turn-on bias; the MEKF's
+    initial bias uncertainty grows to cover it).
+
+    Raises
+    ------
+    ScenarioError
+        (a ValueError) naming the argument: an unknown ``guidance``, a
+        ``duration`` shorter than the planned slew plus the settling time, a
+        ``rate_margin`` outside (0, 1], a ``study`` of another slew.
+    SlewPlanningError
+        ``guidance="plan"`` and the slew could not be planned.
+    """
+
+    def __init__(
+        self,
+        config: SpacecraftConfig,
+        duration: float = 600.0,
+        history_stride: int | None = None,
+        rate_margin: float = 0.9,
+        *,
+        guidance: str = "plan",
+        nodes: int = PLAN_NODES,
+        study: SlewStudy | None = None,
+        consider_misalignment: bool = False,
+    ) -> None:
+        if guidance not in GUIDANCES:
+            raise ScenarioError(f"guidance must be one of {', '.join(map(repr, GUIDANCES))}, got {guidance!r}")
+        if not 0.0 < rate_margin <= 1.0:
+            raise ScenarioError(f"rate_margin must be in (0, 1], got {rate_margin!r}")
+        duration = float(duration)
+        if not (math.isfinite(duration) and duration > 0.0):
+            raise ScenarioError(f"duration must be a positive number of seconds, got {duration!r}")
+        self.guidance = guidance
+        self.rate_margin = float(rate_margin)
+        self.config = config
+        self.duration = duration
+        self.history_stride = history_stride
+        self.nodes = int(nodes)
+        self.consider_misalignment = bool(consider_misalignment)
+        self._nominal = config.body()
+        self._wheels = config.wheels()
+        self._tracker = config.star_tracker()
+        req = config.requirements
+        slew = req.slew
+        self._q_start = slew.q_start()
+        self._q_target = slew.q_target()
+        mc = config.montecarlo
+        spread = None if mc is None or mc.initial_attitude is None else mc.initial_attitude.scale_si
+        self._attitude_sigma = spread if spread else ATTITUDE_SIGMA
+        if mc is not None and mc.initial_attitude is not None and mc.initial_attitude.distribution == "uniform_so3":
+            if guidance == "plan":
+                raise ScenarioError(
+                    "guidance='plan' flies a slew planned from the file's start attitude, which an initial attitude "
+                    "uniform on SO(3) ([montecarlo] initial_attitude) does not start from; disperse the initial "
+                    "attitude about the start (normal or uniform), or fly guidance='eigenaxis'"
+                )
+            self._attitude_sigma = math.pi  # unknown attitude: the tracker's first update must decide it
+        if mc is not None and mc.initial_attitude is not None and mc.initial_attitude.distribution == "uniform":
+            self._attitude_sigma = spread / math.sqrt(3.0)  # standard deviation of U(-h, h)
+        # The filter starts from zero bias: its uncertainty covers the file's constant bias and a dispersed
+        # turn-on bias.
+        g = config.gyro_config
+        constant = 0.0 if g.bias_deg_per_h is None else float(np.max(np.abs(np.atleast_1d(g.bias_deg_per_h))))
+        dispersed = math.sqrt(_variance(None if mc is None else mc.gyro_bias))
+        self._bias_sigma = max(BIAS_SIGMA, math.radians(constant) / 3600.0, dispersed)
+        self._tracker_covariance = np.array(self._tracker.covariance_B, dtype=float)
+        if self.consider_misalignment and mc is not None:
+            self._tracker_covariance += _variance(mc.star_tracker_misalignment) * np.eye(3)
+        self._reference: ReferenceTrajectory | None = None
+        self._feedforward: ReferenceTrajectory | None = None
+        self.slew_end: float | None = None
+        self.plan_min_separation: dict[str, float] = {}
+        self.plan_summary: dict[str, Any] | None = None
+        if guidance == "plan":
+            self._plan(study)
+            needed = self.slew_end + req.settling_time_s
+            if duration < needed:
+                raise ScenarioError(
+                    f"duration must cover the planned slew ({self.slew_end:.4g} s) plus the required settling time "
+                    f"({req.settling_time_s:g} s), at least {needed:.4g} s; got {duration:g} s"
+                )
+
+    def _plan(self, study: SlewStudy | None) -> None:
+        """Plan (or take) the slew on the nominal spacecraft and keep numpy copies of it."""
+        if study is None:
+            study = plan_slews(self.config, nodes=self.nodes)
+        plan = study.plan
+        if plan is None:
+            raise SlewPlanningError(
+                f"guidance='plan': the required slew of {self.config.name!r} could not be planned "
+                f"({study.error}); fix the slew, the limits or the keep-out cones, or pass guidance='eigenaxis' "
+                "to fly the eigenaxis slew instead",
+                status="no_plan",
+                cause=str(study.error),
+            )
+        for name, mine, theirs in (("start", self._q_start, plan.q[0]), ("target", self._q_target, plan.q_target)):
+            if float(quat.error_angle(mine, theirs)) > 1e-9:
+                raise ScenarioError(f"study must plan this config's slew: its {name} attitude differs from the file's")
+        c = self.config.control
+        self._reference = ReferenceTrajectory.from_plan(plan.resample(c.period_s))
+        self._feedforward = ReferenceTrajectory.from_plan(plan)
+        self.slew_end = float(plan.duration)
+        separations = np.atleast_1d(plan.min_separation)
+        self.plan_min_separation = {cone.name: float(s) for cone, s in zip(study.cones, separations)}
+        self.plan_summary = study.summary
+
+    @property
+    def fingerprint(self) -> str:
+        return (
+            f"ClosedLoopScenario({self.config!r}, duration={self.duration!r}, stride={self.history_stride!r}, "
+            f"rate_margin={self.rate_margin!r}, guidance={self.guidance!r}, nodes={self.nodes!r}, "
+            f"slew_end={self.slew_end!r}, consider_misalignment={self.consider_misalignment!r})"
+        )
+
+    def controller(self) -> Any:
+        """The control law, designed on the nominal inertia (a new one per run)."""
+        c = self.config.control
+        if self._reference is not None:
+            return TrackingController(
+                self._reference,
+                self._nominal,
+                c.bandwidth_rad_per_s,
+                c.damping,
+                c.period_s,
+                feedforward=self._feedforward,
+            )
+        rate_max = self.config.requirements.slew.rate_max_rad_per_s
+        if rate_max is not None:
+            return RateLimitedPD.from_bandwidth(
+                self._nominal,
+                c.bandwidth_rad_per_s,
+                c.damping,
+                self.rate_margin * rate_max,
+                c.period_s,
+                q_ref=self._q_target,
+            )
+        return QuaternionPD.from_bandwidth(
+            self._nominal, c.bandwidth_rad_per_s, c.damping, c.period_s, q_ref=self._q_target, gyroscopic=True
+        )
+
+    def gyro(self, misalignment: np.ndarray | None, bias: np.ndarray | None = None) -> Gyro:
+        """The file's gyro with an extra misalignment rotation vector [rad] and turn-on bias [rad/s]."""
+        g = self.config.gyro_config
+        figures = g.figures()
+        if misalignment is not None:
+            figures["misalignment_rad"] = np.asarray(figures.get("misalignment_rad", np.zeros(3))) + misalignment
+        if bias is not None:
+            base = np.broadcast_to(np.asarray(figures.get("bias_deg_per_h", 0.0), dtype=float), (3,))
+            figures["bias_deg_per_h"] = base + np.degrees(np.asarray(bias, dtype=float)) * 3600.0
+        # Interval-mean samples (an integrating gyro): what the MEKF models.
+        if g.preset is not None:
+            return Gyro.preset(g.preset, period=g.period_s, sampling="mean", **figures)
+        arw = figures.pop("arw_deg_per_sqrt_h")
+        return Gyro.from_datasheet(arw, period=g.period_s, sampling="mean", **figures)
+
+    def estimator(self, gyro: Gyro) -> MEKF:
+        """The MEKF matched to the (nominal) sensors, started at the nominal start attitude."""
+        return MEKF(
+            gyro.sigma_v,
+            gyro.sigma_u,
+            self._tracker_covariance,
+            period=gyro.period,
+            q0=self._q_start,
+            P0=initial_covariance(self._attitude_sigma, self._bias_sigma),
+            gyro_name=gyro.name,
+            tracker_name=self._tracker.name,
+        )
+
+    def __call__(self, params: Mapping[str, Any], rng: np.random.Generator) -> RunOutput:
+        body = RigidBody(params["inertia"]) if "inertia" in params else self._nominal
+        q0 = params.get("initial_attitude", self._q_start)
+        omega0 = params.get("initial_rate", np.zeros(3))
+        gyro = self.gyro(params.get("gyro_misalignment"), params.get("gyro_bias"))
+        tracker = self._tracker
+        if "star_tracker_misalignment" in params:
+            tracker = _MisalignedTracker(tracker, params["star_tracker_misalignment"])
+        estimator = _RecordingEstimator(self.estimator(gyro))
+        controller = self.controller()
+        if isinstance(controller, TrackingController):
+            controller = _TabulatedTracking(controller, self.duration)
+        result = simulate(
+            body,
+            q0,
+            omega0,
+            self.duration,
+            controller=controller,
+            wheels=self._wheels,
+            sensors=[gyro, tracker],
+            estimator=estimator,
+            rng=rng,
+        )
+        accuracy = self.config.requirements.pointing_accuracy_rad
+        metrics = closed_loop_metrics(result, accuracy)
+        # Judged against the target attitude, not the moving reference (module docstring).
+        to_target = np.asarray(quat.error_angle(self._q_target, result.q))
+        outside = np.nonzero(to_target > accuracy)[0]
+        metrics["settling_time"] = float(settling_time_after(result.t, outside[-1] if outside.size else -1))
+        metrics["final_pointing_error"] = float(to_target[-1])
+        q_hat = np.array(estimator.q)
+        k = np.searchsorted(result.t, np.array(estimator.t))
+        errors = quat.to_rotation_vector(quat.multiply(quat.conjugate(q_hat), quat.normalize(result.q[k])))
+        metrics["nees"] = float(np.mean(nees(errors, np.array(estimator.P))))
+        for cone in self.config.requirements.keep_out:
+            separation = cone.separation(result.q)
+            metrics[f"keep_out_margin.{cone.name}"] = float(np.min(separation) - cone.half_angle_rad)
+        est_error = np.full(result.t.size, np.nan)
+        est_error[k] = np.linalg.norm(errors, axis=-1)
+        extra = {"error_angle": to_target, "tracking_error": result.error_angle, "estimation_error": est_error}
+        return RunOutput(metrics, _history(result, self.history_stride, extra))
+
+    def run_batch(self, params_list: Sequence[Mapping[str, Any]], rngs: Sequence[Any]) -> list[RunOutput]:
+        """All runs at once (``run_campaign(..., vectorized=True)``): the same runs as :meth:`__call__`.
+
+        The truth, the sensors, the MEKF and the control law advance as
+        batched states (:func:`attitude.simulation.batch_estimated.simulate_batch_estimated`):
+        run ``r`` draws from ``rngs[r]`` exactly the numbers it draws alone,
+        so its metrics equal :meth:`__call__`'s to rounding. The eigenaxis
+        guidance (a rate-limited PD that latches its limits per run) is run
+        run by run.
+        """
+        if self._reference is None:
+            return [self(p, r) for p, r in zip(params_list, rngs)]
+        n = len(params_list)
+        body = RigidBody(_stacked(params_list, "inertia", self._nominal.inertia))
+        q0 = _stacked(params_list, "initial_attitude", self._q_start)
+        omega0 = _stacked(params_list, "initial_rate", np.zeros(3))
+        gyros = [self.gyro(p.get("gyro_misalignment"), p.get("gyro_bias")) for p in params_list]
+        theta = _stacked(params_list, "star_tracker_misalignment", np.zeros(3))
+        mekf = MEKFBatch(self.estimator(gyros[0]), n)
+        recorder = _BatchRecorder(self, n, mekf)
+        out = simulate_batch_estimated(
+            body,
+            q0,
+            omega0,
+            self.duration,
+            controller=self.controller(),
+            wheels=self._wheels,
+            gyro=GyroBatch(gyros),
+            tracker=self._tracker,
+            estimator=mekf,
+            streams=NormalStreams(list(rngs)),
+            tracker_mounting=quat.from_rotation_vector(theta),
+            observer=recorder,
+        )
+        return recorder.outputs(out["diverged_at"])
+
+
+def _stacked(params_list: Sequence[Mapping[str, Any]], name: str, default: Any) -> np.ndarray:
+    """One dispersed parameter of every run, stacked (``default`` where a run does not disperse it)."""
+    return np.stack([np.asarray(p.get(name, default), dtype=float) for p in params_list])
+
+
+class _BatchRecorder:
+    """The metrics and histories of :meth:`ClosedLoopScenario.__call__`, reduced tick by tick for a batch."""
+
+    def __init__(self, scenario: ClosedLoopScenario, n: int, mekf: Any) -> None:
+        self.scenario, self.mekf = scenario, mekf
+        req = scenario.config.requirements
+        self.accuracy = req.pointing_accuracy_rad
+        self.cones = list(req.keep_out)
+        self.controller = scenario.controller()
+        self.stride = scenario.history_stride
+        self.wheels = scenario._wheels
+        self.last_outside = np.full(n, -1, dtype=np.int64)
+        self.peak_rate = np.zeros(n)
+        self.peak_speed = np.zeros(n)
+        self.nees_sum = np.zeros(n)
+        self.nees_count = 0
+        self.min_separation = {c.name: np.full(n, np.inf) for c in self.cones}
+        self.t: list[float] = []
+        self.final_error = np.zeros(n)
+        self.n_ticks = -1
+        self.history: dict[str, list] = {}
+
+    def __call__(self, k: int, t: float, x: np.ndarray, q_hat: np.ndarray, w_hat: np.ndarray, updated: bool) -> None:
+        q = quat.normalize(x[:, :4])
+        to_target = np.asarray(quat.error_angle(self.scenario._q_target, q))
+        self.last_outside[to_target > self.accuracy] = k
+        self.final_error = to_target
+        self.n_ticks = k
+        np.fmax(self.peak_rate, np.linalg.norm(x[:, 4:7], axis=1), out=self.peak_rate)
+        speeds = self.wheels.wheel_speed(x[:, 7:], x[:, 4:7])
+        np.fmax(self.peak_speed, np.max(np.abs(speeds), axis=1), out=self.peak_speed)
+        for cone in self.cones:
+            np.fmin(self.min_separation[cone.name], cone.separation(q), out=self.min_separation[cone.name])
+        est_error = np.full(x.shape[0], np.nan)
+        if updated:
+            errors = quat.to_rotation_vector(quat.multiply(quat.conjugate(q_hat), q))
+            self.nees_sum += nees(errors, self.mekf.P[:, :3, :3])
+            self.nees_count += 1
+            est_error = np.linalg.norm(errors, axis=-1)
+        self.t.append(t)
+        if self.stride and k % self.stride == 0:
+            q_ref = self.controller.reference(t)[0]
+            rows = {
+                "t": np.full(x.shape[0], t),
+                "error_angle": to_target,
+                "tracking_error": np.asarray(quat.error_angle(q_ref, q)),
+                "omega": x[:, 4:7].copy(),
+                "wheel_speed": speeds,
+                "estimation_error": est_error,
+            }
+            for name, value in rows.items():
+                self.history.setdefault(name, []).append(value)
+
+    def outputs(self, diverged_at: np.ndarray) -> list[RunOutput]:
+        last = self.last_outside
+        settle = settling_time_after(self.t, last)
+        history = {name: np.stack(rows, axis=1) for name, rows in self.history.items()}
+        outputs = []
+        for r in range(last.size):
+            if math.isfinite(diverged_at[r]):
+                outputs.append(RunOutput(error=f"the closed loop diverged at t = {diverged_at[r]:.6g} s"))
+                continue
+            metrics = {
+                "settling_time": float(settle[r]),
+                "final_pointing_error": float(self.final_error[r]),
+                "peak_rate": float(self.peak_rate[r]),
+                "peak_wheel_speed": float(self.peak_speed[r]),
+                "nees": float(self.nees_sum[r] / self.nees_count),
+            }
+            for cone in self.cones:
+                metrics[f"keep_out_margin.{cone.name}"] = float(self.min_separation[cone.name][r] - cone.half_angle_rad)
+            run_history = None
+            if self.stride:
+                run_history = {name: values[r] for name, values in history.items()}
+                run_history["t"] = history["t"][0]
+            outputs.append(RunOutput(metrics, run_history))
+        return outputs
+
+
+class PDWheelsScenario:
+    """Quaternion PD + reaction wheels, the controller seeing the truth; vectorisable.
+
+    Parameters
+    ----------
+    inertia : array_like (3, 3) or RigidBody
+        Nominal whole-spacecraft inertia [kg m^2] (the controller's design model).
+    wheels : ReactionWheels
+    q_start, q_target : array_like (4,)
+        Nominal start and target attitudes ``q_BN``.
+    bandwidth : float
+        PD natural frequency [rad/s].
+    damping : float
+        PD damping ratio.
+    period : float
+        Control period and tick [s].
+    duration : float
+        Simulated time [s].
+    pointing_threshold : float
+        Error angle [rad] for the settling time.
+    history_stride : int, optional
+        Keep time histories every this many ticks.
+
+    Dispersion names it reads (all optional): ``inertia`` (3, 3),
+    ``initial_attitude`` (4,), ``initial_rate`` (3,) [rad/s].
+    """
+
+    def __init__(
+        self,
+        inertia: Any,
+        wheels: Any,
+        q_start: Any,
+        q_target: Any,
+        *,
+        bandwidth: float,
+        damping: float,
+        period: float,
+        duration: float = 600.0,
+        pointing_threshold: float = math.radians(0.05),
+        history_stride: int | None = None,
+    ) -> None:
+        self.nominal = inertia if isinstance(inertia, RigidBody) else RigidBody(inertia)
+        self.wheels = wheels
+        self.q_start = quat.as_unit_quaternion(q_start, "q_start")
+        self.q_target = quat.as_unit_quaternion(q_target, "q_target")
+        self.bandwidth, self.damping, self.period = float(bandwidth), float(damping), float(period)
+        self.duration = float(duration)
+        self.pointing_threshold = float(pointing_threshold)
+        self.history_stride = history_stride
+        self.controller = QuaternionPD.from_bandwidth(
+            self.nominal, self.bandwidth, self.damping, self.period, q_ref=self.q_target, gyroscopic=True
+        )
+
+    @classmethod
+    def from_config(cls, config: SpacecraftConfig, **kwargs: Any) -> PDWheelsScenario:
+        """The file's spacecraft, wheels, control bandwidth and slew (pointing threshold: its accuracy)."""
+        c = config.control
+        kwargs.setdefault("pointing_threshold", config.requirements.pointing_accuracy_rad)
+        return cls(
+            config.body(),
+            config.wheels(),
+            config.requirements.slew.q_start(),
+            config.requirements.slew.q_target(),
+            bandwidth=c.bandwidth_rad_per_s,
+            damping=c.damping,
+            period=c.period_s,
+            **kwargs,
+        )
+
+    @property
+    def fingerprint(self) -> str:
+        return (
+            f"PDWheelsScenario({self.nominal.inertia.tolist()}, {self.wheels!r}, {self.q_start.tolist()}, "
+            f"{self.q_target.tolist()}, {self.bandwidth!r}, {self.damping!r}, {self.period!r}, {self.duration!r}, "
+            f"{self.pointing_threshold!r}, {self.history_stride!r})"
+        )
+
+    def _initial(self, params: Mapping[str, Any]) -> tuple[Any, Any, Any]:
+        inertia = params.get("inertia", self.nominal.inertia)
+        return inertia, params.get("initial_attitude", self.q_start), params.get("initial_rate", np.zeros(3))
+
+    def __call__(self, params: Mapping[str, Any], rng: np.random.Generator) -> RunOutput:
+        inertia, q0, omega0 = self._initial(params)
+        result = simulate(RigidBody(inertia), q0, omega0, self.duration, controller=self.controller, wheels=self.wheels)
+        return RunOutput(closed_loop_metrics(result, self.pointing_threshold), _history(result, self.history_stride))
+
+    def run_batch(self, params_list: Sequence[Mapping[str, Any]], rngs: Sequence[Any]) -> list[RunOutput]:
+        initial = [self._initial(p) for p in params_list]
+        result = simulate_batch(
+            RigidBody(np.stack([np.asarray(i[0], dtype=float) for i in initial])),
+            np.stack([np.asarray(i[1], dtype=float) for i in initial]),
+            np.stack([np.asarray(i[2], dtype=float) for i in initial]),
+            self.duration,
+            controller=self.controller,
+            wheels=self.wheels,
+            pointing_threshold=self.pointing_threshold,
+            history_stride=self.history_stride,
+        )
+        outputs = []
+        for i in range(len(params_list)):
+            if math.isfinite(result.diverged_at[i]):
+                outputs.append(RunOutput(error=f"the closed loop diverged at t = {result.diverged_at[i]:.6g} s"))
+                continue
+            history = None
+            if self.history_stride:
+                history = {"t": result.history_t, **{k: v[i] for k, v in result.histories.items()}}
+            outputs.append(RunOutput({k: float(v[i]) for k, v in result.metrics.items()}, history))
+        return outputs
+
+
+def run_campaign_from_config(
+    config: SpacecraftConfig | str | Path,
+    runs: int | None = None,
+    workers: int | None = None,
+    scheduler: Any = None,
+    out_dir: str | Path | None = None,
+    *,
+    seed: int | None = None,
+    duration: float = 600.0,
+    history_stride: int | None = 10,
+    progress: bool | None = None,
+    figures: bool = True,
+    keep_out: bool = True,
+    guidance: str = "plan",
+    nodes: int = PLAN_NODES,
+    consider_misalignment: bool = False,
+    vectorized: bool = False,
+    resume: bool = True,
+) -> CampaignResult:
+    """The campaign of a spacecraft file: what ``attitude montecarlo FILE`` runs.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig or path
+        The spacecraft (its ``[montecarlo]`` table gives the runs, the seed
+        and the dispersions; without one, nothing is dispersed).
+    runs : int, optional
+        Overrides ``montecarlo.runs``.
+    workers : int, optional
+        Local worker processes (default: all cores).
+    scheduler : str or dask.distributed.Client, optional
+        A Dask scheduler address ``tcp://HOST:PORT`` (or client) instead of local processes.
+    out_dir : path, optional
+        Where the table, statistics, histories, checkpoint and figures go.
+    seed : int, optional
+        Overrides ``montecarlo.seed`` (None and no table: drawn and recorded).
+    duration : float
+        Simulated time per run [s]; with the planned guidance at least the
+        planned slew plus ``requirements.settling_time_s`` (ValueError otherwise).
+    history_stride : int, optional
+        Keep time histories every this many ticks (default 10: 1 s at 10 Hz).
+    progress : bool, optional
+        Progress bar on stderr (default: when stderr is a terminal).
+    figures : bool
+        Save ``figures/*.png`` into ``out_dir``.
+    keep_out : bool
+        Count the keep-out cones as requirements (default). The planned
+        guidance steers around them; ``guidance="eigenaxis"`` cannot, and the
+        default file's eigenaxis path enters its Sun cone on purpose, so
+        judge that guidance with ``keep_out=False``.
+    guidance : {"plan", "eigenaxis"}
+        What the closed loop flies (:class:`ClosedLoopScenario`): the
+        design's planned slew, tracked (default; planned once, here), or the
+        eigenaxis rate-limited PD.
+    nodes : int
+        Planner intervals of the planned guidance (default :data:`PLAN_NODES`).
+    consider_misalignment : bool
+        Inflate the MEKF's tracker covariance by the tracker-misalignment
+        dispersion (:class:`ClosedLoopScenario` Notes).
+    vectorized : bool
+        Advance the runs together in batches (:meth:`ClosedLoopScenario.run_batch`;
+        each run's metrics equal the per-run path's to rounding), about
+        four batches per worker (at least 100 runs a batch).
+    resume : bool
+        Resume the campaign checkpointed in ``out_dir`` (default); False starts afresh.
+    """
+    if not isinstance(config, SpacecraftConfig):
+        config = load_config(config)
+    mc = config.montecarlo
+    dispersions = {}
+    if mc is not None:
+        dispersions = dispersions_from_config(mc, config.body().inertia, config.requirements.slew.q_start())
+    n = runs if runs is not None else (mc.runs if mc is not None else None)
+    if n is None:
+        raise ValueError("runs must be given when the spacecraft file has no [montecarlo] table")
+    scenario = ClosedLoopScenario(
+        config,
+        duration=duration,
+        history_stride=history_stride,
+        guidance=guidance,
+        nodes=nodes,
+        consider_misalignment=consider_misalignment,
+    )
+    campaign = Campaign(
+        scenario,
+        dispersions,
+        runs=n,
+        seed=seed if seed is not None else (mc.seed if mc is not None else None),
+        requirements=requirements_from_config(config, keep_out=keep_out),
+    )
+    runs_per_task = None
+    if vectorized:
+        # Several batches per worker (every core busy; a progress bar and checkpoints that move), but
+        # not below 100 runs a batch, where the per-batch set-up would cost more than the runs.
+        workers = workers or usable_cpus()
+        runs_per_task = min(1000, max(math.ceil(n / (4 * workers)), min(n, 100)))
+    result = run_campaign(
+        campaign,
+        workers=workers,
+        scheduler=scheduler,
+        out_dir=out_dir,
+        progress=progress,
+        vectorized=vectorized,
+        runs_per_task=runs_per_task,
+        resume=resume,
+    )
+    if out_dir is not None and figures:
+        from attitude.montecarlo.plots import save_figures
+
+        save_figures(result, Path(out_dir) / "figures")
+    return result

@@ -1,0 +1,359 @@
+"""Monte Carlo campaigns: dispersed closed-loop runs, locally, vectorised, or on a Dask cluster.
+
+A :class:`Campaign` is a *scenario* (what one run does), *dispersions* (how
+its parameters are drawn, :mod:`attitude.montecarlo.dispersions`), a number
+of runs, a master seed and the *requirements* each run must meet.
+:func:`run_campaign` executes it and returns a :class:`CampaignResult`
+(:mod:`attitude.montecarlo.results`): a tidy table with one row per run
+(index, seed, status, dispersed parameters, metrics, pass/fail per
+requirement), statistics (percentiles and the success probability the
+campaign proves, :mod:`attitude.montecarlo.statistics`), optional time
+histories and figures.
+
+Scenario protocol (duck-typed; this module never imports ``controllers`` or
+``estimation``: built-in scenarios live in :mod:`attitude.app.scenarios`)
+
+``scenario(params, rng) -> RunOutput | mapping``
+    ``params`` maps each dispersion's name to the value drawn for this run
+    (SI units); ``rng`` is the run's own :class:`numpy.random.Generator` for
+    sensor noise and the like. Return the metrics (a mapping of floats, or a
+    :class:`RunOutput` with time histories). Raise to fail the run.
+``scenario.run_batch(params_list, rngs) -> list[RunOutput]`` (optional)
+    All runs of a batch at once (``vectorized=True``): one batched numpy
+    state for all runs (:func:`attitude.simulation.batch.simulate_batch`).
+    A run that fails inside the batch gets ``RunOutput(error=...)``.
+``scenario.fingerprint`` (optional str)
+    A stable description of the scenario's settings; it guards checkpoint
+    resumption (default: ``repr`` when it does not contain a memory address,
+    else the class name).
+
+Executors (:mod:`attitude.montecarlo.executors`, faults and checkpoint there)
+
+* ``workers=1``: in this process, in order;
+* ``workers=K`` (default ``os.cpu_count()``): a pool of K local processes;
+* ``scheduler="tcp://HOST:PORT"`` or a ``dask.distributed.Client``: a Dask
+  cluster. To start one on several machines (each with this package and the
+  same versions installed)::
+
+      host-a$ dask scheduler                       # listens on tcp://host-a:8786
+      host-b$ dask worker tcp://host-a:8786 --nworkers 8 --nthreads 1
+      host-c$ dask worker tcp://host-a:8786 --nworkers 8 --nthreads 1
+
+  then ``run_campaign(campaign, scheduler="tcp://host-a:8786")`` (or
+  ``attitude montecarlo --scheduler tcp://host-a:8786``). One thread per
+  worker process: a run is Python-bound, so threads would only share a GIL.
+  Needs the optional ``cluster`` extra (``dask[distributed]``).
+* ``vectorized=True``: tasks of ``runs_per_task`` runs (default 1000) go to
+  ``scenario.run_batch`` on whichever executor above.
+
+Reproducibility: run ``i`` draws from ``SeedSequence(seed).spawn(runs)[i]``
+only, so the same seed gives bit-identical metrics with any number of
+workers, on a cluster, in any completion order, after a resume, and for the
+first runs of a longer campaign. (The vectorised path evaluates the same
+equations in another order, so it agrees with the per-run path to rounding,
+not bit for bit; every run's arithmetic is independent of the other runs of
+its batch, so it is itself bit-reproducible whatever ``runs_per_task``, for
+one back end of :func:`attitude.simulation.batch.simulate_batch`.)
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import multiprocessing
+import os
+import sys
+import threading
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from attitude.montecarlo.dispersions import (
+    Dispersion,
+    draw_parameters,
+    flatten_parameters,
+    parameter_columns,
+    scenario_generator,
+)
+from attitude.montecarlo.executors import (
+    CLUSTER_FAILED,
+    WORKER_DIED,
+    Checkpoint,
+    Collector,
+    Progress,
+    RunOutput,
+    RunRecord,
+    run_dask,
+    run_processes,
+    run_serial,
+)
+from attitude.montecarlo.results import CampaignResult, Requirement
+
+__all__ = ["Campaign", "CampaignResult", "Requirement", "RunOutput", "run_campaign", "usable_cpus"]
+
+
+@dataclass(frozen=True)
+class Campaign:
+    """A Monte Carlo campaign (module docstring).
+
+    Parameters
+    ----------
+    scenario : callable or object
+        ``scenario(params, rng)`` (and optionally ``run_batch``); see the module docstring.
+    dispersions : mapping of str to Dispersion
+        Name -> dispersion; the names are the keys of ``params``.
+    runs : int
+        Number of runs (>= 1).
+    seed : int, optional
+        Master seed (non-negative). None draws one from the OS and keeps it
+        (``campaign.seed``), so the campaign can still be reproduced.
+    requirements : sequence of Requirement
+        Pass/fail rules on the metrics.
+    """
+
+    scenario: Any
+    dispersions: Mapping[str, Dispersion] = field(default_factory=dict)
+    runs: int = 100
+    seed: int | None = None
+    requirements: Sequence[Requirement] = ()
+
+    def __post_init__(self) -> None:
+        if not callable(self.scenario):
+            raise ValueError(f"scenario must be callable as scenario(params, rng), got {type(self.scenario).__name__}")
+        if isinstance(self.runs, bool) or not isinstance(self.runs, (int, np.integer)) or self.runs < 1:
+            raise ValueError(f"runs must be a positive integer, got {self.runs!r}")
+        for name, d in self.dispersions.items():
+            if not isinstance(name, str) or not name:
+                raise ValueError(f"dispersion names must be non-empty strings, got {name!r}")
+            if not hasattr(d, "sample") or not hasattr(d, "columns"):
+                raise ValueError(f"dispersion {name!r} must be a Dispersion (sample, columns, flatten), got {d!r}")
+        seed = np.random.SeedSequence().entropy if self.seed is None else self.seed
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise ValueError(f"seed must be a non-negative integer or None, got {self.seed!r}")
+        reqs = tuple(self.requirements)
+        for r in reqs:
+            if not isinstance(r, Requirement):
+                raise ValueError(f"requirements must be Requirement objects, got {r!r}")
+        names = [r.name for r in reqs]
+        if len(set(names)) != len(names):
+            raise ValueError(f"requirement names must be distinct, got {names}")
+        object.__setattr__(self, "seed", int(seed))
+        object.__setattr__(self, "runs", int(self.runs))
+        object.__setattr__(self, "dispersions", dict(self.dispersions))
+        object.__setattr__(self, "requirements", reqs)
+
+    def parameters(self, run: int) -> dict[str, Any]:
+        """The dispersed parameters of run ``run`` (the same on every machine)."""
+        return draw_parameters(self.dispersions, self.seed, run)
+
+    def generator(self, run: int) -> np.random.Generator:
+        """The generator the scenario of run ``run`` receives."""
+        return scenario_generator(self.seed, run)
+
+    def replay(self, run: int) -> RunOutput:
+        """Run one run again in this process (exceptions propagate: for debugging a failed run)."""
+        out = self.scenario(self.parameters(run), self.generator(run))
+        return out if isinstance(out, RunOutput) else RunOutput(dict(out))
+
+    def fingerprint(self, vectorized: bool = False) -> str:
+        """A hash of what determines the results: seed, dispersions, scenario and mode."""
+        ident = getattr(self.scenario, "fingerprint", None)
+        if not isinstance(ident, str):
+            text = repr(self.scenario)
+            ident = type(self.scenario).__qualname__ if " at 0x" in text else text
+        payload = {
+            "seed": self.seed,
+            "dispersions": {k: repr(v) for k, v in self.dispersions.items()},
+            "scenario": ident,
+            "vectorized": bool(vectorized),
+        }
+        return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
+
+
+def usable_cpus() -> int:
+    """CPUs this process may run on (its affinity mask, which container limits set), at least 1."""
+    if hasattr(os, "sched_getaffinity"):
+        return max(1, len(os.sched_getaffinity(0)))
+    return os.cpu_count() or 1
+
+
+def _default_context() -> Any:
+    """The platform's default start method, unless this process runs other threads.
+
+    Fork (the Linux default before Python 3.14) needs no ``if __name__ ==
+    "__main__"`` guard in the user's script, but a forked child inherits the
+    locks other threads held at that instant (a Dask client's event loop, a
+    GUI); then forkserver, whose workers come from a clean single-threaded
+    server, is used instead (it needs the guard, as spawn does everywhere).
+    """
+    methods = multiprocessing.get_all_start_methods()
+    if threading.active_count() > 1 and multiprocessing.get_start_method() == "fork" and "forkserver" in methods:
+        return multiprocessing.get_context("forkserver")
+    return multiprocessing.get_context()
+
+
+def run_campaign(
+    campaign: Campaign,
+    *,
+    workers: int | None = None,
+    scheduler: Any = None,
+    vectorized: bool = False,
+    runs_per_task: int | None = None,
+    out_dir: str | Path | None = None,
+    resume: bool = True,
+    progress: bool | None = None,
+    max_retries: int = 2,
+    mp_context: Any = None,
+) -> CampaignResult:
+    """Execute a campaign and return its results (saved to ``out_dir`` when given).
+
+    Parameters
+    ----------
+    campaign : Campaign
+    workers : int, optional
+        Local worker processes (default ``os.cpu_count()``; 1 runs in this
+        process). Ignored with a ``scheduler``. With ``vectorized`` the
+        default is 1 (one batch holds all runs).
+    scheduler : str or dask.distributed.Client, optional
+        Run on a Dask cluster (module docstring).
+    vectorized : bool
+        Use the scenario's ``run_batch`` (all runs of a task as one batched state).
+    runs_per_task : int, optional
+        Runs per task: default 1 (per-run) or 1000 (vectorised).
+    out_dir : path, optional
+        Directory for the checkpoint and the result files.
+    resume : bool
+        Skip the runs already in ``out_dir``'s checkpoint (same campaign only).
+    progress : bool, optional
+        Progress bar on stderr (default: when stderr is a terminal).
+    max_retries : int
+        Extra attempts for a task whose worker process died (module
+        :mod:`attitude.montecarlo.executors`).
+    mp_context : multiprocessing context, optional
+        For the local pool (default: the platform's, or forkserver when this
+        process runs other threads; see ``_default_context``). With spawn or
+        forkserver the calling script needs the ``if __name__ == "__main__":``
+        guard, and the scenario must be importable by the workers.
+
+    Returns
+    -------
+    CampaignResult
+        ``info["interrupted"]`` is True after Ctrl-C (completed runs kept).
+    """
+    if not isinstance(campaign, Campaign):
+        raise ValueError(f"campaign must be a Campaign, got {type(campaign).__name__}")
+    if vectorized and not callable(getattr(campaign.scenario, "run_batch", None)):
+        raise ValueError("vectorized=True needs a scenario with run_batch(params_list, rngs)")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1):
+        raise ValueError(f"workers must be a positive integer, got {workers!r}")
+    if not isinstance(max_retries, int) or max_retries < 0:
+        raise ValueError(f"max_retries must be a non-negative integer, got {max_retries!r}")
+    if runs_per_task is None:
+        runs_per_task = 1000 if vectorized else 1
+    if isinstance(runs_per_task, bool) or not isinstance(runs_per_task, int) or runs_per_task < 1:
+        raise ValueError(f"runs_per_task must be a positive integer, got {runs_per_task!r}")
+    if workers is None:
+        workers = 1 if vectorized else usable_cpus()
+
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    checkpoint = None
+    done: dict[int, RunRecord] = {}
+    if out_dir is not None:
+        checkpoint = Checkpoint(out_dir, campaign.fingerprint(vectorized))
+        if resume:
+            lost = (WORKER_DIED, CLUSTER_FAILED)  # infrastructure, not the scenario: try again
+            done = {
+                r: rec for r, rec in checkpoint.load().items() if r < campaign.runs and not rec.error.startswith(lost)
+            }
+        checkpoint.start(resume)
+    resumed = len(done)
+    params = {run: campaign.parameters(run) for run in range(campaign.runs)}
+    todo = [run for run in range(campaign.runs) if run not in done]
+    tasks = [[(r, params[r]) for r in todo[i : i + runs_per_task]] for i in range(0, len(todo), runs_per_task)]
+    bar = Progress(campaign.runs, sys.stderr.isatty() if progress is None else bool(progress))
+    collector = Collector(bar, checkpoint, done)
+    if scheduler is not None:
+        executor = "dask"
+        interrupted = run_dask(
+            campaign.scenario, campaign.seed, tasks, vectorized, collector, scheduler=scheduler, max_retries=max_retries
+        )
+    elif workers == 1 or not tasks:  # workers > 1 isolates even one task: it may kill its process
+        executor = "serial"
+        interrupted = run_serial(campaign.scenario, campaign.seed, tasks, vectorized, collector)
+    else:
+        executor = "processes"
+        interrupted = run_processes(
+            campaign.scenario,
+            campaign.seed,
+            tasks,
+            vectorized,
+            collector,
+            workers=workers,
+            max_retries=max_retries,
+            mp_context=mp_context or _default_context(),
+        )
+    bar.close()
+    if checkpoint is not None:
+        checkpoint.close()
+    info = {
+        "executor": executor,
+        "workers": None if scheduler is not None else workers,
+        "scheduler": _scheduler_address(scheduler),
+        "vectorized": vectorized,
+        "runs_per_task": runs_per_task,
+        "interrupted": interrupted,
+        "resumed_runs": resumed,
+        "wall_time_s": time.perf_counter() - wall0,
+        "parent_cpu_time_s": time.process_time() - cpu0,
+    }
+    result = _assemble(campaign, params, collector.records, info)
+    if out_dir is not None:
+        result.save(out_dir)
+    return result
+
+
+def _scheduler_address(scheduler: Any) -> str | None:
+    if scheduler is None or isinstance(scheduler, str):
+        return scheduler
+    return str(getattr(getattr(scheduler, "scheduler", None), "address", None) or repr(scheduler))
+
+
+def _assemble(
+    campaign: Campaign, params: dict[int, dict[str, Any]], records: dict[int, RunRecord], info: dict[str, Any]
+) -> CampaignResult:
+    n = campaign.runs
+    columns = parameter_columns(campaign.dispersions)
+    table = np.array([flatten_parameters(campaign.dispersions, params[r]) for r in range(n)]).reshape(n, len(columns))
+    names: list[str] = []
+    for r in sorted(records):
+        names.extend(k for k in records[r].metrics if k not in names)
+    metrics = {m: np.full(n, np.nan) for m in names}
+    status = np.full(n, "not run", dtype=object)
+    errors = np.full(n, "", dtype=object)
+    attempts = np.zeros(n, dtype=np.int64)
+    cpu = np.full(n, np.nan)
+    wall = np.full(n, np.nan)
+    histories = {}
+    for r, rec in records.items():
+        status[r], errors[r], attempts[r], cpu[r], wall[r] = rec.status, rec.error, rec.attempts, rec.cpu_s, rec.wall_s
+        for m, v in rec.metrics.items():
+            metrics[m][r] = v
+        if rec.history is not None:
+            histories[r] = rec.history
+    return CampaignResult(
+        seed=campaign.seed,
+        parameters={c: table[:, j].copy() for j, c in enumerate(columns)},
+        metrics=metrics,
+        status=status,
+        errors=errors,
+        attempts=attempts,
+        cpu_s=cpu,
+        wall_s=wall,
+        requirements=tuple(campaign.requirements),
+        histories=dict(sorted(histories.items())),
+        info=info,
+    )

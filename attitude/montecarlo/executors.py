@@ -1,0 +1,553 @@
+"""Where the runs of a campaign execute: in process, in local processes, or on a Dask cluster.
+
+Every executor runs the same task function, :func:`execute_task`, on a list
+of ``(run, parameters)`` pairs: one pair per task for per-run execution, a
+batch of pairs for the vectorised path (the scenario's ``run_batch``). A
+task never raises because a scenario raised: the exception becomes an
+``"error"`` record with its message, and the campaign goes on.
+
+Faults
+------
+* **A run that raises**: recorded (status ``"error"``, the exception type and
+  message, the run index and so its seed); the others continue.
+* **A worker process that dies** (segfault, out-of-memory kill,
+  ``os._exit``): under :class:`concurrent.futures.ProcessPoolExecutor` every
+  unfinished future fails with ``BrokenProcessPool``. The pool is rebuilt,
+  and the tasks that were in flight (one of which killed the worker, but
+  which one is unknown) are *quarantined*: each is retried alone in the new
+  pool, so a task that kills its worker again is identified for certain.
+  Only such a lone death counts as an attempt; after ``max_retries``
+  further lone deaths the task's runs are recorded as errors ("worker
+  died"). Tasks that never ran are simply resubmitted. Under Dask the
+  scheduler reschedules the tasks of a dead worker itself (up to
+  ``distributed.scheduler.allowed-failures`` deaths, then ``KilledWorker``,
+  recorded as an error), and ``retries=max_retries`` is passed to
+  ``Client.submit`` for tasks that fail for infrastructure reasons.
+* **Ctrl-C** (``KeyboardInterrupt`` in the parent): pending tasks are
+  cancelled, worker processes stopped, and the runs completed so far are
+  returned (and were already appended to the checkpoint). Pool workers
+  ignore SIGINT so that only the parent decides.
+
+Checkpoint
+----------
+With an output directory, every completed record is appended to
+``checkpoint.jsonl`` (one JSON line per run, flushed at once; floats are
+written with ``repr`` so they load back bit for bit) and its time history to
+``checkpoint_histories/run_NNNNNN.npz``. The first line holds the campaign
+fingerprint; a later campaign with the same fingerprint in the same
+directory skips the runs found there, except those lost to a dead worker or
+a failed cluster task, which are run again.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import pickle
+import signal
+import sys
+import time
+import uuid
+from collections import deque
+from collections.abc import Iterable, Mapping, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+
+from attitude.montecarlo.dispersions import scenario_generator
+
+__all__ = [
+    "CHECKPOINT_FILE",
+    "Checkpoint",
+    "Progress",
+    "RunOutput",
+    "RunRecord",
+    "execute_task",
+    "run_dask",
+    "run_processes",
+    "run_serial",
+]
+
+#: Name of the checkpoint file in a campaign's output directory.
+CHECKPOINT_FILE = "checkpoint.jsonl"
+#: Error messages of runs lost to the infrastructure, not to the scenario: redone on resume.
+WORKER_DIED = "worker process died"
+CLUSTER_FAILED = "task failed on the cluster"
+_HISTORY_DIR = "checkpoint_histories"
+
+Task = list[tuple[int, dict[str, Any]]]
+
+
+@dataclass
+class RunOutput:
+    """What a scenario returns for one run.
+
+    Attributes
+    ----------
+    metrics : dict of float
+        Scalar results (SI units; the name should say which, e.g.
+        ``settling_time`` [s]).
+    history : dict of ndarray, optional
+        Time histories (``"t"`` [s] plus any series whose first axis is time).
+    error : str, optional
+        Set by a batch scenario for a run that failed inside the batch (e.g.
+        diverged); the run is recorded as an error.
+    """
+
+    metrics: dict[str, float] = field(default_factory=dict)
+    history: dict[str, np.ndarray] | None = None
+    error: str | None = None
+
+
+@dataclass
+class RunRecord:
+    """The outcome of one run, as stored in the table and the checkpoint."""
+
+    run: int
+    status: str  # "ok" or "error"
+    metrics: dict[str, float]
+    error: str = ""
+    attempts: int = 1
+    cpu_s: float = math.nan
+    wall_s: float = math.nan
+    history: dict[str, np.ndarray] | None = None
+
+    def to_json(self) -> str:
+        return json.dumps(
+            {
+                "run": self.run,
+                "status": self.status,
+                "metrics": self.metrics,
+                "error": self.error,
+                "attempts": self.attempts,
+                "cpu_s": self.cpu_s,
+                "wall_s": self.wall_s,
+                "history": self.history is not None,
+            }
+        )
+
+
+def _as_output(value: Any) -> RunOutput:
+    if isinstance(value, RunOutput):
+        out = value
+    elif isinstance(value, Mapping):
+        out = RunOutput(dict(value))
+    else:
+        raise ValueError(
+            f"the scenario must return a RunOutput or a mapping of metric names to floats, got {type(value).__name__}"
+        )
+    metrics = {}
+    for key, v in out.metrics.items():
+        if not isinstance(key, str) or not key:
+            raise ValueError(f"metric names must be non-empty strings, got {key!r}")
+        try:
+            metrics[key] = float(v)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"metric {key!r} must be a float, got {v!r}") from exc
+    history = None
+    if out.history is not None:
+        history = {str(k): np.asarray(v) for k, v in out.history.items()}
+    return RunOutput(metrics, history, out.error)
+
+
+def _describe_error(exc: BaseException) -> str:
+    text = f"{type(exc).__name__}: {exc}"
+    return " ".join(text.split())
+
+
+def _identity(value: Any) -> Any:
+    return value
+
+
+def execute_task(scenario: Any, seed: int, items: Task, vectorized: bool) -> list[RunRecord]:
+    """Run the runs of one task and return their records (never raises for a scenario error).
+
+    Parameters
+    ----------
+    scenario : callable or object
+        ``scenario(params, rng) -> RunOutput | mapping``; with ``vectorized``,
+        ``scenario.run_batch(params_list, rngs) -> list[RunOutput]``.
+    seed : int
+        The campaign's master seed (each run's generator comes from it and the run index).
+    items : list of (run, params)
+        The runs of the task.
+    vectorized : bool
+        Run the items together with ``run_batch``.
+    """
+    if vectorized:
+        return _execute_batch(scenario, seed, items)
+    records = []
+    for run, params in items:
+        cpu0, wall0 = time.process_time(), time.perf_counter()
+        try:
+            out = _as_output(scenario(params, scenario_generator(seed, run)))
+            status, error = ("error", out.error) if out.error else ("ok", "")
+            record = RunRecord(run, status, out.metrics, error, history=out.history)
+        except Exception as exc:  # a failing run is data, not a crash of the campaign
+            record = RunRecord(run, "error", {}, _describe_error(exc))
+        record.cpu_s = time.process_time() - cpu0
+        record.wall_s = time.perf_counter() - wall0
+        records.append(record)
+    return records
+
+
+def _execute_batch(scenario: Any, seed: int, items: Task) -> list[RunRecord]:
+    cpu0, wall0 = time.process_time(), time.perf_counter()
+    runs = [run for run, _ in items]
+    try:
+        outputs = scenario.run_batch([p for _, p in items], [scenario_generator(seed, r) for r in runs])
+        outputs = [_as_output(o) for o in outputs]
+        if len(outputs) != len(items):
+            raise ValueError(f"run_batch returned {len(outputs)} outputs for {len(items)} runs")
+    except Exception as exc:
+        message = "batch failed: " + _describe_error(exc)
+        outputs = [RunOutput({}, None, message) for _ in items]
+    cpu = (time.process_time() - cpu0) / len(items)
+    wall = (time.perf_counter() - wall0) / len(items)
+    return [
+        RunRecord(run, "error" if out.error else "ok", out.metrics, out.error or "", 1, cpu, wall, out.history)
+        for run, out in zip(runs, outputs)
+    ]
+
+
+# ---------------------------------------------------------------------------
+# Progress and checkpoint
+
+
+class Progress:
+    """A one-line text progress bar on a stream (stderr by default), redrawn at most 5 times a second."""
+
+    def __init__(self, total: int, enabled: bool, stream: TextIO | None = None, width: int = 30) -> None:
+        self.total = total
+        self.enabled = enabled and total > 0
+        self.stream = stream if stream is not None else sys.stderr
+        self.width = width
+        self.start = time.perf_counter()
+        self._last = -math.inf
+        self.done = 0
+        self.errors = 0
+
+    def update(self, done: int, errors: int, force: bool = False) -> None:
+        self.done, self.errors = done, errors
+        now = time.perf_counter()
+        if not self.enabled or (not force and now - self._last < 0.2 and done < self.total):
+            return
+        self._last = now
+        elapsed = now - self.start
+        fraction = done / self.total
+        filled = round(self.width * fraction)
+        eta = elapsed / fraction * (1 - fraction) if fraction > 0 else math.nan
+        self.stream.write(
+            f"\rMonte Carlo [{'#' * filled}{'-' * (self.width - filled)}] {done}/{self.total} runs, "
+            f"{errors} errors, elapsed {_clock(elapsed)}, ETA {_clock(eta)} "
+        )
+        self.stream.flush()
+
+    def close(self) -> None:
+        if self.enabled:
+            self.update(self.done, self.errors, force=True)
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+def _clock(seconds: float) -> str:
+    if not math.isfinite(seconds):
+        return "--:--"
+    s = int(seconds)
+    return f"{s // 3600}:{s % 3600 // 60:02d}:{s % 60:02d}"
+
+
+class Checkpoint:
+    """Append-only record of completed runs in ``out_dir`` (module docstring).
+
+    Parameters
+    ----------
+    out_dir : path
+        The campaign's output directory (created).
+    fingerprint : str
+        Identity of the campaign; a checkpoint written by another campaign
+        raises ValueError instead of being mixed in.
+    """
+
+    def __init__(self, out_dir: str | Path, fingerprint: str) -> None:
+        self.dir = Path(out_dir)
+        self.dir.mkdir(parents=True, exist_ok=True)
+        self.path = self.dir / CHECKPOINT_FILE
+        self.fingerprint = fingerprint
+        self._file: TextIO | None = None
+
+    def load(self) -> dict[int, RunRecord]:
+        """Records already in the checkpoint (a torn last line, from a crash mid-write, is ignored)."""
+        if not self.path.exists():
+            return {}
+        records: dict[int, RunRecord] = {}
+        with self.path.open() as f:
+            lines = f.read().splitlines()
+        if not lines:
+            return {}
+        try:
+            header = json.loads(lines[0])
+        except json.JSONDecodeError:
+            header = {}
+        if not isinstance(header, dict) or header.get("fingerprint") != self.fingerprint:
+            raise ValueError(
+                f"out_dir {str(self.dir)!r} holds the checkpoint of a different campaign (other seed, dispersions, "
+                "scenario or mode); use another out_dir, or resume=False to start afresh"
+            )
+        for line in lines[1:]:
+            try:
+                d = json.loads(line)
+            except json.JSONDecodeError:
+                continue
+            history = None
+            if d.get("history"):
+                path = self._history_path(d["run"])
+                if not path.exists():
+                    continue  # the run's history was lost: redo the run
+                with np.load(path, allow_pickle=False) as data:
+                    history = {k: np.array(data[k]) for k in data.files}
+            records[d["run"]] = RunRecord(
+                d["run"], d["status"], d["metrics"], d["error"], d["attempts"], d["cpu_s"], d["wall_s"], history
+            )
+        return records
+
+    def start(self, resume: bool) -> None:
+        """Open for appending; without ``resume`` (or no file yet) start a new file with the header."""
+        if resume and self.path.exists() and self.path.stat().st_size > 0:
+            self._file = self.path.open("a")
+            return
+        self._file = self.path.open("w")
+        self._file.write(json.dumps({"fingerprint": self.fingerprint, "format": 1}) + "\n")
+        self._file.flush()
+
+    def _history_path(self, run: int) -> Path:
+        return self.dir / _HISTORY_DIR / f"run_{run:06d}.npz"
+
+    def append(self, records: Iterable[RunRecord]) -> None:
+        assert self._file is not None
+        for r in records:
+            if r.history is not None:
+                path = self._history_path(r.run)
+                path.parent.mkdir(exist_ok=True)
+                np.savez(path, **r.history)
+            self._file.write(r.to_json() + "\n")
+        self._file.flush()
+        os.fsync(self._file.fileno())
+
+    def close(self) -> None:
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+
+
+class Collector:
+    """Gathers records as tasks finish: progress bar and checkpoint."""
+
+    def __init__(self, progress: Progress, checkpoint: Checkpoint | None, records: dict[int, RunRecord]) -> None:
+        self.progress = progress
+        self.checkpoint = checkpoint
+        self.records = records
+        self.errors = sum(r.status != "ok" for r in records.values())
+        self.progress.update(len(records), self.errors, force=True)
+
+    def add(self, records: Sequence[RunRecord], attempts: int = 1) -> None:
+        for r in records:
+            r.attempts = attempts
+            self.records[r.run] = r
+            self.errors += r.status != "ok"
+        if self.checkpoint is not None:
+            self.checkpoint.append(records)
+        self.progress.update(len(self.records), self.errors)
+
+
+# ---------------------------------------------------------------------------
+# Executors. Each returns True when it was interrupted (Ctrl-C).
+
+
+def run_serial(scenario: Any, seed: int, tasks: Sequence[Task], vectorized: bool, collector: Collector) -> bool:
+    """Run every task in this process, in order."""
+    try:
+        for task in tasks:
+            collector.add(execute_task(scenario, seed, task, vectorized))
+    except KeyboardInterrupt:
+        return True
+    return False
+
+
+_WORKER_SCENARIO: Any = None
+
+
+def _init_worker(payload: bytes) -> None:
+    global _WORKER_SCENARIO
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
+    _WORKER_SCENARIO = pickle.loads(payload)
+
+
+def _pool_task(seed: int, items: Task, vectorized: bool) -> list[RunRecord]:
+    return execute_task(_WORKER_SCENARIO, seed, items, vectorized)
+
+
+def _stop_pool(pool: ProcessPoolExecutor) -> None:
+    processes = list(getattr(pool, "_processes", {}).values())  # private, but the only handle on the workers
+    pool.shutdown(wait=False, cancel_futures=True)
+    for p in processes:
+        if p.is_alive():
+            p.terminate()
+    for p in processes:
+        p.join(timeout=5)
+
+
+def run_processes(
+    scenario: Any,
+    seed: int,
+    tasks: Sequence[Task],
+    vectorized: bool,
+    collector: Collector,
+    *,
+    workers: int,
+    max_retries: int,
+    mp_context: Any,
+) -> bool:
+    """Run the tasks in a pool of ``workers`` local processes (faults: module docstring)."""
+    try:
+        payload = pickle.dumps(scenario)
+    except Exception as exc:
+        raise ValueError(
+            "the scenario must be picklable to run in worker processes (define it at module level, not as a "
+            f"lambda or a local function), or use workers=1: {_describe_error(exc)}"
+        ) from exc
+
+    def new_pool() -> ProcessPoolExecutor:
+        return ProcessPoolExecutor(workers, mp_context=mp_context, initializer=_init_worker, initargs=(payload,))
+
+    queue: deque[int] = deque(range(len(tasks)))
+    suspects: deque[int] = deque()
+    lone_deaths = [0] * len(tasks)
+    in_flight: dict[Future, int] = {}
+    pool = new_pool()
+    limit = 2 * workers
+    empty_breaks = 0
+
+    def submit(i: int) -> bool:
+        try:
+            in_flight[pool.submit(_pool_task, seed, tasks[i], vectorized)] = i
+        except BrokenProcessPool:  # a worker died since the last look
+            return False
+        return True
+
+    try:
+        while queue or suspects or in_flight:
+            healthy = True
+            if suspects:
+                if not in_flight:  # a suspect runs alone, so a death is its own
+                    i = suspects.popleft()
+                    if not submit(i):
+                        suspects.appendleft(i)
+                        healthy = False
+            else:
+                while healthy and queue and len(in_flight) < limit:
+                    i = queue.popleft()
+                    if not submit(i):
+                        queue.appendleft(i)
+                        healthy = False
+            broken: list[int] = []
+            if healthy:
+                done, _ = wait(list(in_flight), return_when=FIRST_COMPLETED)
+                for fut in done:
+                    i = in_flight.pop(fut)
+                    try:
+                        collector.add(fut.result(), attempts=lone_deaths[i] + 1)
+                    except BrokenProcessPool:
+                        broken.append(i)
+            if broken or not healthy:
+                # Every unfinished future of a broken pool fails: collect them all.
+                for fut, i in list(in_flight.items()):
+                    try:
+                        collector.add(fut.result(), attempts=lone_deaths[i] + 1)
+                    except BrokenProcessPool:
+                        broken.append(i)
+                in_flight.clear()
+                pool.shutdown(wait=True)
+                empty_breaks = 0 if broken else empty_breaks + 1
+                if empty_breaks > max_retries + 2:
+                    raise RuntimeError(
+                        "the worker pool keeps breaking before any task runs: can a fresh worker process import the "
+                        "scenario (and run the initializer)? Try workers=1 to see the error"
+                    )
+                if len(broken) == 1:  # it was the only unfinished task: the death is its own
+                    i = broken[0]
+                    lone_deaths[i] += 1
+                    if lone_deaths[i] > max_retries:
+                        message = f"{WORKER_DIED} on each of {lone_deaths[i]} attempts"
+                        collector.add(
+                            [RunRecord(run, "error", {}, message) for run, _ in tasks[i]], attempts=lone_deaths[i]
+                        )
+                    else:
+                        suspects.appendleft(i)
+                else:
+                    suspects.extend(sorted(broken))
+                pool = new_pool()
+    except KeyboardInterrupt:
+        _stop_pool(pool)
+        return True
+    pool.shutdown(wait=True)
+    return False
+
+
+def run_dask(
+    scenario: Any,
+    seed: int,
+    tasks: Sequence[Task],
+    vectorized: bool,
+    collector: Collector,
+    *,
+    scheduler: Any,
+    max_retries: int,
+) -> bool:
+    """Run the tasks on a Dask cluster: ``scheduler`` is an address ``"tcp://HOST:PORT"`` or a ``Client``."""
+    try:
+        from distributed import Client, as_completed
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise ImportError(
+            "a Dask scheduler needs the 'distributed' package: pip install 'attitude-toolkit[cluster]'"
+        ) from exc
+    own = not isinstance(scheduler, Client)
+    client = Client(scheduler) if own else scheduler
+    tag = uuid.uuid4().hex[:8]
+    futures = {}
+    try:
+        # The scenario (a planned slew, a spacecraft) goes to the cluster once, not once per task, as the
+        # result of a task: unlike scattered data, the scheduler can compute it again if every worker
+        # holding it dies.
+        shared = client.submit(_identity, scenario, pure=False, key=f"attitude-montecarlo-{tag}-scenario")
+        for i, task in enumerate(tasks):
+            fut = client.submit(
+                execute_task,
+                shared,
+                seed,
+                task,
+                vectorized,
+                key=f"attitude-montecarlo-{tag}-{task[0][0]}",
+                pure=False,
+                retries=max_retries,
+            )
+            futures[fut] = i
+        for fut in as_completed(list(futures)):
+            i = futures[fut]
+            try:
+                collector.add(fut.result())
+            except Exception as exc:  # KilledWorker, lost data, cancelled ...
+                message = f"{CLUSTER_FAILED}: {_describe_error(exc)}"
+                collector.add([RunRecord(run, "error", {}, message) for run, _ in tasks[i]])
+    except KeyboardInterrupt:
+        client.cancel(list(futures))
+        return True
+    finally:
+        if own:
+            client.close()
+    return False

@@ -1,0 +1,223 @@
+"""Figures of a Monte Carlo campaign; each function returns its ``matplotlib.figure.Figure``.
+
+Built with the object-oriented API (no pyplot state), as :mod:`attitude.plotting`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+from matplotlib.figure import Figure
+from numpy.typing import NDArray
+from scipy import stats
+
+if TYPE_CHECKING:
+    from attitude.montecarlo.results import CampaignResult
+
+__all__ = [
+    "DISPLAY_UNITS",
+    "display_unit",
+    "most_influential_parameter",
+    "plot_envelope",
+    "plot_histograms",
+    "plot_scatter",
+    "save_figures",
+]
+
+#: Percentile bands drawn by :func:`plot_envelope` [%] (outermost first) and the median.
+ENVELOPE_BANDS = ((0.0, 100.0), (5.0, 95.0), (25.0, 75.0))
+
+_DEG = 180.0 / math.pi
+#: Display scale and unit of the built-in metric, history and parameter names (SI inside, review units on
+#: the axes), by name or by the prefix before the first "." (``keep_out_margin.<cone>``, ``inertia.xx``).
+DISPLAY_UNITS: dict[str, tuple[float, str]] = {
+    "settling_time": (1.0, "s"),
+    "final_pointing_error": (_DEG, "deg"),
+    "error_angle": (_DEG, "deg"),
+    "tracking_error": (_DEG, "deg"),
+    "estimation_error": (_DEG * 3600.0, "arcsec"),
+    "keep_out_margin": (_DEG, "deg"),
+    "peak_rate": (_DEG, "deg/s"),
+    "omega": (_DEG, "deg/s"),
+    "initial_rate": (_DEG, "deg/s"),
+    "peak_wheel_speed": (30.0 / math.pi, "rpm"),
+    "wheel_speed": (30.0 / math.pi, "rpm"),
+    "inertia": (1.0, "kg m^2"),
+    "gyro_misalignment": (_DEG * 3600.0, "arcsec"),
+    "star_tracker_misalignment": (_DEG * 3600.0, "arcsec"),
+    "gyro_bias": (_DEG * 3600.0, "deg/h"),
+}
+
+
+def display_unit(name: str) -> tuple[float, str]:
+    """Scale and unit label for plotting a metric, history or parameter (``(1, "")`` when unknown)."""
+    for key in (name, name.split(".")[0], name.split("[")[0]):
+        if key in DISPLAY_UNITS:
+            return DISPLAY_UNITS[key]
+    return 1.0, ""
+
+
+def _label(name: str) -> str:
+    unit = display_unit(name)[1]
+    return f"{name} [{unit}]" if unit else name
+
+
+def plot_histograms(result: CampaignResult, metrics: Sequence[str] | None = None) -> Figure:
+    """One histogram per metric over the completed runs, with requirement bounds (dashed red).
+
+    Non-finite values (a run that never settled has ``settling_time = inf``)
+    are counted in the panel title, not drawn.
+    """
+    names = list(result.metrics) if metrics is None else list(metrics)
+    for m in names:
+        if m not in result.metrics:
+            raise ValueError(f"metric {m!r} is not in the result; metrics are {list(result.metrics)}")
+    cols = min(3, max(1, len(names)))
+    rows = max(1, math.ceil(len(names) / cols))
+    fig = Figure(figsize=(4.2 * cols, 3.2 * rows), layout="constrained")
+    ok = result.status == "ok"
+    for i, m in enumerate(names):
+        ax = fig.add_subplot(rows, cols, i + 1)
+        scale = display_unit(m)[0]
+        v = result.metrics[m][ok] * scale
+        finite = v[np.isfinite(v)]
+        if finite.size:
+            ax.hist(finite, bins=min(50, max(5, int(math.sqrt(finite.size)))), color="tab:blue", alpha=0.8)
+            ax.axvline(float(np.median(finite)), color="black", lw=1, label="median")
+        for r in result.requirements:
+            if r.metric == m:
+                for bound in (r.min, r.max):
+                    if bound is not None:
+                        ax.axvline(bound * scale, color="tab:red", ls="--", lw=1.5, label=f"requirement {r.name}")
+        extra = f", {v.size - finite.size} non-finite" if v.size > finite.size else ""
+        ax.set_title(f"{m} ({finite.size} runs{extra})", fontsize=9)
+        ax.set_xlabel(_label(m), fontsize=8)
+        ax.set_ylabel("runs")
+        if finite.size:
+            ax.legend(fontsize=7)
+    fig.suptitle(f"Monte Carlo: {result.runs} runs, seed {result.seed}")
+    return fig
+
+
+def _stack(result: CampaignResult, key: str, component: int | None) -> tuple[NDArray, NDArray, str]:
+    runs = [r for r, h in result.histories.items() if key in h and "t" in h]
+    if not runs:
+        raise ValueError(f"no run has a time history {key!r} (run the scenario with histories)")
+    t = np.asarray(result.histories[runs[0]]["t"], dtype=float)
+    series = []
+    label = key
+    for r in runs:
+        h = result.histories[r]
+        if h["t"].shape != t.shape or not np.array_equal(h["t"], t):
+            raise ValueError(f"run {r} has another time grid; envelopes need one grid for all runs")
+        v = np.asarray(h[key], dtype=float)
+        if v.ndim == 2:
+            v = np.linalg.norm(v, axis=-1) if component is None else v[:, component]
+            label = f"|{key}|" if component is None else f"{key}[{component}]"
+        series.append(v)
+    return t, np.array(series), label
+
+
+def plot_envelope(result: CampaignResult, key: str, component: int | None = None) -> Figure:
+    """Percentile bands over the runs of a time history (min-max, 5-95 %, 25-75 %, median).
+
+    Parameters
+    ----------
+    result : CampaignResult
+    key : str
+        History name (``"error_angle"``, ``"omega"`` ...).
+    component : int, optional
+        For a vector history, the component to show; default its norm.
+    """
+    t, values, what = _stack(result, key, component)
+    scale, unit = display_unit(key)
+    values = values * scale
+    fig = Figure(figsize=(8, 4.5), layout="constrained")
+    ax = fig.add_subplot(1, 1, 1)
+    with np.errstate(invalid="ignore"):
+        for (lo, hi), alpha in zip(ENVELOPE_BANDS, (0.15, 0.3, 0.45)):
+            band = np.nanpercentile(values, [lo, hi], axis=0)
+            ax.fill_between(t, band[0], band[1], color="tab:blue", alpha=alpha, lw=0, label=f"{lo:g}-{hi:g} %")
+        ax.plot(t, np.nanmedian(values, axis=0), color="black", lw=1.2, label="median")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel(f"{what} [{unit}]" if unit else what)
+    if key in ("error_angle", "tracking_error", "estimation_error") and np.nanmin(values) > 0:
+        ax.set_yscale("log")
+    ax.set_title(f"{what}: envelope of {values.shape[0]} runs")
+    ax.legend(fontsize=8)
+    return fig
+
+
+def plot_scatter(result: CampaignResult, metric: str, parameter: str) -> Figure:
+    """A metric against a dispersed parameter; runs that failed a requirement in red."""
+    if metric not in result.metrics:
+        raise ValueError(f"metric {metric!r} is not in the result; metrics are {list(result.metrics)}")
+    if parameter not in result.parameters:
+        raise ValueError(f"parameter {parameter!r} is not in the result; parameters are {list(result.parameters)}")
+    fig = Figure(figsize=(6, 4.5), layout="constrained")
+    ax = fig.add_subplot(1, 1, 1)
+    x = result.parameters[parameter] * display_unit(parameter)[0]
+    y_scale = display_unit(metric)[0]
+    y = result.metrics[metric] * y_scale
+    passed = result.passed
+    ax.scatter(x[passed], y[passed], s=8, color="tab:blue", label=f"pass ({int(passed.sum())})")
+    failed = ~passed & (result.status == "ok")
+    if np.any(failed):
+        ax.scatter(x[failed], y[failed], s=12, color="tab:red", marker="x", label=f"fail ({int(failed.sum())})")
+    for r in result.requirements:
+        if r.metric == metric:
+            for bound in (r.min, r.max):
+                if bound is not None:
+                    ax.axhline(bound * y_scale, color="tab:red", ls="--", lw=1, label=f"requirement {r.name}")
+    ax.set_xlabel(_label(parameter))
+    ax.set_ylabel(_label(metric))
+    ax.legend(fontsize=8)
+    return fig
+
+
+def most_influential_parameter(result: CampaignResult, metric: str) -> str | None:
+    """The dispersed parameter with the largest |Spearman rank correlation| with ``metric`` (None if undecidable)."""
+    y = result.metrics[metric]
+    ok = (result.status == "ok") & np.isfinite(y)
+    best, score = None, -1.0
+    for name, x in result.parameters.items():
+        if ok.sum() < 3 or np.ptp(x[ok]) == 0 or np.ptp(y[ok]) == 0:
+            continue
+        rho = abs(float(stats.spearmanr(x[ok], y[ok]).statistic))
+        if np.isfinite(rho) and rho > score:
+            best, score = name, rho
+    return best
+
+
+def save_figures(result: CampaignResult, directory: str | Path) -> list[Path]:
+    """Histograms, an envelope per history, and per requirement metric a scatter against its most influential parameter.
+
+    Returns the paths written (PNG).
+    """
+    out = Path(directory)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = []
+
+    def save(fig: Figure, name: str) -> None:
+        path = out / name
+        fig.savefig(path, dpi=110)
+        paths.append(path)
+
+    if result.metrics:
+        save(plot_histograms(result), "histograms.png")
+    keys = sorted({k for h in result.histories.values() for k in h if k != "t"})
+    for key in keys:
+        try:
+            save(plot_envelope(result, key), f"envelope_{key}.png")
+        except ValueError:
+            continue
+    for metric in dict.fromkeys(r.metric for r in result.requirements):
+        if metric in result.metrics:
+            parameter = most_influential_parameter(result, metric)
+            if parameter is not None:
+                save(plot_scatter(result, metric, parameter), f"scatter_{metric}.png")
+    return paths

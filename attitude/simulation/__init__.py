@@ -1,0 +1,33 @@
+"""The closed-loop simulation engine, its batch (vectorised) and compiled variants and their code generation."""
+
+from attitude.simulation.batch import (
+    BATCH_CHUNK,
+    BatchResult,
+    closed_loop_metrics,
+    simulate_batch,
+)
+from attitude.simulation.batch_estimated import (
+    simulate_batch_estimated,
+)
+from attitude.simulation.engine import (
+    Estimate,
+    SimulationDivergedError,
+    SimulationResult,
+    Truth,
+    settling_time_after,
+    simulate,
+)
+
+__all__ = [
+    "BATCH_CHUNK",
+    "BatchResult",
+    "Estimate",
+    "SimulationDivergedError",
+    "SimulationResult",
+    "Truth",
+    "closed_loop_metrics",
+    "settling_time_after",
+    "simulate",
+    "simulate_batch",
+    "simulate_batch_estimated",
+]

@@ -1,0 +1,378 @@
+"""The vectorised closed loop: many spacecraft advance together.
+
+:func:`simulate_batch` runs ``N`` closed loops (dispersed inertias, initial
+attitudes, rates and wheel momenta; one controller law and one wheel set).
+Each tick evaluates the *same* backend-neutral definitions as the single-run
+engine (:mod:`attitude.simulation.engine`), gathered in
+:mod:`attitude.simulation.kernel`: :meth:`ReactionWheels.state_derivative_components`
+(which calls Euler's equations of the hub body),
+:meth:`ReactionWheels.allocate_components`, the controller's
+``torque_components`` and :func:`attitude.integrators.rk4_step`. A test
+proves it agrees with :func:`attitude.simulation.engine.simulate` run by run. Two
+back ends evaluate them:
+
+* ``"compiled"``: the tick of one run generated as C, compiled once per
+  machine (:mod:`attitude.simulation.codegen`) and mapped over the runs; many ticks per
+  call. Several times faster than numpy (``make bench``: about 450k
+  spacecraft-simulated seconds per CPU second for PD + four wheels).
+* ``"numpy"``: every component an array of shape ``(N,)``; each RK4 stage a
+  few hundred numpy operations, so the cost per spacecraft falls with ``N``
+  until the arrays leave the cache (batches split in chunks of
+  :data:`BATCH_CHUNK`). No compiler needed.
+
+Only the order of evaluation differs from the single-run engine (C or numpy
+per component instead of casadi's virtual machine per run), so results agree
+to rounding. Each run's arithmetic is independent of the others, so a run
+gives bit-identical results whatever batch it is in (for one back end).
+
+Controllers are those of the engine's compiled path: ``period``,
+``compiled_inputs(t) -> (m, len(t))`` and ``torque_components(q, omega,
+h_body, inputs)``; the inputs (reference samples) are shared by all runs,
+so a controller with per-run state latched by ``prepare`` is refused.
+
+Metrics are reduced on the fly (no full histories unless asked):
+``settling_time`` (first time after which the error angle stays at or below
+``pointing_threshold``, as :meth:`SimulationResult.settling_time`), the
+final pointing error, the peak body rate and the peak wheel speed,
+exactly as :func:`closed_loop_metrics` computes them from a single run.
+"""
+
+from __future__ import annotations
+
+import pickle
+import threading
+import time
+import warnings
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from attitude import quaternion as quat
+from attitude.actuators import ReactionWheels
+from attitude.rigid_body import RigidBody, symmetric_entries
+from attitude.simulation.codegen import CompilationError
+from attitude.simulation.engine import _PlantModel, settling_time_after, ticks_per_period, whole_ticks
+from attitude.simulation.kernel import METRICS, CompiledTicks, command, observe
+from attitude.validation import as_float_array, check_positive
+
+__all__ = ["BATCH_CHUNK", "BatchResult", "closed_loop_metrics", "simulate_batch"]
+
+#: Most spacecraft advanced together; larger batches are split (cache-sized component arrays).
+BATCH_CHUNK = 4096
+
+
+@dataclass
+class BatchResult:
+    """Outcome of :func:`simulate_batch` (``N`` runs).
+
+    Attributes
+    ----------
+    t : ndarray (n,)
+        Tick times [s] (metrics use every tick).
+    metrics : dict of ndarray (N,)
+        ``settling_time`` [s], ``final_pointing_error`` [rad], ``peak_rate``
+        [rad/s], ``peak_wheel_speed`` [rad/s] (with wheels).
+    q, omega, h_wheels : ndarray (N, 4), (N, 3), (N, n_wheels)
+        Final state.
+    diverged_at : ndarray (N,)
+        Time [s] at which a run's state became non-finite (NaN if it did not).
+    history_t : ndarray (k,)
+        Times of the recorded histories [s] (every ``history_stride`` ticks).
+    histories : dict of ndarray
+        ``error_angle`` (N, k) [rad], ``omega`` (N, k, 3) [rad/s],
+        ``wheel_speed`` (N, k, n_wheels) [rad/s]; empty without a stride.
+    info : dict
+        Tick, substeps, chunk size, wall time [s].
+    """
+
+    t: NDArray[np.float64]
+    metrics: dict[str, NDArray[np.float64]]
+    q: NDArray[np.float64]
+    omega: NDArray[np.float64]
+    h_wheels: NDArray[np.float64]
+    diverged_at: NDArray[np.float64]
+    history_t: NDArray[np.float64]
+    histories: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+def closed_loop_metrics(result: Any, pointing_threshold: float) -> dict[str, float]:
+    """The batch metrics of one :class:`attitude.simulation.engine.SimulationResult`.
+
+    Parameters
+    ----------
+    result : SimulationResult
+    pointing_threshold : float
+        Error angle [rad] that defines settling.
+    """
+    metrics = {
+        "settling_time": float(result.settling_time(pointing_threshold)),
+        "final_pointing_error": float(result.error_angle[-1]),
+        "peak_rate": float(np.max(np.linalg.norm(result.omega, axis=-1))),
+    }
+    if result.wheel_speed.shape[-1]:
+        metrics["peak_wheel_speed"] = float(np.max(np.abs(result.wheel_speed)))
+    return metrics
+
+
+def _batch(value: ArrayLike, name: str, width: int, n: int) -> NDArray[np.float64]:
+    """``value`` as an ``(n, width)`` array: one row per run, or one row shared by all."""
+    arr = as_float_array(value, name)
+    if arr.shape == (width,):
+        arr = np.broadcast_to(arr, (n, width))
+    if arr.shape != (n, width):
+        raise ValueError(f"{name} must have shape ({n}, {width}) or ({width},), got {arr.shape}")
+    return np.ascontiguousarray(arr)
+
+
+def simulate_batch(
+    body: RigidBody,
+    q0: ArrayLike,
+    omega0: ArrayLike,
+    duration: float,
+    *,
+    controller: Any,
+    wheels: ReactionWheels | None = None,
+    h_wheels0: ArrayLike | None = None,
+    dt: float | None = None,
+    substeps: int = 1,
+    disturbance: ArrayLike | None = None,
+    pointing_threshold: float = 0.0,
+    history_stride: int | None = None,
+    backend: str = "auto",
+) -> BatchResult:
+    """Simulate ``N`` closed loops at once (module docstring).
+
+    Parameters
+    ----------
+    body : RigidBody
+        The whole spacecraft, wheels included [kg m^2]: a batch of ``N``
+        inertias (``body.batch_shape == (N,)``) or one shared by all runs.
+    q0 : array_like (N, 4)
+        Initial attitudes ``q_BN``.
+    omega0 : array_like (N, 3) or (3,)
+        Initial body rates [rad/s].
+    duration : float
+        Simulated time [s], a whole number of ticks.
+    controller : object
+        ``period`` [s], ``compiled_inputs(t)`` and ``torque_components`` (module docstring).
+    wheels : ReactionWheels, optional
+        Shared by all runs; None applies the commanded torque directly.
+    h_wheels0 : array_like (N, n) or (n,), optional
+        Initial wheel momenta [N m s] (default 0).
+    dt : float, optional
+        Tick [s] (default the controller period, which must be a whole multiple of it).
+    substeps : int
+        RK4 steps per tick.
+    disturbance : array_like (3,) or (N, 3), optional
+        Constant external torque [N m] in body axes.
+    pointing_threshold : float
+        Error angle [rad] for ``settling_time``.
+    history_stride : int, optional
+        Record histories every ``history_stride`` ticks (None: none).
+    backend : {"auto", "compiled", "numpy"}
+        "compiled": the tick compiled to C (:mod:`attitude.simulation.kernel`;
+        raises :class:`attitude.simulation.codegen.CompilationError` without a C
+        compiler); "numpy": numpy operations on arrays of runs; "auto"
+        (default): compiled when a compiler works, else numpy
+        (``info["backend"]`` and ``info["backend_note"]`` say which and why).
+
+    Returns
+    -------
+    BatchResult
+        Runs whose state became non-finite carry their divergence time in
+        ``diverged_at`` (and NaN metrics); the others are unaffected.
+    """
+    if not isinstance(body, RigidBody) or len(body.batch_shape) > 1:
+        raise ValueError("body must be a RigidBody with one inertia or a batch of shape (N,)")
+    q0 = quat.as_unit_quaternion(q0, "q0")
+    if q0.ndim != 2:
+        raise ValueError(f"q0 must have shape (N, 4), got {q0.shape}")
+    n = q0.shape[0]
+    if body.batch_shape not in ((), (n,)):
+        raise ValueError(f"body batch {body.batch_shape} must be () or ({n},) to match q0")
+    omega0 = _batch(omega0, "omega0", 3, n)
+    for name in ("torque_components", "compiled_inputs", "period"):
+        if not hasattr(controller, name):
+            raise ValueError(f"controller must have {name!r} (the compiled-path protocol of attitude.simulation)")
+    if hasattr(controller, "prepare"):
+        raise ValueError(
+            "controller has per-run state (a prepare hook); simulate_batch shares one input table across runs"
+        )
+    if wheels is not None and not isinstance(wheels, ReactionWheels):
+        raise ValueError(f"wheels must be a ReactionWheels or None, got {type(wheels).__name__}")
+    n_w = 0 if wheels is None else wheels.n_wheels
+    h0 = np.zeros((n, n_w)) if h_wheels0 is None else _batch(h_wheels0, "h_wheels0", n_w, n)
+    duration = float(check_positive(duration, "duration"))
+    period = float(check_positive(controller.period, "controller.period"))
+    dt = period if dt is None else float(check_positive(dt, "dt"))
+    every = ticks_per_period(period, dt, "controller")
+    n_ticks = whole_ticks(duration, dt)
+    if not isinstance(substeps, int) or substeps < 1:
+        raise ValueError(f"substeps must be a positive integer, got {substeps!r}")
+    tau_ext = None if disturbance is None else _batch(disturbance, "disturbance", 3, n)
+    stride = history_stride
+    if stride is not None and (not isinstance(stride, int) or stride < 1):
+        raise ValueError(f"history_stride must be a positive integer or None, got {stride!r}")
+
+    if backend not in ("auto", "compiled", "numpy"):
+        raise ValueError(f"backend must be 'auto', 'compiled' or 'numpy', got {backend!r}")
+
+    t = np.arange(n_ticks + 1) * dt
+    inputs = np.atleast_2d(as_float_array(controller.compiled_inputs(t), "controller.compiled_inputs(t)"))
+    if inputs.shape[-1] != t.size:
+        raise ValueError(f"controller.compiled_inputs(t) must return shape (m, {t.size}), got {inputs.shape}")
+    q_ref = np.asarray(controller.reference_samples(t)[0], float) if hasattr(controller, "reference_samples") else None
+    plant = body if wheels is None else wheels.hub_body(body)
+    loop = _Loop(_PlantModel(plant, wheels), controller, t, inputs, q_ref, every, substeps, pointing_threshold, stride)
+
+    start = time.perf_counter()
+    ticks, note = None, None
+    if backend != "numpy":
+        try:
+            ticks = _compiled_ticks(wheels, controller, inputs.shape[0], q_ref is not None, substeps)
+        except CompilationError as exc:
+            if backend == "compiled":
+                raise
+            note = f"numpy fallback: {exc}"
+            warnings.warn(f"simulating the batch without a compiled kernel ({note})", RuntimeWarning, stacklevel=2)
+    compile_s = time.perf_counter() - start
+    metrics = {k: np.empty(n) for k in ("settling_time", "final_pointing_error", "peak_rate")}
+    if wheels is not None:
+        metrics["peak_wheel_speed"] = np.empty(n)
+    final = np.empty((n, 7 + n_w))
+    diverged = np.full(n, np.nan)
+    history_t = t[::stride] if stride else np.zeros(0)
+    histories: dict[str, NDArray[np.float64]] = {}
+    if stride:
+        k_rec = history_t.size
+        histories = {"error_angle": np.empty((n, k_rec)), "omega": np.empty((n, k_rec, 3))}
+        if wheels is not None:
+            histories["wheel_speed"] = np.empty((n, k_rec, n_w))
+    x0 = np.concatenate([q0, omega0, h0], axis=1)
+    ext = np.zeros((n, 3)) if tau_ext is None else tau_ext
+    chunk = n if ticks is not None else BATCH_CHUNK
+    chunks = -(-n // chunk)
+    size = -(-n // chunks)
+    for lo in range(0, n, size):
+        sl = slice(lo, min(lo + size, n))
+        chunk_plant = plant if not plant.batch_shape else RigidBody(plant.inertia[sl])
+        with np.errstate(all="ignore"):  # a diverging run turns NaN; it is reported, the others go on
+            if ticks is None:
+                x, acc, err, recorded = loop.run_numpy(chunk_plant, x0[sl], None if tau_ext is None else ext[sl])
+            else:
+                x, acc, err, recorded = loop.run_compiled(ticks, chunk_plant, x0[sl], ext[sl])
+        _store(t, acc, err, sl, metrics, diverged)
+        final[sl] = np.stack(np.broadcast_arrays(*x), axis=-1)
+        for name, rows in recorded.items():
+            histories[name][sl] = np.stack(rows, axis=1)
+    info = {
+        "dt": dt,
+        "substeps": substeps,
+        "chunk": size,
+        "backend": "numpy" if ticks is None else "compiled",
+        "backend_note": note,
+        "compile_s": compile_s,
+        "wall_time_s": time.perf_counter() - start,
+    }
+    return BatchResult(t, metrics, final[:, :4], final[:, 4:7], final[:, 7:], diverged, history_t, histories, info=info)
+
+
+_TICKS_CACHE: dict[bytes, CompiledTicks] = {}
+_TICKS_LOCK = threading.Lock()
+
+
+def _compiled_ticks(wheels: Any, controller: Any, n_inputs: int, has_reference: bool, substeps: int) -> CompiledTicks:
+    """One :class:`CompiledTicks` per loop structure in a process (the library itself is cached on disk).
+
+    Thread-safe: a Dask worker may run several batches in threads at once.
+    """
+    key = pickle.dumps((wheels, controller, n_inputs, has_reference, substeps))
+    with _TICKS_LOCK:
+        if key not in _TICKS_CACHE:
+            if len(_TICKS_CACHE) >= 4:  # a few loop structures at a time; keep memory flat
+                _TICKS_CACHE.pop(next(iter(_TICKS_CACHE)))
+            _TICKS_CACHE[key] = CompiledTicks(wheels, controller, n_inputs, has_reference, substeps)
+        return _TICKS_CACHE[key]
+
+
+def _store(t, acc, err, sl, metrics, diverged) -> None:
+    """Final metrics of a chunk from its running metrics (as :meth:`SimulationResult.settling_time`)."""
+    peak_rate, peak_speed, last_above, diverged_at = (np.broadcast_to(a, np.shape(err)) for a in acc)
+    settle = settling_time_after(t, np.where(np.isfinite(last_above), last_above, -1))
+    alive = ~np.isfinite(diverged_at)
+    values = {"settling_time": settle, "final_pointing_error": err, "peak_rate": peak_rate}
+    if "peak_wheel_speed" in metrics:
+        values["peak_wheel_speed"] = peak_speed
+    for name, value in values.items():
+        metrics[name][sl] = np.where(alive, value, np.nan)
+    diverged[sl] = np.where(alive, np.nan, diverged_at)
+
+
+class _Loop:
+    """The tick sequence of one :func:`simulate_batch` call, run by numpy or by the compiled kernel."""
+
+    def __init__(self, model, controller, t, inputs, q_ref, every, substeps, threshold, stride) -> None:
+        self.model, self.controller, self.t, self.inputs, self.q_ref = model, controller, t, inputs, q_ref
+        self.every, self.substeps, self.threshold, self.stride = every, substeps, threshold, stride
+
+    def _start(self, n: int) -> list:
+        return [np.zeros(n), np.zeros(n), np.full(n, -np.inf), np.full(n, np.inf)]
+
+    def _observe(self, model, x, k, acc, recorded) -> tuple[list, Any]:
+        q_ref = None if self.q_ref is None else [float(v) for v in self.q_ref[k]]
+        acc, err, speeds = observe(model, x, q_ref, self.threshold, float(k), float(self.t[k]), acc)
+        if self.stride and k % self.stride == 0:
+            recorded.setdefault("error_angle", []).append(np.broadcast_to(err, acc[0].shape))
+            recorded.setdefault("omega", []).append(np.stack(np.broadcast_arrays(*x[4:7]), axis=-1))
+            if speeds:
+                recorded.setdefault("wheel_speed", []).append(np.stack(np.broadcast_arrays(*speeds), axis=-1))
+        return acc, err
+
+    def run_numpy(self, plant: RigidBody, x0: NDArray, ext: NDArray | None) -> tuple:
+        """Every tick as numpy operations on arrays of runs."""
+        model = _PlantModel(plant, self.model.wheels)
+        n_ticks = self.t.size - 1
+        dt = self.t[1] - self.t[0]
+        x = [np.ascontiguousarray(x0[:, i]) for i in range(x0.shape[1])]
+        ext_c = None if ext is None else [np.ascontiguousarray(ext[:, i]) for i in range(3)]
+        acc, recorded, u = self._start(x0.shape[0]), {}, []
+        for k in range(n_ticks + 1):
+            if k % self.every == 0:
+                u = command(model, self.controller, x, [float(v) for v in self.inputs[:, k]])
+            acc, err = self._observe(model, x, k, acc, recorded)
+            if k == n_ticks:
+                break
+            x = model.hold_step(x, u, ext_c, dt, self.substeps)
+        return x, acc, err, recorded
+
+    def run_compiled(self, ticks: CompiledTicks, plant: RigidBody, x0: NDArray, ext: NDArray) -> tuple:
+        """Ticks in compiled calls; the last tick's metrics and the history samples by numpy."""
+        n, n_ticks = x0.shape[0], self.t.size - 1
+        inertia = np.broadcast_to(plant.inertia, (n, 3, 3))
+        inverse = np.broadcast_to(plant.inertia_inv, (n, 3, 3))
+        z = np.concatenate(
+            [x0, np.zeros((n, ticks.n_u)), np.stack(self._start(n), axis=1), symmetric_entries(inertia),
+             symmetric_entries(inverse), ext], axis=1,
+        )  # fmt: skip
+        k = np.arange(n_ticks)
+        columns = [self.inputs[:, :-1]]
+        if self.q_ref is not None:
+            columns.append(self.q_ref[:-1].T)
+        columns.append(np.stack([k, self.t[:-1], (k % self.every == 0), np.diff(self.t), np.full(n_ticks, 0.0)]))
+        columns = np.concatenate(columns, axis=0)
+        columns[-1] = self.threshold
+        stops = list(range(0, n_ticks, self.stride)) if self.stride else [0]
+        recorded: dict[str, list] = {}
+        model = _PlantModel(plant, self.model.wheels)
+        for a, b in zip(stops, [*stops[1:], n_ticks]):
+            if self.stride:
+                self._observe(model, [z[:, i] for i in range(ticks.n_x)], a, self._start(n), recorded)
+            z = ticks.advance(z, columns[:, a:b])
+        x = [np.ascontiguousarray(z[:, i]) for i in range(ticks.n_x)]
+        off = ticks.n_x + ticks.n_u
+        acc = [np.ascontiguousarray(z[:, off + i]) for i in range(len(METRICS))]
+        acc, err = self._observe(model, x, n_ticks, acc, recorded)
+        return x, acc, err, recorded

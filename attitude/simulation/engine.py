@@ -1,0 +1,604 @@
+"""The closed-loop engine: plant + wheels + sensors + estimator + controller.
+
+``simulate(...)`` integrates the continuous plant between discrete samples.
+Commands are held (zero-order hold) over each sample interval ``dt``, the
+engine's tick; every component runs at a period that is a whole multiple of
+``dt``. Components are plain objects meeting small protocols, so a user's own
+controller or filter drops in; this module never imports ``controllers`` or
+``estimation``.
+
+Protocols (duck-typed)
+----------------------
+controller
+    ``period`` [s] and ``torque(t, estimate) -> (3,)`` commanded body torque
+    [N m]. Optional: ``prepare(t0, q0, omega0)`` called once before the run
+    (e.g. to latch limits from the initial error); ``reference(t) -> (q_ref, omega_ref)`` (the engine then
+    logs the attitude error; ``reference_samples(t_array)`` does it in one
+    call), ``log() -> dict`` of floats/arrays logged at each
+    controller sample, and the compiled path below.
+sensor
+    ``name``, ``period`` [s] and ``measure(t, truth, rng) -> array or None``.
+    ``truth`` is a :class:`Truth`.
+estimator
+    ``period`` [s] and ``update(t, measurements) -> Estimate``;
+    ``measurements`` maps sensor names to their newest sample (None when the
+    sensor did not sample at ``t``), plus ``"torque_command"`` (the body
+    torque command held over the last interval) and ``"wheel_momentum"``
+    (wheel tachometers). Optional ``log() -> dict``.
+disturbance
+    None, a constant torque ``(3,)`` [N m], or a callable
+    ``torque(t, q, omega) -> (3,)`` evaluated at each tick and held over it.
+
+Compiled path
+-------------
+With no sensors or estimator (the controller sees the truth), a controller
+that offers ``compiled_inputs(t) -> (m, N)`` and
+``torque_components(q, omega, h_body, inputs) -> [3]`` (backend-neutral, see
+:mod:`attitude.backend`) runs with the plant and the wheels entirely in one
+casadi ``mapaccum``: no Python work per sample. It evaluates the same
+definitions as the Python path, and a test proves the two agree.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import casadi as ca
+import matplotlib.figure
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from attitude import quaternion as quat
+from attitude.actuators import ReactionWheels
+from attitude.integrators import normalize_quaternion_components, rk4_step
+from attitude.results import ResultIO
+from attitude.rigid_body import RigidBody, split_components
+from attitude.rng import as_generator
+from attitude.validation import as_float_array, check_positive, check_vector
+
+__all__ = [
+    "Estimate",
+    "SimulationDivergedError",
+    "SimulationResult",
+    "Truth",
+    "settling_time_after",
+    "simulate",
+]
+
+
+@dataclass(frozen=True)
+class Truth:
+    """The true state handed to sensors.
+
+    Attributes
+    ----------
+    t : float
+        Time [s].
+    q : ndarray (4,)
+        Attitude ``q_BN``.
+    omega : ndarray (3,)
+        Body rate [rad/s].
+    h_wheels : ndarray (n,)
+        Wheel spin-axis momenta [N m s] (empty without wheels).
+    """
+
+    t: float
+    q: NDArray[np.float64]
+    omega: NDArray[np.float64]
+    h_wheels: NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """What the controller sees: attitude, body rate and wheel momenta.
+
+    ``h_body`` is the wheels' momentum *relative to the body*,
+    ``sum_i J_i Omega_i a_i`` in body components [N m s] (the engine fills it
+    from the wheel tachometers). With the whole-spacecraft inertia ``I`` a
+    controller uses, ``I omega + h_body`` is then exactly the total angular
+    momentum ``I_s omega + A h`` (the wheels' spin inertia is counted once).
+    ``covariance`` is optional (an estimator's error covariance).
+    """
+
+    t: float
+    q: NDArray[np.float64]
+    omega: NDArray[np.float64]
+    h_wheels: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    h_body: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
+    covariance: NDArray[np.float64] | None = None
+
+
+@dataclass
+class SimulationResult(ResultIO):
+    """Time histories of a closed-loop simulation (one row per tick).
+
+    Attributes
+    ----------
+    t : ndarray (n,)
+        Sample times [s].
+    q, omega : ndarray (n, 4), (n, 3)
+        True attitude ``q_BN`` and body rate [rad/s].
+    h_wheels, wheel_speed : ndarray (n, n_wheels)
+        Wheel spin-axis momenta [N m s] and speeds relative to the body [rad/s].
+    torque_command : ndarray (n, 3)
+        Body torque commanded by the controller, held from each row's time [N m].
+    torque_applied : ndarray (n, 3)
+        Body torque the actuators deliver after saturation [N m] (``-A u``;
+        without wheels, the command itself).
+    motor_torque : ndarray (n, n_wheels)
+        Wheel motor torques [N m].
+    momentum_N : ndarray (n, 3)
+        Total inertial angular momentum (body plus wheels) [N m s].
+    error_angle : ndarray (n,)
+        Angle between the true attitude and the controller's reference [rad]
+        (NaN-free; zeros if the controller has no reference).
+    estimate_q, estimate_omega : ndarray (n, 4), (n, 3)
+        The controller's view (truth when there is no estimator).
+    logs : dict of ndarray
+        Whatever the components logged (keys ``controller.*``, ``estimator.*``,
+        ``sensor.<name>``), one row per tick, NaN where a component did not
+        sample.
+    info : dict
+        Engine details: tick, engine ("compiled" or "python"), wall time [s].
+    """
+
+    t: NDArray[np.float64]
+    q: NDArray[np.float64]
+    omega: NDArray[np.float64]
+    h_wheels: NDArray[np.float64]
+    wheel_speed: NDArray[np.float64]
+    torque_command: NDArray[np.float64]
+    torque_applied: NDArray[np.float64]
+    motor_torque: NDArray[np.float64]
+    momentum_N: NDArray[np.float64]
+    error_angle: NDArray[np.float64]
+    estimate_q: NDArray[np.float64]
+    estimate_omega: NDArray[np.float64]
+    logs: dict[str, Any] = field(default_factory=dict)
+    info: dict[str, Any] = field(default_factory=dict)
+
+    def settling_time(self, threshold_rad: float) -> float:
+        """First time [s] after which the error angle stays below ``threshold_rad`` (inf if never)."""
+        above = np.nonzero(self.error_angle > threshold_rad)[0]
+        return float(settling_time_after(self.t, above[-1] if above.size else -1))
+
+    def plot(self) -> matplotlib.figure.Figure:
+        """The standard review figure: error, rates, torques, wheel speeds."""
+        from attitude.plotting import plot_simulation
+
+        return plot_simulation(self)
+
+
+# ---------------------------------------------------------------------------
+
+
+def settling_time_after(t: ArrayLike, last_outside: ArrayLike) -> NDArray[np.float64]:
+    """The settling time from the last sample outside the threshold: the one definition.
+
+    Parameters
+    ----------
+    t : array_like (n,)
+        Sample times [s].
+    last_outside : int or array_like of int
+        Index of the last sample whose error exceeded the threshold (-1: none).
+
+    Returns
+    -------
+    ndarray
+        ``t[0]`` when no sample was outside, ``inf`` when the last one was,
+        else the time of the sample after the last one outside [s].
+    """
+    t = np.asarray(t, dtype=float)
+    last = np.asarray(last_outside, dtype=np.int64)
+    settle = np.where(last < 0, t[0], t[np.minimum(last + 1, t.size - 1)])
+    return np.where(last == t.size - 1, np.inf, settle)
+
+
+def _period(obj: Any, name: str) -> float:
+    period = getattr(obj, "period", None)
+    if period is None:
+        raise ValueError(f"{name} must have a 'period' attribute (its sample time in s)")
+    return float(check_positive(period, f"{name}.period"))
+
+
+def ticks_per_period(period: float, dt: float, name: str) -> int:
+    """Ticks of ``dt`` [s] in a component's ``period`` [s], which must be a whole multiple of it (to 1e-9).
+
+    ``name`` is the component, named in the error (``"{name}.period"``).
+    """
+    ratio = period / dt
+    k = round(ratio)
+    if k < 1 or abs(ratio - k) > 1e-9 * max(1.0, ratio):
+        raise ValueError(f"{name}.period = {period!r} s must be a whole multiple of the tick dt = {dt!r} s")
+    return int(k)
+
+
+def whole_ticks(duration: float, dt: float) -> int:
+    """Ticks of ``dt`` [s] in ``duration`` [s], which must be a whole number (>= 1) of them (to 1e-9)."""
+    n = round(duration / dt)
+    if n < 1 or abs(n * dt - duration) > 1e-9 * duration:
+        raise ValueError(f"duration = {duration!r} s must be a whole number (>= 1) of ticks dt = {dt!r} s")
+    return n
+
+
+def simulate(
+    body: RigidBody,
+    q0: ArrayLike,
+    omega0: ArrayLike,
+    duration: float,
+    *,
+    controller: Any = None,
+    wheels: ReactionWheels | None = None,
+    h_wheels0: ArrayLike | None = None,
+    sensors: tuple[Any, ...] | list[Any] = (),
+    estimator: Any = None,
+    disturbance: Any = None,
+    dt: float | None = None,
+    substeps: int = 1,
+    rng: Any = None,
+    engine: str = "auto",
+) -> SimulationResult:
+    """Simulate the closed loop from ``t = 0`` to ``duration``.
+
+    Parameters
+    ----------
+    body : RigidBody
+        The whole spacecraft, wheels included [kg m^2]. With wheels, the
+        plant uses the hub inertia (:meth:`ReactionWheels.hub_body`).
+    q0 : array_like (4,)
+        Initial attitude ``q_BN``.
+    omega0 : array_like (3,)
+        Initial body rate [rad/s].
+    duration : float
+        Simulated time [s]; the run ends at the first tick at or after it.
+    controller : object, optional
+        See the module docstring. None: no control torque.
+    wheels : ReactionWheels, optional
+        Actuators. None: the commanded torque acts directly on the body.
+    h_wheels0 : array_like (n,), optional
+        Initial wheel momenta [N m s] (default zero).
+    sensors : sequence of objects
+        See the module docstring.
+    estimator : object, optional
+        See the module docstring. None: the controller sees the truth.
+    disturbance : None, array_like (3,) or callable
+        External torque [N m] (module docstring).
+    dt : float, optional
+        The tick [s]: the shortest component period by default.
+    substeps : int
+        RK4 steps per tick (each renormalised).
+    rng : Generator, int or None
+        Random source handed to the sensors.
+    engine : {"auto", "python", "compiled"}
+        "auto" uses the compiled path when possible (module docstring).
+
+    Returns
+    -------
+    SimulationResult
+    """
+    if not isinstance(body, RigidBody) or body.batch_shape:
+        raise ValueError("body must be a single RigidBody")
+    q0 = quat.as_unit_quaternion(q0, "q0")
+    omega0 = check_vector(omega0, "omega0", 3)
+    if q0.shape != (4,) or omega0.shape != (3,):
+        raise ValueError(f"q0 must have shape (4,) and omega0 shape (3,), got {q0.shape} and {omega0.shape}")
+    duration = float(check_positive(duration, "duration"))
+    if not isinstance(substeps, int) or substeps < 1:
+        raise ValueError(f"substeps must be a positive integer, got {substeps!r}")
+    if engine not in ("auto", "python", "compiled"):
+        raise ValueError(f"engine must be 'auto', 'python' or 'compiled', got {engine!r}")
+    if wheels is not None and not isinstance(wheels, ReactionWheels):
+        raise ValueError(f"wheels must be a ReactionWheels or None, got {type(wheels).__name__}")
+    n_w = 0 if wheels is None else wheels.n_wheels
+    if h_wheels0 is None:
+        h_wheels0 = np.zeros(n_w)
+    h_wheels0 = as_float_array(h_wheels0, "h_wheels0").reshape(-1)
+    if h_wheels0.size != n_w:
+        raise ValueError(f"h_wheels0 must have one momentum per wheel ({n_w}), got {h_wheels0.size}")
+    if disturbance is not None and not callable(disturbance):
+        disturbance = check_vector(disturbance, "disturbance", 3)
+        if disturbance.shape != (3,):
+            raise ValueError(
+                f"disturbance must be a constant torque of shape (3,) or a callable, got shape {disturbance.shape}"
+            )
+    names = []
+    for s in sensors:
+        if not hasattr(s, "measure") or not hasattr(s, "name"):
+            raise ValueError(f"sensor {s!r} must have 'name', 'period' and 'measure(t, truth, rng)'")
+        if s.name in names:
+            raise ValueError(
+                f"sensors must have distinct names; {s.name!r} appears twice (their samples would collide)"
+            )
+        names.append(s.name)
+    if controller is not None and not hasattr(controller, "torque"):
+        raise ValueError("controller must have a 'torque(t, estimate)' method")
+    if estimator is not None and not hasattr(estimator, "update"):
+        raise ValueError("estimator must have an 'update(t, measurements)' method")
+
+    periods = {}
+    if controller is not None:
+        periods["controller"] = _period(controller, "controller")
+    if estimator is not None:
+        periods["estimator"] = _period(estimator, "estimator")
+    for s in sensors:
+        periods[f"sensor {s.name}"] = _period(s, f"sensor {s.name}")
+    if dt is None:
+        dt = min(periods.values()) if periods else 0.1
+    dt = float(check_positive(dt, "dt"))
+    every = {name: ticks_per_period(p, dt, name) for name, p in periods.items()}
+    # Whole ticks: the run ends at the first tick at or after `duration`
+    # (the 1e-9 slack keeps 600 s / 0.1 s at 6000 ticks despite rounding).
+    n_ticks = max(1, int(np.ceil(duration / dt - 1e-9)))
+
+    try:
+        plant = body if wheels is None else wheels.hub_body(body)
+    except ValueError as exc:
+        raise ValueError(
+            "wheels spin_inertia is too large for body: the hub inertia I - sum J a a^T (the spacecraft without "
+            f"the wheels' spin-axis inertia) must be a valid inertia: {exc}"
+        ) from exc
+    model = _PlantModel(plant, wheels)
+    compiled_ok = (
+        controller is not None
+        and not sensors
+        and estimator is None
+        and hasattr(controller, "torque_components")
+        and hasattr(controller, "compiled_inputs")
+        and (disturbance is None or not callable(disturbance))
+        and every.get("controller") == 1
+    )
+    if engine == "compiled" and not compiled_ok:
+        raise ValueError(
+            "engine='compiled' needs a controller with torque_components/compiled_inputs at period dt, "
+            "no sensors or estimator, and a constant (or no) disturbance"
+        )
+    use_compiled = compiled_ok and engine != "python"
+    for s in sensors:
+        if hasattr(s, "reset"):
+            s.reset()  # a sensor carries state (e.g. gyro bias) from run to run otherwise
+    if controller is not None and hasattr(controller, "prepare"):
+        controller.prepare(0.0, q0, omega0)
+    start = time.perf_counter()
+    runner = _run_compiled if use_compiled else _run_python
+    result = runner(
+        model, controller, sensors, estimator, disturbance, q0, omega0, h_wheels0, dt, n_ticks, substeps, every, rng
+    )
+    if wheels is not None:
+        result.info["wheel_speed_limit_rpm"] = (
+            wheels.momentum_max / wheels.spin_inertia * 60.0 / (2.0 * np.pi)
+        ).tolist()
+    result.info.update(
+        {"dt": dt, "substeps": substeps, "engine": "compiled" if use_compiled else "python"},
+        wall_time_s=time.perf_counter() - start,
+    )
+    return result
+
+
+class _PlantModel:
+    """Plant (hub body + wheels) derivative and a compiled hold step."""
+
+    def __init__(self, body: RigidBody, wheels: ReactionWheels | None) -> None:
+        self.body = body
+        self.wheels = wheels
+        self.n_w = 0 if wheels is None else wheels.n_wheels
+        self.n_x = 7 + self.n_w
+        self._step: ca.Function | None = None
+
+    def derivative(self, x: list, u: list, tau_ext: list | None) -> list:
+        """x = [q, omega, h]; u = motor torques (wheels) or body torque (no wheels)."""
+        if self.wheels is None:
+            tau = u if tau_ext is None else [a + b for a, b in zip(u, tau_ext)]
+            return self.body.state_derivative_components(x, tau)
+        return self.wheels.state_derivative_components(self.body, x, u, tau_ext)
+
+    def hold_step(self, x: list, u: list, tau_ext: list | None, dt: Any, substeps: int) -> list:
+        h = dt / substeps
+        for _ in range(substeps):
+            x = normalize_quaternion_components(rk4_step(lambda _t, xc: self.derivative(xc, u, tau_ext), 0.0, x, h))
+        return x
+
+    def compiled_step(self, substeps: int) -> ca.Function:
+        if self._step is None:
+            n_u = self.n_w if self.wheels is not None else 3
+            x = ca.SX.sym("x", self.n_x)
+            u = ca.SX.sym("u", n_u)
+            tau = ca.SX.sym("tau_ext", 3)
+            dt = ca.SX.sym("dt")
+            xn = self.hold_step(
+                split_components(x, self.n_x), split_components(u, n_u), split_components(tau, 3), dt, substeps
+            )
+            self._step = ca.Function("hold_step", [x, u, tau, dt], [ca.vertcat(*xn)])
+        return self._step
+
+    def command(self, tau_cmd: list, x: list) -> tuple[list, list]:
+        """Motor (or body) torque and the applied body torque for a command."""
+        if self.wheels is None:
+            return tau_cmd, tau_cmd
+        u = self.wheels.allocate_components(tau_cmd, x[7:], x[4:7])
+        return u, self.wheels._body_components(u, scale=-1.0)
+
+    def momentum_N(self, q: NDArray, omega: NDArray, h: NDArray) -> NDArray:
+        h_b = omega @ self.body.inertia.T
+        if self.wheels is not None:
+            h_b = h_b + h @ self.wheels.distribution.T
+        return quat.rotate(quat.normalize(q), h_b)
+
+
+def _finish(model, t, x, tau_cmd, tau_app, u, err, est_q, est_w, logs) -> SimulationResult:
+    q, omega, h = x[:, :4], x[:, 4:7], x[:, 7:]
+    speed = model.wheels.wheel_speed(h, omega) if model.wheels is not None else np.zeros((t.size, 0))
+    motor = u if model.wheels is not None else np.zeros((t.size, 0))
+    return SimulationResult(
+        t=t,
+        q=q,
+        omega=omega,
+        h_wheels=h,
+        wheel_speed=speed,
+        torque_command=tau_cmd,
+        torque_applied=tau_app,
+        motor_torque=motor,
+        momentum_N=model.momentum_N(q, omega, h),
+        error_angle=err,
+        estimate_q=est_q,
+        estimate_omega=est_w,
+        logs=logs,
+        info={},
+    )
+
+
+def _run_compiled(
+    model, controller, sensors, estimator, disturbance, q0, omega0, h0, dt, n_ticks, substeps, every, rng
+):
+    t = np.arange(n_ticks + 1) * dt
+    inputs = np.atleast_2d(as_float_array(controller.compiled_inputs(t), "controller.compiled_inputs(t)"))
+    if inputs.shape[-1] != n_ticks + 1:
+        raise ValueError(f"controller.compiled_inputs(t) must return shape (m, {n_ticks + 1}), got {inputs.shape}")
+    m = inputs.shape[0]
+    x = ca.SX.sym("x", model.n_x)
+    p = ca.SX.sym("p", m)
+    xc = split_components(x, model.n_x)
+    tau_cmd = controller.torque_components(xc[:4], xc[4:7], _body_momentum(model, xc), split_components(p, m))
+    u, tau_app = model.command(tau_cmd, xc)
+    commands = ca.vertcat(*tau_cmd, *tau_app, *u)
+    tau_ext = [0.0, 0.0, 0.0] if disturbance is None else [float(v) for v in disturbance]
+    x_next = model.compiled_step(substeps)(x, ca.vertcat(*u), ca.DM(tau_ext), dt)
+    loop = ca.Function("closed_loop", [x, p], [x_next, commands]).mapaccum(n_ticks)
+    x_start = np.concatenate([q0, omega0, h0])
+    x_hist, out = loop(x_start, inputs[:, :-1])
+    x_all = np.concatenate([x_start[None], np.array(x_hist).T], axis=0)
+    finite = np.all(np.isfinite(x_all), axis=1)
+    if not np.all(finite):
+        k = int(np.argmin(finite))
+        _diverged(t[k], x_all[k - 1])
+    # The command at the final time, as the Python path computes it.
+    last = np.array(ca.Function("command", [x, p], [commands])(x_all[-1], inputs[:, -1])).T
+    out = np.concatenate([np.array(out).T, last], axis=0)
+    n_u = len(u)
+    tau_c, tau_a, uu = out[:, :3], out[:, 3:6], out[:, 6 : 6 + n_u]
+    err = _error_angles(controller, t, x_all[:, :4])
+    return _finish(model, t, x_all, tau_c, tau_a, uu, err, x_all[:, :4].copy(), x_all[:, 4:7].copy(), {})
+
+
+class SimulationDivergedError(FloatingPointError):
+    """The closed loop blew up (an unstable loop, or a tick too long for the rates)."""
+
+
+def _diverged(t: float, x_before: NDArray) -> None:
+    rate = float(np.linalg.norm(x_before[4:7])) if np.all(np.isfinite(x_before[4:7])) else float("inf")
+    raise SimulationDivergedError(
+        f"the closed-loop state became non-finite at t = {float(t):.6g} s (body rate {rate:.3g} rad/s one tick "
+        "before): check the controller gains and sample time, the torque limits, or use more substeps"
+    )
+
+
+def _body_momentum(model: _PlantModel, xc: list) -> list:
+    """Wheel momentum relative to the body, ``A (J Omega)``, in body components (zeros without wheels)."""
+    if model.wheels is None:
+        return [0.0 * xc[4]] * 3
+    wheels = model.wheels
+    relative = [wheels.spin_inertia[i] * s for i, s in enumerate(wheels.wheel_speed_components(xc[7:], xc[4:7]))]
+    return wheels._body_components(relative, scale=1.0)
+
+
+def _error_angles(controller: Any, t: NDArray, q: NDArray) -> NDArray:
+    if controller is None or not hasattr(controller, "reference"):
+        return np.zeros(t.size)
+    if hasattr(controller, "reference_samples"):
+        q_ref = np.asarray(controller.reference_samples(t)[0], dtype=float)
+    else:
+        q_ref = np.stack([np.asarray(controller.reference(tk)[0], dtype=float) for tk in t])
+    return quat.error_angle(q_ref, quat.normalize(q))
+
+
+def _run_python(model, controller, sensors, estimator, disturbance, q0, omega0, h0, dt, n_ticks, substeps, every, rng):
+    gen = as_generator(rng)
+    n_x, n_w = model.n_x, model.n_w
+    t = np.arange(n_ticks + 1) * dt
+    x_all = np.empty((n_ticks + 1, n_x))
+    x_all[0] = np.concatenate([q0, omega0, h0])
+    tau_c_all = np.zeros((n_ticks + 1, 3))
+    tau_a_all = np.zeros((n_ticks + 1, 3))
+    u_all = np.zeros((n_ticks + 1, n_w if model.wheels is not None else 3))
+    est_q = np.empty((n_ticks + 1, 4))
+    est_w = np.empty((n_ticks + 1, 3))
+    logs: dict[str, list] = {}
+    step = model.compiled_step(substeps)
+    tau_cmd = np.zeros(3)
+    u = np.zeros(u_all.shape[1])
+    tau_app = np.zeros(3)
+    estimate = Estimate(0.0, q0.copy(), omega0.copy(), h0.copy())
+    const_dist = None
+    if disturbance is not None and not callable(disturbance):
+        const_dist = check_vector(disturbance, "disturbance", 3)
+
+    def record(prefix: str, k: int, values: dict) -> None:
+        for key, value in values.items():
+            arr = np.atleast_1d(np.asarray(value, dtype=float))
+            series = logs.setdefault(f"{prefix}.{key}", [None] * (n_ticks + 1))
+            series[k] = arr
+
+    for k in range(n_ticks + 1):
+        tk = float(t[k])
+        x = x_all[k]
+        truth = Truth(tk, x[:4] / np.linalg.norm(x[:4]), x[4:7].copy(), x[7:].copy())
+        measurements: dict[str, Any] = {"torque_command": tau_cmd.copy(), "wheel_momentum": truth.h_wheels}
+        for s in sensors:
+            sample = None
+            if k % every[f"sensor {s.name}"] == 0:
+                sample = s.measure(tk, truth, gen)
+                if sample is not None:
+                    record("sensor", k, {s.name: sample})
+            measurements[s.name] = sample
+        if estimator is not None and k % every["estimator"] == 0:
+            estimate = estimator.update(tk, measurements)
+            if not isinstance(estimate, Estimate):
+                raise ValueError(
+                    f"estimator.update(t, measurements) must return an attitude.simulation.Estimate, "
+                    f"got {type(estimate).__name__} at t = {tk:.6g} s"
+                )
+            if hasattr(estimator, "log"):
+                record("estimator", k, estimator.log())
+        elif estimator is None:
+            estimate = Estimate(tk, truth.q, truth.omega, truth.h_wheels)
+        h_body = np.array([float(v) for v in _body_momentum(model, list(x))])
+        estimate = dataclasses.replace(estimate, h_wheels=truth.h_wheels, h_body=h_body)
+        est_q[k] = estimate.q
+        est_w[k] = estimate.omega
+        if controller is not None and k % every["controller"] == 0:
+            tau_cmd = check_vector(controller.torque(tk, estimate), "controller.torque(t, estimate)", 3).reshape(3)
+            xc = list(x)
+            u_c, tau_a_c = model.command(list(tau_cmd), xc)
+            u = np.array([float(v) for v in u_c])
+            tau_app = np.array([float(v) for v in tau_a_c])
+            if hasattr(controller, "log"):
+                record("controller", k, controller.log())
+        tau_c_all[k], tau_a_all[k], u_all[k] = tau_cmd, tau_app, u
+        if k == n_ticks:
+            break
+        if const_dist is not None:
+            tau_ext = const_dist
+        elif disturbance is not None:
+            tau_ext = check_vector(disturbance(tk, truth.q, truth.omega), "disturbance(t, q, omega)", 3)
+        else:
+            tau_ext = np.zeros(3)
+        x_all[k + 1] = np.array(step(x, u, tau_ext, dt)).ravel()
+        if not np.all(np.isfinite(x_all[k + 1])):
+            _diverged(t[k + 1], x)
+
+    err = _error_angles(controller, t, x_all[:, :4])
+    packed = {}
+    for key, series in logs.items():
+        width = max(v.size for v in series if v is not None)
+        arr = np.full((n_ticks + 1, width), np.nan)
+        for i, v in enumerate(series):
+            if v is not None:
+                arr[i, : v.size] = v
+        packed[key] = arr
+    for s in sensors:  # a sensor that never sampled (e.g. blinded) still gets its column
+        packed.setdefault(f"sensor.{s.name}", np.full((n_ticks + 1, 0), np.nan))
+    if model.wheels is None:
+        u_all = np.zeros((n_ticks + 1, 0))
+    return _finish(model, t, x_all, tau_c_all, tau_a_all, u_all, err, est_q, est_w, packed)

@@ -1,0 +1,204 @@
+"""Checks around the slew solve: blocked paths, open-loop verification, eigenaxis comparison, failure causes.
+
+Part of :mod:`controllers.slew.planner` (import the public names from there).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from attitude import quaternion as quat
+from attitude.actuators import ReactionWheels
+from attitude.propagate import propagate
+from controllers.slew.guess import base_guess, perturbed
+from controllers.slew.keep_out import blocked_boresights
+from controllers.slew.plan import states_between
+from controllers.slew.problem import INFEASIBLE, InfeasibleSlewError, Problem, SlewPlanningError
+from controllers.slew.reference import axis_angle, eigenaxis_slew
+from controllers.slew.transcription import Solution, solve_grid
+
+__all__ = [
+    "CHECK_SAMPLES",
+    "check_not_blocked",
+    "eigenaxis_comparison",
+    "raise_failure",
+    "slower_than_eigenaxis",
+    "verify",
+]
+
+#: Samples per interval for the keep-out and rate checks of the verification.
+CHECK_SAMPLES = 8
+
+#: A minimum-time plan more than this fraction slower than a feasible
+#: eigenaxis slew is flagged (below it the difference is the RK4 and IPOPT
+#: tolerance of a plan that *is* the eigenaxis slew).
+EIGENAXIS_SLACK = 1e-6
+
+#: Samples of the eigenaxis path (rotation angle) for its keep-out check:
+#: at most 0.09 deg of boresight travel between samples for a 180 deg slew.
+EIGENAXIS_PATH_SAMPLES = 2001
+
+
+def check_not_blocked(prob: Problem) -> None:
+    """Raise :class:`InfeasibleSlewError` when the cones provably block every path (before any solve)."""
+    if not prob.cones:
+        return
+    blocked = blocked_boresights(prob.cones, prob.q0, prob.qf)
+    if not blocked:
+        return
+    names = "; ".join(f"boresight {np.round(b['boresight_B'], 4).tolist()}: {', '.join(b['names'])}" for b in blocked)
+    cause = (
+        f"the keep-out cones leave no path: they split the sky of a boresight into pieces, its initial and final "
+        f"directions in different ones ({names}); no slew exists, whatever the torque, rate or grid"
+    )
+    raise InfeasibleSlewError(
+        f"slew infeasible: {cause}", status="keep_out_blocked", cause=cause, details={"blocked": blocked}
+    )
+
+
+def verify(prob: Problem, t: NDArray, torque: NDArray, tolerance: float) -> dict[str, Any]:
+    """Open-loop re-simulation of the plan (module docstring); raises if it misses a limit."""
+    traj = propagate(prob.body, prob.q0, prob.omega0, t, torque, method="adaptive", rtol=1e-10, atol=1e-12)
+    att_err = float(quat.error_angle(prob.qf, quat.normalize(traj.q[-1])))
+    rate_err = float(np.linalg.norm(traj.omega[-1] - prob.omegaf))
+    frac = np.arange(CHECK_SAMPLES) / CHECK_SAMPLES
+    t_fine = np.concatenate([(t[:-1, None] + frac[None, :] * np.diff(t)[:, None]).ravel(), t[-1:]])
+    x = states_between(prob.body, t, traj.q, traj.omega, torque, t_fine)
+    q_fine = quat.normalize(x[:, :4])
+    cones = prob.cones
+    sep = np.array([float(np.min(c.separation(q_fine))) for c in cones]) if cones else np.zeros(0)
+    check = {
+        "final_attitude_error": att_err,
+        "final_rate_error": rate_err,
+        "min_separation": sep,
+        "max_rate": float(np.max(np.linalg.norm(x[:, 4:], axis=1))),
+        "nfev": traj.info.get("nfev"),
+    }
+    rate_tol = tolerance / prob.t_s
+    problems = []
+    if att_err > tolerance:
+        problems.append(f"final attitude error {att_err:.3g} rad > {tolerance:.3g}")
+    if rate_err > rate_tol:
+        problems.append(f"final rate error {rate_err:.3g} rad/s > {rate_tol:.3g}")
+    if prob.rate_max is not None and check["max_rate"] > prob.rate_max + rate_tol:
+        problems.append(f"largest rate {check['max_rate']:.6g} rad/s > rate_max {prob.rate_max:.6g}")
+    for i, cone in enumerate(cones):
+        if sep[i] < cone.half_angle - tolerance:
+            problems.append(f"keep_out[{i}] separation {sep[i]:.6g} rad < half angle {cone.half_angle:.6g}")
+    if problems:
+        raise SlewPlanningError(
+            f"the plan failed its open-loop re-simulation: {'; '.join(problems)}; increase substeps or nodes",
+            status="verification_failed",
+            cause="transcription error of the RK4 grid too large for this slew",
+            details=check,
+        )
+    return check
+
+
+def eigenaxis_comparison(prob: Problem, torque_max: ArrayLike | ReactionWheels) -> dict[str, Any]:
+    """Eigenaxis reference time (rest to rest only) and whether its path enters a keep-out cone."""
+    if np.any(prob.omega0) or np.any(prob.omegaf):
+        return {}
+    try:
+        duration = eigenaxis_slew(
+            prob.body, prob.q0, prob.qf, torque_max=torque_max, rate_max=prob.rate_max, n_points=2
+        ).duration
+    except ValueError:
+        return {}
+    out: dict[str, Any] = {"duration_s": duration, "enters_keep_out": False, "min_separation_deg": []}
+    if prob.cones:
+        # The path is q0 ⊗ exp(e theta / 2), theta in [0, angle], whatever the timing along it.
+        axis, angle = axis_angle(prob.q0, prob.qf)
+        q = quat.multiply(prob.q0, quat.from_axis_angle(axis, np.linspace(0.0, angle, EIGENAXIS_PATH_SAMPLES)))
+        seps = [float(np.min(c.separation(q))) for c in prob.cones]
+        out["min_separation_deg"] = [math.degrees(s) for s in seps]
+        out["enters_keep_out"] = any(s < c.half_angle for s, c in zip(seps, prob.cones))
+    return out
+
+
+def raise_failure(
+    prob: Problem,
+    objective: str,
+    duration: float | None,
+    results: list[Solution],
+    n: int,
+    options: Mapping[str, Any],
+    max_iter: int,
+) -> None:
+    """Explain why no start converged, and raise."""
+    statuses = [r.status for r in results]
+    details = {"statuses": statuses, "iterations": [r.iterations for r in results]}
+    status = statuses[0]
+    infeasible = any(s in INFEASIBLE for s in statuses)
+    if objective == "energy" and duration is not None:
+        # Is the duration shorter than the minimum time? Solve the minimum-time problem coarsely to find out.
+        g = base_guess(prob, min(n, 40), None)
+        Xg, Ug = perturbed(prob, g[0], g[1], 0.2, np.random.default_rng(0))
+        best, _ = solve_grid(prob, min(n, 40), "time", None, 0.0, [(Xg, Ug, g[2])], max_iter, options)
+        if best is not None and best.duration * prob.t_s > duration:
+            t_min = best.duration * prob.t_s
+            cause = (
+                f"the requested duration {duration:.6g} s is shorter than the minimum time "
+                f"(about {t_min:.6g} s on a {min(n, 40)}-node grid) for these torque, rate and keep-out limits"
+            )
+            details["minimum_time_s"] = t_min
+            raise InfeasibleSlewError(
+                f"slew infeasible (IPOPT: {', '.join(sorted(set(statuses)))}): {cause}",
+                status=status,
+                cause=cause,
+                details=details,
+            )
+    cones = ""
+    if prob.cones:
+        names = ", ".join(c.name or f"keep_out[{i}]" for i, c in enumerate(prob.cones))
+        cones = (
+            f"the keep-out cones ({names}) may block or nearly block every path between q0 and qf (no blocked "
+            f"path was proven before solving, but a corridor narrower than the grid can resolve looks blocked "
+            f"to the optimiser): check the cone geometry first"
+        )
+    if infeasible:
+        cause = cones or "the constraints admit no slew"
+        cause += (
+            "; or the rate limit and boundary rates are incompatible with the torque limits"
+            if prob.rate_max is not None or np.any(prob.omega0) or np.any(prob.omegaf)
+            else ""
+        )
+        raise InfeasibleSlewError(
+            f"slew infeasible (IPOPT: {', '.join(sorted(set(statuses)))}): {cause}",
+            status=status,
+            cause=cause,
+            details=details,
+        )
+    if any(s == "Maximum_Iterations_Exceeded" for s in statuses):
+        cause = f"IPOPT reached max_iter={max_iter} without converging"
+        cause += f"; {cones}; otherwise" if cones else ";"
+        cause += " raise max_iter, add starts or smoothing"
+    else:
+        cause = "IPOPT stopped without converging"
+        cause += f"; {cones}; otherwise" if cones else ";"
+        cause += " try more starts, another perturbation or more nodes"
+    raise SlewPlanningError(
+        f"slew planning failed (IPOPT: {', '.join(sorted(set(statuses)))} on {len(statuses)} start(s)): {cause}",
+        status=status,
+        cause=cause,
+        details=details,
+    )
+
+
+def slower_than_eigenaxis(eig: Mapping[str, Any], duration: float, nodes: int, refinement: str) -> str | None:
+    """The warning for a minimum-time plan slower than a feasible eigenaxis slew (None if it is not)."""
+    if eig.get("duration_s") is None or eig.get("enters_keep_out"):
+        return None
+    excess = duration - eig["duration_s"]
+    if excess <= EIGENAXIS_SLACK * eig["duration_s"]:
+        return None
+    return (
+        f"the {nodes}-node plan ({duration:.6g} s) is {excess:.3g} s slower than the eigenaxis slew "
+        f"({eig['duration_s']:.6g} s), which meets the same torque, rate and keep-out limits: the grid is "
+        f"too coarse for this slew's arcs (refinement: {refinement}); raise nodes"
+    )

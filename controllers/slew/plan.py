@@ -1,0 +1,284 @@
+"""The slew plan: result dataclass, resampling and its figure.
+
+Part of :mod:`controllers.slew.planner` (import the public names from there).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from attitude import quaternion as quat
+from attitude.integrators import casadi_rk4_step
+from attitude.results import ResultIO
+from attitude.rigid_body import RigidBody
+from attitude.validation import check_positive
+from controllers.slew.keep_out import KeepOutCone
+
+if TYPE_CHECKING:
+    import matplotlib.figure
+
+__all__ = ["STATUS_WORDS", "SlewPlan", "cone_arrays", "plan_title", "plot_plan", "states_between"]
+
+#: IPOPT statuses in words for figure titles.
+STATUS_WORDS = {"Solve_Succeeded": "converged", "Solved_To_Acceptable_Level": "converged (acceptable level)"}
+
+
+def cone_arrays(cones: Sequence[KeepOutCone]) -> tuple[NDArray, NDArray, NDArray]:
+    """Boresights (m, 3), directions (m, 3) and half angles (m,) [rad] of the cones, for storage."""
+    if not cones:
+        return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0)
+    return (
+        np.array([c.boresight_B for c in cones]),
+        np.array([c.direction_N for c in cones]),
+        np.array([c.half_angle for c in cones]),
+    )
+
+
+@dataclass
+class SlewPlan(ResultIO):
+    """An optimal slew: states and torque on the plan grid, and how it was obtained.
+
+    ``torque[k]`` is held over ``[t[k], t[k+1])`` (zero-order hold, as
+    :func:`attitude.propagate.propagate` applies a torque array); the last
+    row repeats the final interval's torque so that all arrays share ``t``.
+
+    Attributes
+    ----------
+    t : ndarray (n,)
+        Time [s], from 0 to ``duration``; uniform on the node grid,
+        piecewise uniform (one block per phase) after refinement.
+    q : ndarray (n, 4)
+        Attitude ``q_BN`` (the final one is ``qf`` or ``-qf``).
+    omega : ndarray (n, 3)
+        Body rate ``omega_BN_B`` [rad/s].
+    torque : ndarray (n, 3)
+        Body torque [N m].
+    duration : float
+        Duration of this trajectory [s] (the refined one when refined).
+    objective : str
+        ``"time"`` or ``"energy"``.
+    objective_value : float
+        Duration [s] or ``integral |tau|^2 dt`` [N^2 m^2 s] of this trajectory.
+    status : str
+        IPOPT return status of the solve that produced this trajectory.
+    iterations : int
+        IPOPT iterations of that solve.
+    wall_time : float
+        Wall time of the whole planning call [s] (all starts, refinement
+        and verification).
+    solve_time : float
+        Wall time inside IPOPT solves [s], all starts and refinement.
+    grid_duration : float
+        Duration [s] of the best solution on the uniform node grid.
+    refined_duration : float or None
+        Duration [s] after the multi-phase refinement (None if not
+        refined). Grid-converged (exact up to the RK4 error) only for a pure
+        bang-bang answer, every phase a vertex of the torque set
+        (``info["refinement"]["grid_converged"]``); with rate-limited coasts,
+        partly saturated or keep-out boundary arcs it is the best answer on
+        the refined grid, whose phase ends move freely but whose unsaturated
+        torque is still piecewise constant.
+    switch_times : ndarray (p,)
+        Phase boundaries [s] found by the refinement (empty if not refined).
+    final_attitude_error : float
+        Angle [rad] between the target and the open-loop re-simulated final attitude.
+    final_rate_error : float
+        ``|omega_sim(t_f) - omegaf|`` [rad/s] of the re-simulation.
+    min_separation : ndarray (m,)
+        Smallest keep-out separation [rad] per cone along the re-simulation.
+    max_rate : float
+        Largest ``|omega|`` [rad/s] along the re-simulation.
+    q_target, omega_target : ndarray
+        The requested final attitude and rate [rad/s].
+    inertia : ndarray (3, 3)
+        Inertia of the planned body [kg m^2].
+    torque_envelope : ndarray (3,)
+        Largest torque per body axis of the torque set [N m].
+    torque_rows : ndarray (m, 3)
+        The torque set ``|torque_rows @ tau| <= 1`` [1/(N m)].
+    rate_max : float or None
+        Body-rate limit [rad/s].
+    keep_out_boresight_B, keep_out_direction_N, keep_out_half_angle : ndarray
+        The keep-out cones (unit vectors; half angles [rad]).
+    eigenaxis_duration : float or None
+        Duration [s] of the eigenaxis reference slew (rest to rest only);
+        ``info["eigenaxis_enters_keep_out"]`` says whether that slew enters a
+        keep-out cone (it cannot steer around one).
+    info : dict
+        Scaling, grid, per-start results, refinement details, verification,
+        and ``"warnings"``: the planner's warnings in words (e.g. a plan
+        slower than a feasible eigenaxis slew), also issued with
+        :func:`warnings.warn`.
+    """
+
+    t: NDArray[np.float64]
+    q: NDArray[np.float64]
+    omega: NDArray[np.float64]
+    torque: NDArray[np.float64]
+    duration: float
+    objective: str
+    objective_value: float
+    status: str
+    iterations: int
+    wall_time: float
+    solve_time: float
+    grid_duration: float
+    refined_duration: float | None
+    switch_times: NDArray[np.float64]
+    final_attitude_error: float
+    final_rate_error: float
+    min_separation: NDArray[np.float64]
+    max_rate: float
+    q_target: NDArray[np.float64]
+    omega_target: NDArray[np.float64]
+    inertia: NDArray[np.float64]
+    torque_envelope: NDArray[np.float64]
+    torque_rows: NDArray[np.float64]
+    rate_max: float | None
+    keep_out_boresight_B: NDArray[np.float64]
+    keep_out_direction_N: NDArray[np.float64]
+    keep_out_half_angle: NDArray[np.float64]
+    eigenaxis_duration: float | None
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def final_attitude_error_deg(self) -> float:
+        """:attr:`final_attitude_error` in degrees."""
+        return math.degrees(self.final_attitude_error)
+
+    @property
+    def warnings(self) -> list[str]:
+        """The planner's warnings (``info["warnings"]``), empty for a clean plan."""
+        return list(self.info.get("warnings", []))
+
+    @property
+    def keep_out(self) -> tuple[KeepOutCone, ...]:
+        """The keep-out cones as :class:`KeepOutCone` objects."""
+        names = list(self.info.get("keep_out_names", [])) + [""] * self.keep_out_half_angle.size
+        return tuple(
+            KeepOutCone(b, s, float(a), str(name))
+            for b, s, a, name in zip(
+                self.keep_out_boresight_B, self.keep_out_direction_N, self.keep_out_half_angle, names
+            )
+        )
+
+    def separation(self) -> NDArray[np.float64]:
+        """Keep-out separation [rad] at the plan's times, shape (n, m)."""
+        if not self.keep_out_half_angle.size:
+            return np.zeros((self.t.size, 0))
+        return np.stack([c.separation(self.q) for c in self.keep_out], axis=-1)
+
+    def resample(self, dt: float) -> SlewPlan:
+        """The plan on a uniform grid of step ``dt`` [s] (plus the final time).
+
+        States between nodes are integrated from the preceding node with the
+        plan's torque (RK4, 8 sub-steps over at most one interval: exact to
+        ~1e-12 for these step sizes), so they lie on the planned trajectory
+        rather than on an interpolation. ``torque`` holds the plan's torque
+        at each new time; fed back as a zero-order hold on the new grid it
+        differs from the plan on new intervals that straddle a plan node.
+        """
+        dt = float(check_positive(dt, "dt"))
+        t_new = np.arange(0.0, self.duration, dt)
+        if self.duration - t_new[-1] > 1e-9 * self.duration:
+            t_new = np.append(t_new, self.duration)
+        else:
+            t_new[-1] = self.duration
+        x = states_between(RigidBody(self.inertia), self.t, self.q, self.omega, self.torque, t_new)
+        k = np.clip(np.searchsorted(self.t, t_new, side="right") - 1, 0, self.t.size - 2)
+        info = dict(self.info)
+        info["resampled_dt_s"] = dt
+        return replace(self, t=t_new, q=x[:, :4], omega=x[:, 4:], torque=self.torque[k].copy(), info=info)
+
+    def plot(self) -> matplotlib.figure.Figure:
+        """Torque and rate profiles, attitude path and keep-out separation over time."""
+        return plot_plan(self)
+
+
+def states_between(
+    body: RigidBody, t: NDArray, q: NDArray, omega: NDArray, torque: NDArray, t_new: NDArray
+) -> NDArray[np.float64]:
+    """States at ``t_new`` integrated from the preceding node of ``t`` under the ZOH torque (RK4, 8 sub-steps)."""
+    k = np.clip(np.searchsorted(t, t_new, side="right") - 1, 0, t.size - 2)
+    dt = t_new - t[k]
+    x0 = np.concatenate([q[k], omega[k]], axis=1)
+    step = casadi_rk4_step(body, substeps=8).map(t_new.size)
+    out = np.asarray(step(x0.T, torque[k].T, dt[None, :])).T
+    exact = dt == 0
+    out[exact] = x0[exact]
+    return out
+
+
+def plot_plan(plan: SlewPlan) -> matplotlib.figure.Figure:
+    """Torque, rate, attitude and keep-out panels of a plan (:meth:`SlewPlan.plot`)."""
+    from matplotlib.figure import Figure
+
+    from attitude.plotting import AXIS_COLORS
+
+    fine = plan.resample(plan.duration / 400.0) if plan.t.size < 400 else plan
+    fig = Figure(figsize=(11, 7.5), layout="constrained")
+    ax = fig.subplots(2, 2, sharex=True)
+    for i, name in enumerate("xyz"):
+        ax[0, 0].step(plan.t, plan.torque[:, i], where="post", color=AXIS_COLORS[i], label=rf"$\tau_{name}$")
+        ax[0, 0].axhline(plan.torque_envelope[i], color=AXIS_COLORS[i], ls=":", lw=0.8)
+        ax[0, 0].axhline(-plan.torque_envelope[i], color=AXIS_COLORS[i], ls=":", lw=0.8)
+        ax[0, 1].plot(fine.t, np.degrees(fine.omega[:, i]), color=AXIS_COLORS[i], label=rf"$\omega_{name}$")
+    ax[0, 0].set_ylabel("torque [N m]")
+    ax[0, 0].set_title("torque (dotted: per-axis limits)")
+    ax[0, 1].plot(fine.t, np.degrees(np.linalg.norm(fine.omega, axis=1)), color="black", label=r"$|\omega|$")
+    if plan.rate_max is not None:
+        ax[0, 1].axhline(math.degrees(plan.rate_max), color="black", ls="--", lw=0.8, label="rate limit")
+    ax[0, 1].set_ylabel("body rate [deg/s]")
+    ax[0, 1].set_title("body rate")
+    for i, name in enumerate("wxyz"):
+        ax[1, 0].plot(fine.t, fine.q[:, i], color=("black", *AXIS_COLORS)[i], label=f"$q_{name}$")
+    to_go = np.degrees(quat.error_angle(plan.q_target, quat.normalize(fine.q)))
+    twin = ax[1, 0].twinx()
+    twin.plot(fine.t, to_go, color="0.5", ls="--", label="angle to go")
+    twin.set_ylabel("angle to go [deg]")
+    ax[1, 0].set_ylabel(r"attitude $q_{BN}$")
+    ax[1, 0].set_title("attitude path")
+    sep = fine.separation()
+    if sep.shape[1]:
+        for j, cone in enumerate(plan.keep_out):
+            line = ax[1, 1].plot(fine.t, np.degrees(sep[:, j]), label=cone.name or f"cone {j}")[0]
+            ax[1, 1].axhline(math.degrees(cone.half_angle), color=line.get_color(), ls="--", lw=0.8)
+        ax[1, 1].set_title("keep-out separation (dashed: cone half angle)")
+    else:
+        ax[1, 1].text(0.5, 0.5, "no keep-out cones", transform=ax[1, 1].transAxes, ha="center", va="center")
+        ax[1, 1].set_title("keep-out separation")
+    ax[1, 1].set_ylabel("separation [deg]")
+    for a in ax.ravel():
+        a.grid(True, alpha=0.3)
+        a.margins(x=0)
+        if a.get_legend_handles_labels()[0]:
+            a.legend(loc="best", fontsize="small")
+    for a in ax[1]:
+        a.set_xlabel("time [s]")
+    fig.suptitle(plan_title(plan))
+    return fig
+
+
+def plan_title(plan: SlewPlan) -> str:
+    """Two lines: objective, duration and solver outcome in words; grid and eigenaxis comparison."""
+    words = STATUS_WORDS.get(plan.status, f"solver status {plan.status}")
+    if plan.warnings:
+        words += f", {len(plan.warnings)} warning(s) in info['warnings']"
+    head = f"{plan.objective}-optimal slew: {plan.duration:.5g} s ({words})"
+    nodes = plan.info.get("nodes")
+    grid = f"the {nodes}-node grid" if nodes else "the grid"
+    parts = []
+    if plan.refined_duration is not None:
+        parts.append(f"refined from {plan.grid_duration:.5g} s on {grid}")
+    if plan.eigenaxis_duration is not None:
+        eig = f"eigenaxis slew {plan.eigenaxis_duration:.5g} s"
+        if plan.info.get("eigenaxis_enters_keep_out"):
+            eig += " (enters the keep-out cone)"
+        parts.append(eig)
+    return head if not parts else f"{head}\n{'; '.join(parts)}"

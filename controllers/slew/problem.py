@@ -1,0 +1,239 @@
+"""Inputs of the slew planner: errors, the torque set, and validated nondimensional problems.
+
+Part of :mod:`controllers.slew.planner` (import the public names from there).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from attitude import quaternion as quat
+from attitude.actuators import ReactionWheels
+from attitude.rigid_body import RigidBody
+from attitude.validation import as_float_array, check_positive
+from controllers.slew.keep_out import KeepOutCone
+
+__all__ = [
+    "CONVERGED",
+    "INFEASIBLE",
+    "OBJECTIVES",
+    "InfeasibleSlewError",
+    "Problem",
+    "SlewPlanningError",
+    "TorqueSet",
+    "check_count",
+    "momentum_rate_limit",
+    "validate",
+    "vector3",
+]
+
+OBJECTIVES = ("time", "energy")
+
+#: IPOPT statuses accepted as converged.
+CONVERGED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+
+#: IPOPT statuses that point at an infeasible problem.
+INFEASIBLE = ("Infeasible_Problem_Detected", "Restoration_Failed", "Local_Infeasibility")
+
+
+class SlewPlanningError(RuntimeError):
+    """The optimiser did not return a trustworthy plan.
+
+    Attributes
+    ----------
+    status : str
+        IPOPT's return status (or ``"verification_failed"``, ``"keep_out_blocked"``).
+    cause : str
+        The likely cause, in words.
+    details : dict
+        Solver statistics (iterations, per-start statuses, constraint
+        violation) for diagnosis.
+    """
+
+    def __init__(self, message: str, *, status: str = "", cause: str = "", details: dict | None = None) -> None:
+        super().__init__(message)
+        self.status = status
+        self.cause = cause
+        self.details = details or {}
+
+
+class InfeasibleSlewError(SlewPlanningError, ValueError):
+    """The requested slew is infeasible for its limits (for example a duration below the minimum time)."""
+
+
+@dataclass(frozen=True)
+class TorqueSet:
+    """Body torques with ``|rows @ tau| <= 1`` (rows in 1/(N m))."""
+
+    rows: NDArray[np.float64]
+    envelope: NDArray[np.float64]
+    is_box: bool
+    label: str
+
+    @classmethod
+    def make(cls, torque_max: ArrayLike | ReactionWheels) -> TorqueSet:
+        """The set of a per-axis bound [N m] (scalar or 3) or of a wheel set's allocation."""
+        if isinstance(torque_max, ReactionWheels):
+            rows = torque_max.allocation / torque_max.torque_max[:, None]
+            return cls(rows, torque_max.torque_envelope(), False, f"{torque_max.n_wheels} reaction wheels")
+        arr = check_positive(torque_max, "torque_max")
+        if arr.shape not in ((), (1,), (3,)):
+            raise ValueError(
+                f"torque_max must be a scalar, 3 per-axis limits or a ReactionWheels, got shape {arr.shape}"
+            )
+        env = np.broadcast_to(arr, (3,)).astype(float).copy()
+        return cls(np.diag(1.0 / env), env, True, "box")
+
+    def ratio(self, tau: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Largest ``|rows @ tau|`` per torque (..., 3) -> (...): <= 1 inside the set."""
+        return np.max(np.abs(tau @ self.rows.T), axis=-1)
+
+
+def vector3(value: ArrayLike, name: str) -> NDArray[np.float64]:
+    """A rate [rad/s] given as a scalar or 3 components, as a (3,) array."""
+    arr = as_float_array(value, name)
+    if arr.shape not in ((), (3,)):
+        raise ValueError(f"{name} must be a scalar or shape (3,) in rad/s, got shape {arr.shape}")
+    return np.broadcast_to(arr, (3,)).astype(float).copy()
+
+
+def check_count(value: Any, name: str, low: int) -> int:
+    """An integer option ``>= low`` (bools, floats and NaN are rejected, not truncated)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
+        raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
+    return int(value)
+
+
+@dataclass
+class Problem:
+    """Validated inputs in nondimensional form."""
+
+    body: RigidBody
+    body_s: RigidBody
+    q0: NDArray[np.float64]
+    qf: NDArray[np.float64]
+    omega0: NDArray[np.float64]
+    omegaf: NDArray[np.float64]
+    torque_set: TorqueSet
+    rows_s: NDArray[np.float64]
+    rate_max: float | None
+    cones: tuple[KeepOutCone, ...]
+    substeps: int
+    j_s: float
+    tau_s: float
+    t_s: float
+    keep_out_margin: bool = True
+
+    @property
+    def x0(self) -> NDArray[np.float64]:
+        """Initial state ``[q0, omega0 T_s]`` (nondimensional)."""
+        return np.concatenate([self.q0, self.omega0 * self.t_s])
+
+    @property
+    def rate_max_s(self) -> float | None:
+        """Rate limit in units of 1/T_s."""
+        return None if self.rate_max is None else self.rate_max * self.t_s
+
+    def u_bounds(self) -> NDArray[np.float64]:
+        """Per-axis torque bounds in units of tau_s (box sets)."""
+        return self.torque_set.envelope / self.tau_s
+
+
+def validate(
+    body: Any,
+    q0: ArrayLike,
+    qf: ArrayLike,
+    omega0: ArrayLike,
+    omegaf: ArrayLike,
+    torque_max: Any,
+    rate_max: Any,
+    keep_out: Sequence[KeepOutCone] | KeepOutCone,
+    substeps: Any,
+    keep_out_margin: Any = True,
+) -> Problem:
+    """Check the physical inputs of :func:`controllers.slew.plan_slew` and scale them (module docstring there)."""
+    if not isinstance(body, RigidBody) or body.batch_shape:
+        raise ValueError(f"body must be a single (unbatched) RigidBody, got {body!r}")
+    q0 = quat.as_unit_quaternion(q0, "q0")
+    qf = quat.as_unit_quaternion(qf, "qf")
+    if q0.shape != (4,) or qf.shape != (4,):
+        raise ValueError(f"q0 and qf must have shape (4,), got {q0.shape} and {qf.shape}")
+    omega0 = vector3(omega0, "omega0")
+    omegaf = vector3(omegaf, "omegaf")
+    tset = TorqueSet.make(torque_max)
+    if rate_max is not None:
+        rate_max = float(check_positive(rate_max, "rate_max"))
+        for name, w in (("omega0", omega0), ("omegaf", omegaf)):
+            if np.linalg.norm(w) > rate_max:
+                raise ValueError(
+                    f"{name} must respect rate_max: |{name}| = {np.linalg.norm(w):.6g} rad/s > {rate_max:.6g} rad/s"
+                )
+    cones = (keep_out,) if isinstance(keep_out, KeepOutCone) else tuple(keep_out)
+    for i, cone in enumerate(cones):
+        if not isinstance(cone, KeepOutCone):
+            raise ValueError(f"keep_out[{i}] must be a KeepOutCone, got {type(cone).__name__}")
+        for name, q in (("q0", q0), ("qf", qf)):
+            sep = float(cone.separation(q))
+            if sep <= cone.half_angle:
+                raise ValueError(
+                    f"keep_out[{i}] {cone.name!r} contains the boresight at {name}: separation "
+                    f"{math.degrees(sep):.4f} deg <= half angle {math.degrees(cone.half_angle):.4f} deg"
+                )
+    if isinstance(substeps, bool) or not isinstance(substeps, (int, np.integer)) or substeps < 1:
+        raise ValueError(f"substeps must be a positive integer, got {substeps!r}")
+    if not isinstance(keep_out_margin, (bool, np.bool_)):
+        raise ValueError(f"keep_out_margin must be True or False, got {keep_out_margin!r}")
+    j_s = float(np.max(body.principal_axes().moments))
+    tau_s = float(np.max(tset.envelope))
+    t_s = math.sqrt(j_s / tau_s)
+    return Problem(
+        body=body,
+        body_s=RigidBody(body.inertia / j_s),
+        q0=q0,
+        qf=qf,
+        omega0=omega0,
+        omegaf=omegaf,
+        torque_set=tset,
+        rows_s=tset.rows * tau_s,
+        rate_max=rate_max,
+        cones=cones,
+        substeps=int(substeps),
+        j_s=j_s,
+        tau_s=tau_s,
+        t_s=t_s,
+        keep_out_margin=bool(keep_out_margin),
+    )
+
+
+def momentum_rate_limit(body: RigidBody, wheels: ReactionWheels, axis: ArrayLike | None = None) -> float:
+    """Largest body rate [rad/s] whose wheel momentum stays inside ``wheels.momentum_max``.
+
+    A rest-to-rest slew that starts with zero wheel momentum conserves the
+    total angular momentum, so the wheels hold ``-I omega`` (body frame); the
+    minimum-norm wheel momenta are ``h = -A^+ I omega``. For every rate with
+    ``|omega| <= r`` each ``|h_i| <= r |row_i(A^+ I)|``, so
+    ``r = min_i momentum_max_i / |row_i(A^+ I)|`` is a sufficient rate limit
+    for any path (conservative: it takes the worst direction of every row).
+    With ``axis`` (an eigenaxis slew, ``omega = w axis``) the bound is exact
+    along that axis: ``min_i momentum_max_i / |(A^+ I axis)_i|``.
+    """
+    if not isinstance(wheels, ReactionWheels):
+        raise ValueError(f"wheels must be a ReactionWheels, got {type(wheels).__name__}")
+    m = wheels.allocation @ np.asarray(body.inertia, dtype=float)
+    if axis is None:
+        gain = np.linalg.norm(m, axis=1)
+    else:
+        a = vector3(axis, "axis")
+        n = float(np.linalg.norm(a))
+        if not n > 0:
+            raise ValueError(f"axis must be a non-zero vector, got {a}")
+        gain = np.abs(m @ (a / n))
+    with np.errstate(divide="ignore"):
+        limits = np.where(gain > 0, wheels.momentum_max / np.where(gain > 0, gain, 1.0), np.inf)
+    return float(np.min(limits))

@@ -1,0 +1,222 @@
+"""The design report: its writers, and the HTML report in a real headless browser.
+
+The browser test loads ``report.html`` in Debian's ``chromium`` (headless),
+checks that every image decoded (``naturalWidth > 0``, at the PNG's own
+size) and saves a screenshot next to the report. CI installs chromium
+(``.ci/run``); on a machine without it the test is skipped with the reason.
+
+Method: a copy of the report gets a small script that, on the ``load``
+event, writes each image's ``complete``/``naturalWidth``/``naturalHeight``
+into a ``<pre id="image-check">`` element; ``chromium --dump-dom`` prints
+the DOM after the page has loaded (``--virtual-time-budget`` lets the
+script run first), and the test parses that element. The screenshot is a
+second run with ``--screenshot``. Both read a local file with networking
+off, so nothing depends on the network.
+"""
+
+from __future__ import annotations
+
+import base64
+import copy
+import json
+import math
+import os
+import re
+import shutil
+import struct
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from attitude.app.design.run import DesignOptions, requirement_verdicts, run_design
+from attitude.app.report.sections import Figure, Heading, Paragraph, Table, build_blocks, fmt
+from attitude.app.report.writer import (
+    dumps_json,
+    is_numeric,
+    render_html,
+    render_markdown,
+    requirements_text,
+    to_jsonable,
+    write_report,
+)
+from attitude.config.model import default_config
+
+CHROMIUM = shutil.which("chromium")
+CHROMIUM_FLAGS = [
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-quic",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--disable-dev-shm-usage",
+    "--hide-scrollbars",
+    "--virtual-time-budget=10000",
+]
+#: Upper bound of one browser run [s]; a load takes about a second.
+BROWSER_TIMEOUT_S = 120
+
+_CHECK_SCRIPT = """<script>
+window.addEventListener("load", function () {
+  var out = Array.from(document.images).map(function (img) {
+    return {id: img.closest("figure") ? img.closest("figure").id : "", complete: img.complete,
+            width: img.naturalWidth, height: img.naturalHeight};
+  });
+  var pre = document.createElement("pre");
+  pre.id = "image-check";
+  pre.textContent = JSON.stringify(out);
+  document.body.appendChild(pre);
+});
+</script>"""
+
+
+@pytest.fixture(scope="module")
+def design():
+    """A real design of the default spacecraft (--quick)."""
+    return run_design(default_config(), DesignOptions(quick=True))
+
+
+@pytest.fixture(scope="module")
+def report(design, tmp_path_factory) -> tuple[Path, dict]:
+    """Its report, written by the same code as `attitude design`."""
+    out = tmp_path_factory.mktemp("report")
+    write_report(design, out)
+    return out, json.loads((out / "results.json").read_text(encoding="utf-8"))
+
+
+def png_size(data: bytes) -> tuple[int, int]:
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and data[12:16] == b"IHDR"
+    return struct.unpack(">II", data[16:24])
+
+
+# ---------------------------------------------------------------------------
+# Writers
+
+
+def test_json_is_strict_and_keeps_non_finite_numbers_as_strings():
+    data = {"a": np.float64(1.5), "b": [math.inf, -math.inf, math.nan], "c": np.arange(3), "d": np.bool_(True)}
+    text = dumps_json(data)
+    assert json.loads(text) == {"a": 1.5, "b": ["inf", "-inf", "nan"], "c": [0, 1, 2], "d": True}
+    assert [float(v) for v in json.loads(text)["b"]][:2] == [math.inf, -math.inf]
+    with pytest.raises(TypeError, match="cannot write"):
+        to_jsonable({"x": object()})
+
+
+def test_number_format_and_alignment():
+    assert [fmt(v) for v in (None, True, 3, 0.0, 35.354795, 1.1153e-6, math.inf, -math.inf)] == [
+        "n/a",
+        "yes",
+        "3",
+        "0",
+        "35.35",
+        "1.115e-06",
+        "inf",
+        "-inf",
+    ]
+    assert all(is_numeric(t) for t in ("12.5", "-0.3", "inf", "n/a", "<= 0.05 deg", "[1, 0, 0]", ".5"))
+    assert not any(is_numeric(t) for t in ("PD", "stable", "sampled (10 Hz)", "requirements.slew.max_time_s"))
+
+
+def test_markdown_and_html_render_the_same_blocks():
+    blocks = [
+        Heading(1, "Title <&>", "top"),
+        Heading(2, "1. Section", "s1"),
+        Paragraph("a | b & c"),
+        Table(("name", "value", "verdict"), (("x|y", "1.5", "PASS"), ("z", "n/a", "FAIL")), "cap"),
+        Figure("fig", "A figure"),
+    ]
+    md = render_markdown(blocks)
+    assert "| name | value | verdict |" in md and "| :--- | ---: | :--- |" in md
+    assert "x\\|y" in md and "![A figure](figures/fig.png)" in md
+    png = b"\x89PNG\r\n\x1a\n" + b"\x00" * 16
+    html = render_html(blocks, {"fig": png}, title="T", passed=False)
+    assert "Title &lt;&amp;&gt;" in html and "a | b &amp; c" in html
+    assert '<td class="num">1.5</td>' in html and '<td class="pass">PASS</td>' in html and 'class="fail"' in html
+    assert 'href="#s1"' in html and "data:image/png;base64," in html
+    assert '<span class="verdict fail">FAIL</span>' in html
+
+
+def test_report_folder(report):
+    out, results = report
+    md = (out / "report.md").read_text(encoding="utf-8")
+    html = (out / "report.html").read_text(encoding="utf-8")
+    # The terminal table is the report's requirements table.
+    text = requirements_text(results)
+    for row in results["requirements"]:
+        assert row["requirement"] in text and row["requirement"] in md
+    assert text.splitlines()[-1].startswith("Verdict: PASS" if results["verdict"]["pass"] else "Verdict: FAIL")
+    # Each embedded image is the PNG in figures/, byte for byte.
+    embedded = re.findall(r'<figure id="fig-([\w]+)"><img src="data:image/png;base64,([A-Za-z0-9+/=]+)"', html)
+    assert sorted(name for name, _ in embedded) == sorted(results["figures"])
+    for name, data in embedded:
+        assert base64.b64decode(data) == (out / "figures" / f"{name}.png").read_bytes()
+    # Settings and timings are reported.
+    assert "quick run" in md and "Wall time per step" in md
+
+
+def test_missing_sections_fail_their_requirements_and_still_render(design):
+    """Nothing flown (neither slew could be planned): the rows that need a flight fail, the report says why."""
+    results = copy.deepcopy(design.results)
+    results["slews"]["plan"] = None
+    results["slews"]["error"] = "SlewPlanningError: no start converged"
+    results["closed_loop"] = None
+    results["estimation"] = None
+    verdicts = requirement_verdicts(design.config, results)
+    rows = {r["id"]: r for r in verdicts["requirements"]}
+    assert all(r["achieved"] is None and not r["pass"] for r in rows.values())
+    assert not verdicts["verdict"]["pass"] and set(verdicts["verdict"]["failed"]) == set(rows)
+    results.update(verdicts)
+    md = render_markdown(build_blocks(results))
+    assert "no start converged" in md and "Nothing to fly" in md and "estimation not analysed" in md
+    assert "| n/a | FAIL |" in md
+
+
+# ---------------------------------------------------------------------------
+# A real browser
+
+
+def run_chromium(*args: str, profile: Path) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [CHROMIUM, *CHROMIUM_FLAGS, f"--user-data-dir={profile}", *args],
+        capture_output=True,
+        text=True,
+        timeout=BROWSER_TIMEOUT_S,
+        check=False,
+    )
+
+
+def test_html_report_shows_every_figure_in_chromium(report, tmp_path):
+    if CHROMIUM is None:
+        # CI installs chromium (.ci/run), so there a missing browser is a failure, not a skip.
+        if os.environ.get("CI"):
+            pytest.fail("no `chromium` on PATH under CI: .ci/run should have installed it")
+        pytest.skip("no `chromium` on PATH (Debian: apt-get install chromium); CI installs it")
+    out, results = report
+    html = (out / "report.html").read_text(encoding="utf-8")
+    probe = out / "report_image_check.html"
+    probe.write_text(html.replace("</body>", _CHECK_SCRIPT + "\n</body>"), encoding="utf-8")
+    proc = run_chromium("--dump-dom", probe.as_uri(), profile=tmp_path / "profile-dom")
+    match = re.search(r'<pre id="image-check">(.*?)</pre>', proc.stdout, flags=re.DOTALL)
+    assert match, f"chromium did not run the check (exit {proc.returncode}):\n{proc.stderr[-3000:]}"
+    images = json.loads(match.group(1))
+    assert len(images) == len(results["figures"]) > 0
+    for img in images:
+        name = img["id"].removeprefix("fig-")
+        assert img["complete"] and img["width"] > 0, f"image {name} did not decode: {img}"
+        expected = png_size((out / "figures" / f"{name}.png").read_bytes())
+        assert (img["width"], img["height"]) == expected, f"{name} decoded at the wrong size"
+
+    shot = out / "report_screenshot.png"
+    proc = run_chromium(
+        f"--screenshot={shot}",
+        "--window-size=1280,2400",
+        (out / "report.html").as_uri(),
+        profile=tmp_path / "profile-shot",
+    )
+    assert shot.is_file(), f"no screenshot (exit {proc.returncode}):\n{proc.stderr[-3000:]}"
+    assert png_size(shot.read_bytes()) == (1280, 2400) and shot.stat().st_size > 50_000
+    print(f"screenshot of the report: {shot}")

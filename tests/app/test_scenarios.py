@@ -1,0 +1,273 @@
+"""The built-in closed-loop Monte Carlo scenario flies the design's planned slew (attitude.app.scenarios).
+
+One plan (about 2 s) and one nominal run are shared by the module; each closed-loop run with the MEKF
+costs about 0.7 s per 100 simulated seconds.
+"""
+
+import math
+import pickle
+
+import numpy as np
+import pytest
+
+from attitude.app import scenarios
+from attitude.app.cli import main
+from attitude.app.design.slew import SlewStudy, plan_slews
+from attitude.app.scenarios import (
+    PLAN_NODES,
+    ClosedLoopScenario,
+    ScenarioError,
+    requirements_from_config,
+)
+from attitude.config.model import default_config
+from attitude.montecarlo.campaign import RunOutput
+from controllers.slew.planner import SlewPlanningError
+
+CONFIG = default_config()
+REQ = CONFIG.requirements
+CONE = REQ.keep_out[0]
+ARCSEC = math.pi / (180.0 * 3600.0)
+#: The planned slew of the default file takes 35.0 s, so 120 s holds the settling time (60 s) and 25 s more.
+DURATION = 120.0
+SEED = 7
+
+
+@pytest.fixture(scope="module")
+def study():
+    """The design's study of the required slew (what ``attitude design`` plans), made once."""
+    return plan_slews(CONFIG, nodes=PLAN_NODES)
+
+
+@pytest.fixture(scope="module")
+def scenario(study):
+    return ClosedLoopScenario(CONFIG, duration=DURATION, history_stride=10, study=study)
+
+
+@pytest.fixture(scope="module")
+def nominal(scenario):
+    """One run with nothing dispersed (noise only)."""
+    return scenario({}, np.random.default_rng(SEED))
+
+
+def test_the_scenario_flies_the_design_plan(scenario, study):
+    assert scenario.guidance == "plan"
+    assert scenario.slew_end == pytest.approx(study.plan.duration)
+    assert scenario.plan_min_separation[CONE.name] == pytest.approx(float(np.min(study.plan.min_separation)))
+    # The plan steers around the Sun cone (it is planned 0.5 deg wider), which the eigenaxis path enters.
+    assert scenario.plan_min_separation[CONE.name] > CONE.half_angle_rad
+    assert study.summary["eigenaxis"]["min_separation_deg"][CONE.name] < CONE.half_angle_deg
+
+
+def test_planned_slew_at_nominal_meets_every_requirement_including_keep_out(scenario, nominal):
+    m = nominal.metrics
+    for r in requirements_from_config(CONFIG):
+        assert r.passed(m[r.metric]), (r.name, m[r.metric])
+    # The keep-out margin flown against the plan's own: the truth deviates from the plan by the pointing
+    # jitter of the MEMS gyro noise through the PD (sqrt(zeta / wn) sigma_v = 0.011 deg per axis at
+    # wn = 0.2 rad/s, zeta = 0.7, ARW 0.34 deg/sqrt(h)) plus the MEKF knowledge error (~20 arcsec):
+    # 0.06 deg is about 5 sigma of their sum on one axis (measured: 0.03 deg less than planned).
+    planned = scenario.plan_min_separation[CONE.name] - CONE.half_angle_rad
+    flown = m[f"keep_out_margin.{CONE.name}"]
+    assert flown > 0.0
+    assert abs(flown - planned) < math.radians(0.06), (math.degrees(flown), math.degrees(planned))
+    # Arrival at the target: not before the plan gets there (its last 0.05 deg take 0.2 s of braking),
+    # and settled within the required settling time after the planned slew (the design's rule).
+    assert scenario.slew_end - 0.5 <= m["settling_time"] <= scenario.slew_end + REQ.settling_time_s
+    # Without misalignments the MEKF is consistent: mean attitude NEES about 3 (3 degrees of freedom);
+    # over ~600 correlated tracker updates the mean moves by a few tenths, so [2, 4] flags a real bias.
+    assert 2.0 <= m["nees"] <= 4.0
+
+
+def test_settling_and_pointing_are_judged_against_the_target(scenario, nominal):
+    h = nominal.history
+    # error_angle is the error to the TARGET; tracking_error to the moving reference. They differ during
+    # the slew (the reference is far from the target) and coincide once the plan has ended, up to the
+    # plan's last node, which is the target within the planner's tolerance (measured 5e-11 rad).
+    during = h["t"] < scenario.slew_end - 5.0
+    after = h["t"] > scenario.slew_end + 0.1
+    assert np.min(h["error_angle"][during] - h["tracking_error"][during]) > math.radians(1.0)
+    np.testing.assert_allclose(h["error_angle"][after], h["tracking_error"][after], atol=1e-8)
+    assert nominal.metrics["final_pointing_error"] == pytest.approx(h["error_angle"][-1], abs=1e-15)
+
+
+def test_a_run_pickles_and_repeats_bit_for_bit(scenario, nominal):
+    data = pickle.dumps(scenario)
+    # Only numpy copies of the plan travel to the workers, not the planner's objects.
+    assert b"SlewPlan" not in data and len(data) < 200_000
+    again = pickle.loads(data)({}, np.random.default_rng(SEED))
+    assert again.metrics == nominal.metrics
+    out = pickle.loads(pickle.dumps(nominal))
+    assert isinstance(out, RunOutput) and out.metrics == nominal.metrics
+
+
+def test_the_tabulated_reference_is_the_tracking_controller_itself(scenario, nominal, monkeypatch):
+    # The scenario looks the reference up in a table made once per run; sampled per tick by the
+    # TrackingController instead, the run is the same bit for bit.
+    monkeypatch.setattr(scenarios, "_TabulatedTracking", lambda controller, duration: controller)
+    assert scenario({}, np.random.default_rng(SEED)).metrics == nominal.metrics
+
+
+def test_eigenaxis_guidance_still_enters_the_sun_cone(study):
+    # The old scenario: the rate-limited PD straight to the target. 40 s covers the closest approach
+    # (mid-slew, ~17 s); the eigenaxis guidance does not check the duration.
+    eig = ClosedLoopScenario(CONFIG, duration=40.0, guidance="eigenaxis")
+    assert eig.slew_end is None
+    m = eig({}, np.random.default_rng(SEED)).metrics
+    margin = m[f"keep_out_margin.{CONE.name}"]
+    assert margin < 0.0
+    # Along the eigenaxis path the boresight passes 25 deg from the Sun (the file's comment): the PD on
+    # the nominal body follows that great circle up to the noise (measured 0.03 deg off).
+    expected = math.radians(study.summary["eigenaxis"]["min_separation_deg"][CONE.name]) - CONE.half_angle_rad
+    assert margin == pytest.approx(expected, abs=math.radians(0.5))
+    names = {r.name for r in requirements_from_config(CONFIG, keep_out=False)}
+    assert not any(n.startswith("keep_out") for n in names)
+
+
+def test_requirements_are_judged_on_the_target_metrics():
+    reqs = {r.name: r for r in requirements_from_config(CONFIG)}
+    assert set(reqs) == {"pointing", "settling", "rate", f"keep_out.{CONE.name}"}
+    assert reqs["pointing"].metric == "final_pointing_error" and reqs["pointing"].max == REQ.pointing_accuracy_rad
+    assert reqs["settling"].metric == "settling_time"
+    assert reqs["settling"].max == REQ.slew.max_time_s + REQ.settling_time_s
+    assert reqs[f"keep_out.{CONE.name}"].min == 0.0
+
+
+def test_bad_guidance_is_refused():
+    with pytest.raises(ValueError, match="guidance must be one of 'plan', 'eigenaxis', got 'straight'"):
+        ClosedLoopScenario(CONFIG, guidance="straight")
+
+
+def test_a_duration_shorter_than_slew_plus_settling_is_refused(study):
+    needed = study.plan.duration + REQ.settling_time_s
+    with pytest.raises(ScenarioError, match=rf"duration must cover .* at least {needed:.4g} s; got 60 s"):
+        ClosedLoopScenario(CONFIG, duration=60.0, study=study)
+    assert issubclass(ScenarioError, ValueError)
+    assert ClosedLoopScenario(CONFIG, duration=needed, study=study).duration == needed
+
+
+def test_the_cli_names_duration_and_the_needed_time(tmp_path, capsys):
+    # The scenario plans by itself here (30 intervals, ~1 s), as `attitude montecarlo` does.
+    code = main(["montecarlo", "--runs", "1", "--duration-s", "60", "--nodes", "30", "--out", str(tmp_path / "mc")])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "--duration-s 60" in err and "at least 9" in err and "settling time (60 s)" in err
+
+
+def test_a_slew_that_cannot_be_planned_is_an_error_not_a_fallback():
+    failed = SlewStudy(plan=None, eigenaxis=None, cones=[], summary={}, error="IPOPT: Infeasible_Problem_Detected")
+    with pytest.raises(SlewPlanningError, match=r"could not be planned \(IPOPT: Infeasible.*guidance='eigenaxis'"):
+        ClosedLoopScenario(CONFIG, study=failed)
+
+
+def test_consider_misalignment_inflates_the_tracker_covariance_by_its_dispersion(study):
+    sc = ClosedLoopScenario(CONFIG, study=study, consider_misalignment=True)
+    gyro = sc.gyro(None)
+    added = sc.estimator(gyro).tracker_covariance - CONFIG.star_tracker().covariance_B
+    sigma = CONFIG.montecarlo.star_tracker_misalignment.scale_si  # the file says 10 arcsec, normal
+    assert sigma == pytest.approx(10.0 * ARCSEC)
+    np.testing.assert_allclose(added, sigma**2 * np.eye(3), rtol=1e-12, atol=1e-30)
+    plain = ClosedLoopScenario(CONFIG, study=study)
+    np.testing.assert_array_equal(plain.estimator(gyro).tracker_covariance, CONFIG.star_tracker().covariance_B)
+
+
+def test_vectorised_runs_are_the_per_run_runs(scenario):
+    from attitude.montecarlo.campaign import Campaign, run_campaign
+    from attitude.montecarlo.dispersions import Normal, dispersions_from_config
+
+    dispersions = dispersions_from_config(CONFIG.montecarlo, CONFIG.body().inertia, REQ.slew.q_start())
+    dispersions["gyro_bias"] = Normal(np.zeros(3), math.radians(20.0) / 3600.0)  # turn-on bias, 20 deg/h
+    campaign = Campaign(scenario, dispersions, runs=4, seed=SEED, requirements=requirements_from_config(CONFIG))
+    per_run = run_campaign(campaign, workers=1)
+    batch = run_campaign(campaign, vectorized=True)
+    chunked = run_campaign(campaign, vectorized=True, runs_per_task=3, workers=2)
+    assert np.all(batch.status == "ok")
+    for name in per_run.metrics:
+        # Same random numbers (each run's own stream), same equations: the truth step in C or numpy
+        # instead of casadi's virtual machine and the MEKF in numpy instead of filterpy differ in
+        # rounding only (measured <= 3e-12 relative, on the NEES).
+        np.testing.assert_allclose(batch.metrics[name], per_run.metrics[name], rtol=1e-9, atol=1e-15, err_msg=name)
+        # Each run's arithmetic is independent of its batch: bit for bit whatever the chunks.
+        np.testing.assert_array_equal(chunked.metrics[name], batch.metrics[name], err_msg=name)
+    np.testing.assert_array_equal(batch.metrics["settling_time"], per_run.metrics["settling_time"])
+    for key in ("error_angle", "tracking_error", "omega", "wheel_speed", "estimation_error"):
+        np.testing.assert_allclose(batch.histories[2][key], per_run.histories[2][key], atol=1e-11, err_msg=key)
+    np.testing.assert_array_equal(batch.histories[2]["t"], per_run.histories[2]["t"])
+
+
+def test_the_cli_runs_a_vectorised_campaign(tmp_path, capsys):
+    import json
+
+    out = tmp_path / "mc"
+    argv = ["montecarlo", "--runs", "3", "--duration-s", "100", "--nodes", "30", "--vectorized", "--workers", "1"]
+    code = main([*argv, "--out", str(out), "--json"])
+    stats = json.loads(capsys.readouterr().out)
+    assert stats["runs"] == 3 and stats["completed"] == 3
+    campaign = json.loads((out / "campaign.json").read_text())
+    assert campaign["info"]["vectorized"] is True
+    all_passed = all(r["passed"] == r["runs"] for r in stats["requirements"].values())
+    assert code == (0 if all_passed else 1)
+
+
+def test_a_planned_slew_with_an_attitude_uniform_on_so3_is_refused(study):
+    import dataclasses
+
+    so3 = dataclasses.replace(CONFIG.montecarlo.initial_attitude, distribution="uniform_so3")
+    config = dataclasses.replace(CONFIG, montecarlo=dataclasses.replace(CONFIG.montecarlo, initial_attitude=so3))
+    with pytest.raises(ScenarioError, match=r"uniform on SO\(3\).*guidance='eigenaxis'"):
+        ClosedLoopScenario(config, study=study)
+    assert ClosedLoopScenario(config, guidance="eigenaxis").guidance == "eigenaxis"
+
+
+def test_the_cli_refuses_bad_campaign_arguments_with_exit_code_2(tmp_path, capsys):
+    for argv, flag in (
+        (["--runs", "0"], "--runs"),
+        (["--workers", "-1"], "--workers"),
+        (["--seed", "-5"], "--seed"),
+        (["--scheduler", "localhost"], "--scheduler"),
+        (["--scheduler", "tcp://host-without-port"], "--scheduler"),
+    ):
+        with pytest.raises(SystemExit) as exc:
+            main(["montecarlo", *argv, "--out", str(tmp_path / "x")])
+        assert exc.value.code == 2
+        assert flag in capsys.readouterr().err
+    # A file without a [montecarlo] table needs --runs; a planned slew cannot start anywhere on SO(3).
+    from attitude.config.model import default_config_text
+
+    text = default_config_text()
+    bare = tmp_path / "bare.toml"
+    bare.write_text(text[: text.index("[montecarlo]")])
+    assert main(["montecarlo", str(bare), "--out", str(tmp_path / "y")]) == 2
+    assert "--runs" in capsys.readouterr().err
+    anywhere = tmp_path / "so3.toml"
+    start = text.index("initial_attitude = {")
+    end = text.index("}", start) + 1
+    anywhere.write_text(text[:start] + 'initial_attitude = { distribution = "uniform_so3" }' + text[end:])
+    assert main(["montecarlo", str(anywhere), "--out", str(tmp_path / "z")]) == 2
+    assert "--guidance plan" in capsys.readouterr().err
+    # Another campaign in the same --out: refused with the way out, then --fresh starts over.
+    quick = ["montecarlo", "--runs", "1", "--guidance", "eigenaxis", "--duration-s", "2", "--out", str(tmp_path / "mc")]
+    # 2 s of a 60 deg slew cannot settle: the campaign runs and fails its requirements (exit 1).
+    assert main([*quick, "--seed", "1"]) == 1
+    assert main([*quick, "--seed", "2"]) == 2
+    assert "--fresh" in capsys.readouterr().err
+    assert main([*quick, "--seed", "2", "--fresh"]) == 1
+    checkpoint = tmp_path / "mc" / "checkpoint.jsonl"
+    checkpoint.write_text('{"fingerpri')  # torn by a crash while the header was written
+    assert main([*quick, "--seed", "2"]) == 2
+    assert "--fresh" in capsys.readouterr().err
+
+
+def test_a_dispersed_gyro_bias_is_added_to_the_files_and_widens_the_filter_prior(study):
+    import dataclasses
+
+    from attitude.config.model import Dispersion
+
+    bias = np.radians([10.0, -20.0, 5.0]) / 3600.0
+    sc = ClosedLoopScenario(CONFIG, study=study)
+    np.testing.assert_allclose(sc.gyro(None, bias).initial_bias, bias, rtol=1e-12)
+    np.testing.assert_array_equal(sc.gyro(None).initial_bias, np.zeros(3))
+    wide = dataclasses.replace(CONFIG.montecarlo, gyro_bias=Dispersion("normal", 30.0, "deg_per_h"))
+    sc_wide = ClosedLoopScenario(dataclasses.replace(CONFIG, montecarlo=wide), study=study)
+    sigma_b = math.sqrt(sc_wide.estimator(sc_wide.gyro(None)).P[3, 3])
+    assert sigma_b == pytest.approx(math.radians(30.0) / 3600.0)  # above the 10 deg/h default prior
+    assert math.sqrt(sc.estimator(sc.gyro(None)).P[3, 3]) == pytest.approx(scenarios.BIAS_SIGMA)
