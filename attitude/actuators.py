@@ -347,13 +347,27 @@ class ReactionWheels:
         speed = self.wheel_speed_components(h, omega)
         friction = self.friction_components(speed)
         h_dot = [u - f for u, f in zip(motor_torque, friction)]
-        reaction = self._body_components(h_dot, scale=-1.0)
+        reaction = self.body_components(h_dot, scale=-1.0)
         tau = reaction if external_torque is None else [e + r for e, r in zip(external_torque, reaction)]
-        internal = self._body_components(h, scale=1.0)
+        internal = self.body_components(h, scale=1.0)
         return quaternion_rate(q, omega) + body.omega_dot_components(omega, tau, internal) + h_dot
 
-    def _body_components(self, per_wheel: Components, scale: float) -> Components:
-        """``scale * A @ per_wheel`` on components."""
+    def body_components(self, per_wheel: Components, scale: float) -> Components:
+        """Map per-wheel quantities to body components: ``scale * A @ per_wheel``.
+
+        Parameters
+        ----------
+        per_wheel : list of n
+            One quantity per wheel (momenta [N m s] or torques [N m]), any backend.
+        scale : float
+            Factor applied to the sum (``-1`` for the reaction torque on the body).
+
+        Returns
+        -------
+        list of 3
+            Body components, same backend as ``per_wheel``; exact zeros of the
+            distribution matrix are skipped so symbolic graphs stay small.
+        """
         out = []
         for k in range(3):
             acc = None

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import textwrap
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -17,14 +17,41 @@ from matplotlib.lines import Line2D
 from numpy.typing import ArrayLike, NDArray
 
 if TYPE_CHECKING:
-    from attitude.propagate import Trajectory
     from attitude.rigid_body import RigidBody
-    from attitude.simulation.engine import SimulationResult
+
+
+# What the figures read of the results, as protocols rather than imports: the results draw
+# themselves with these functions, and the two modules must not import each other.
+
+
+class TrajectoryData(Protocol):
+    """What :func:`plot_trajectory` reads (:class:`attitude.propagate.Trajectory` meets it)."""
+
+    t: NDArray[np.float64]
+    q: NDArray[np.float64]
+    omega: NDArray[np.float64]
+    inertia: NDArray[np.float64]
+    method: str
+
+
+class SimulationData(Protocol):
+    """What :func:`plot_simulation` reads (:class:`attitude.simulation.SimulationResult` meets it)."""
+
+    t: NDArray[np.float64]
+    omega: NDArray[np.float64]
+    error_angle: NDArray[np.float64]
+    torque_applied: NDArray[np.float64]
+    torque_command: NDArray[np.float64]
+    wheel_speed: NDArray[np.float64]
+    info: dict[str, Any]
+
 
 __all__ = [
     "AXIS_COLORS",
     "RATE_UNITS",
     "TIME_UNITS",
+    "SimulationData",
+    "TrajectoryData",
     "plot_flip",
     "plot_polhodes",
     "plot_rates_comparison",
@@ -37,7 +64,7 @@ AXIS_COLORS = ("tab:blue", "tab:orange", "tab:green")
 _QUAT_COLORS = ("black", *AXIS_COLORS)
 
 
-def plot_trajectory(traj: Trajectory, index: tuple[int, ...] | int = ()) -> Figure:
+def plot_trajectory(traj: TrajectoryData, index: tuple[int, ...] | int = ()) -> Figure:
     """Body rates, attitude quaternion and invariant drift of a trajectory.
 
     Parameters
@@ -548,7 +575,7 @@ def plot_flip(
     return fig
 
 
-def plot_simulation(result: SimulationResult) -> Figure:
+def plot_simulation(result: SimulationData) -> Figure:
     """The standard review figure of a closed-loop run.
 
     Four panels: attitude error to the controller's reference [deg] on a

@@ -31,13 +31,11 @@ import time
 import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import casadi as ca
-import matplotlib.figure
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.integrate import solve_ivp
 
 from attitude import quaternion as quat
 from attitude.integrators import (
@@ -50,6 +48,9 @@ from attitude.integrators import (
 from attitude.results import ResultIO
 from attitude.rigid_body import Components, RigidBody
 from attitude.validation import as_float_array, check_positive, check_time_grid, check_vector
+
+if TYPE_CHECKING:
+    import matplotlib.figure
 
 __all__ = ["METHODS", "Trajectory", "propagate"]
 
@@ -808,6 +809,8 @@ def _propagate_adaptive(
     ys[0] = x0
     nfev = 0
     y = x0
+    from scipy.integrate import solve_ivp  # imported when used: it costs a quarter second of start-up
+
     for i0, i1, tau_value in segments:
         sol = solve_ivp(
             rhs_factory(tau_value), (t[i0], t[i1]), y, method="DOP853", t_eval=t[i0 : i1 + 1], rtol=rtol, atol=atol

@@ -8,19 +8,39 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 import numpy as np
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 from scipy import stats
 
-if TYPE_CHECKING:
-    from attitude.montecarlo.results import CampaignResult
+from attitude.montecarlo.units import display_unit
+
+
+class CampaignData(Protocol):
+    """What the figures read of a campaign (:class:`attitude.montecarlo.CampaignResult` meets it).
+
+    A protocol, not an import, so that the result can draw itself with these
+    functions without the two modules importing each other.
+    """
+
+    seed: int
+    parameters: dict[str, NDArray[np.float64]]
+    metrics: dict[str, NDArray[np.float64]]
+    status: NDArray[Any]
+    requirements: tuple[Any, ...]
+    histories: dict[int, dict[str, NDArray[Any]]]
+
+    @property
+    def runs(self) -> int: ...
+
+    @property
+    def passed(self) -> NDArray[np.bool_]: ...
+
 
 __all__ = [
-    "DISPLAY_UNITS",
-    "display_unit",
+    "CampaignData",
     "most_influential_parameter",
     "plot_envelope",
     "plot_histograms",
@@ -31,42 +51,13 @@ __all__ = [
 #: Percentile bands drawn by :func:`plot_envelope` [%] (outermost first) and the median.
 ENVELOPE_BANDS = ((0.0, 100.0), (5.0, 95.0), (25.0, 75.0))
 
-_DEG = 180.0 / math.pi
-#: Display scale and unit of the built-in metric, history and parameter names (SI inside, review units on
-#: the axes), by name or by the prefix before the first "." (``keep_out_margin.<cone>``, ``inertia.xx``).
-DISPLAY_UNITS: dict[str, tuple[float, str]] = {
-    "settling_time": (1.0, "s"),
-    "final_pointing_error": (_DEG, "deg"),
-    "error_angle": (_DEG, "deg"),
-    "tracking_error": (_DEG, "deg"),
-    "estimation_error": (_DEG * 3600.0, "arcsec"),
-    "keep_out_margin": (_DEG, "deg"),
-    "peak_rate": (_DEG, "deg/s"),
-    "omega": (_DEG, "deg/s"),
-    "initial_rate": (_DEG, "deg/s"),
-    "peak_wheel_speed": (30.0 / math.pi, "rpm"),
-    "wheel_speed": (30.0 / math.pi, "rpm"),
-    "inertia": (1.0, "kg m^2"),
-    "gyro_misalignment": (_DEG * 3600.0, "arcsec"),
-    "star_tracker_misalignment": (_DEG * 3600.0, "arcsec"),
-    "gyro_bias": (_DEG * 3600.0, "deg/h"),
-}
-
-
-def display_unit(name: str) -> tuple[float, str]:
-    """Scale and unit label for plotting a metric, history or parameter (``(1, "")`` when unknown)."""
-    for key in (name, name.split(".")[0], name.split("[")[0]):
-        if key in DISPLAY_UNITS:
-            return DISPLAY_UNITS[key]
-    return 1.0, ""
-
 
 def _label(name: str) -> str:
     unit = display_unit(name)[1]
     return f"{name} [{unit}]" if unit else name
 
 
-def plot_histograms(result: CampaignResult, metrics: Sequence[str] | None = None) -> Figure:
+def plot_histograms(result: CampaignData, metrics: Sequence[str] | None = None) -> Figure:
     """One histogram per metric over the completed runs, with requirement bounds (dashed red).
 
     Non-finite values (a run that never settled has ``settling_time = inf``)
@@ -103,7 +94,7 @@ def plot_histograms(result: CampaignResult, metrics: Sequence[str] | None = None
     return fig
 
 
-def _stack(result: CampaignResult, key: str, component: int | None) -> tuple[NDArray, NDArray, str]:
+def _stack(result: CampaignData, key: str, component: int | None) -> tuple[NDArray, NDArray, str]:
     runs = [r for r, h in result.histories.items() if key in h and "t" in h]
     if not runs:
         raise ValueError(f"no run has a time history {key!r} (run the scenario with histories)")
@@ -122,12 +113,12 @@ def _stack(result: CampaignResult, key: str, component: int | None) -> tuple[NDA
     return t, np.array(series), label
 
 
-def plot_envelope(result: CampaignResult, key: str, component: int | None = None) -> Figure:
+def plot_envelope(result: CampaignData, key: str, component: int | None = None) -> Figure:
     """Percentile bands over the runs of a time history (min-max, 5-95 %, 25-75 %, median).
 
     Parameters
     ----------
-    result : CampaignResult
+    result : CampaignData
     key : str
         History name (``"error_angle"``, ``"omega"`` ...).
     component : int, optional
@@ -152,7 +143,7 @@ def plot_envelope(result: CampaignResult, key: str, component: int | None = None
     return fig
 
 
-def plot_scatter(result: CampaignResult, metric: str, parameter: str) -> Figure:
+def plot_scatter(result: CampaignData, metric: str, parameter: str) -> Figure:
     """A metric against a dispersed parameter; runs that failed a requirement in red."""
     if metric not in result.metrics:
         raise ValueError(f"metric {metric!r} is not in the result; metrics are {list(result.metrics)}")
@@ -179,7 +170,7 @@ def plot_scatter(result: CampaignResult, metric: str, parameter: str) -> Figure:
     return fig
 
 
-def most_influential_parameter(result: CampaignResult, metric: str) -> str | None:
+def most_influential_parameter(result: CampaignData, metric: str) -> str | None:
     """The dispersed parameter with the largest |Spearman rank correlation| with ``metric`` (None if undecidable)."""
     y = result.metrics[metric]
     ok = (result.status == "ok") & np.isfinite(y)
@@ -193,7 +184,7 @@ def most_influential_parameter(result: CampaignResult, metric: str) -> str | Non
     return best
 
 
-def save_figures(result: CampaignResult, directory: str | Path) -> list[Path]:
+def save_figures(result: CampaignData, directory: str | Path) -> list[Path]:
     """Histograms, an envelope per history, and per requirement metric a scatter against its most influential parameter.
 
     Returns the paths written (PNG).

@@ -30,12 +30,15 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
+from attitude.montecarlo.units import display_unit
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 from attitude.montecarlo.statistics import DEFAULT_PERCENTILES, percentiles, success_lower_bound, success_statement
 
 __all__ = ["EXECUTION_COLUMNS", "CampaignResult", "Requirement"]
@@ -240,8 +243,6 @@ class CampaignResult:
             f"Monte Carlo campaign: {s['runs']} runs (seed {self.seed}), {s['completed']} completed, "
             f"{s['errors']} errors, {s['not_run']} not run",
         ]
-        from attitude.montecarlo.plots import display_unit
-
         for m, st in s["metrics"].items():
             scale, unit = display_unit(m)
             label = f"{m} [{unit}]" if unit else m

@@ -53,8 +53,9 @@ from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
 from attitude.rigid_body import RigidBody, symmetric_entries
 from attitude.simulation.codegen import CompilationError
-from attitude.simulation.engine import _PlantModel, settling_time_after, ticks_per_period, whole_ticks
+from attitude.simulation.engine import settling_time_after, ticks_per_period, whole_ticks
 from attitude.simulation.kernel import METRICS, CompiledTicks, command, observe
+from attitude.simulation.plant import PlantModel
 from attitude.validation import as_float_array, check_positive
 
 __all__ = ["BATCH_CHUNK", "BatchResult", "closed_loop_metrics", "simulate_batch"]
@@ -226,7 +227,7 @@ def simulate_batch(
         raise ValueError(f"controller.compiled_inputs(t) must return shape (m, {t.size}), got {inputs.shape}")
     q_ref = np.asarray(controller.reference_samples(t)[0], float) if hasattr(controller, "reference_samples") else None
     plant = body if wheels is None else wheels.hub_body(body)
-    loop = _Loop(_PlantModel(plant, wheels), controller, t, inputs, q_ref, every, substeps, pointing_threshold, stride)
+    loop = _Loop(PlantModel(plant, wheels), controller, t, inputs, q_ref, every, substeps, pointing_threshold, stride)
 
     start = time.perf_counter()
     ticks, note = None, None
@@ -333,7 +334,7 @@ class _Loop:
 
     def run_numpy(self, plant: RigidBody, x0: NDArray, ext: NDArray | None) -> tuple:
         """Every tick as numpy operations on arrays of runs."""
-        model = _PlantModel(plant, self.model.wheels)
+        model = PlantModel(plant, self.model.wheels)
         n_ticks = self.t.size - 1
         dt = self.t[1] - self.t[0]
         x = [np.ascontiguousarray(x0[:, i]) for i in range(x0.shape[1])]
@@ -366,7 +367,7 @@ class _Loop:
         columns[-1] = self.threshold
         stops = list(range(0, n_ticks, self.stride)) if self.stride else [0]
         recorded: dict[str, list] = {}
-        model = _PlantModel(plant, self.model.wheels)
+        model = PlantModel(plant, self.model.wheels)
         for a, b in zip(stops, [*stops[1:], n_ticks]):
             if self.stride:
                 self._observe(model, [z[:, i] for i in range(ticks.n_x)], a, self._start(n), recorded)

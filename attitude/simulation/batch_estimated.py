@@ -44,8 +44,9 @@ from attitude.rigid_body import RigidBody, symmetric_entries
 from attitude.rng import NormalStreams
 from attitude.sensors import GyroBatch, StarTracker
 from attitude.simulation.codegen import CompilationError
-from attitude.simulation.engine import _PlantModel, ticks_per_period, whole_ticks
+from attitude.simulation.engine import ticks_per_period, whole_ticks
 from attitude.simulation.kernel import CompiledHold, command
+from attitude.simulation.plant import PlantModel
 from attitude.validation import as_float_array, check_positive
 
 __all__ = ["simulate_batch_estimated"]
@@ -144,7 +145,7 @@ def simulate_batch_estimated(
     t = np.arange(n_ticks + 1) * dt
     inputs = np.atleast_2d(as_float_array(controller.compiled_inputs(t), "controller.compiled_inputs(t)"))
     plant = wheels.hub_body(body)
-    model = _PlantModel(plant, wheels)
+    model = PlantModel(plant, wheels)
     hold, note = None, None
     if backend != "numpy":
         try:

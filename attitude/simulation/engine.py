@@ -7,27 +7,12 @@ engine's tick; every component runs at a period that is a whole multiple of
 controller or filter drops in; this module never imports ``controllers`` or
 ``estimation``.
 
-Protocols (duck-typed)
-----------------------
-controller
-    ``period`` [s] and ``torque(t, estimate) -> (3,)`` commanded body torque
-    [N m]. Optional: ``prepare(t0, q0, omega0)`` called once before the run
-    (e.g. to latch limits from the initial error); ``reference(t) -> (q_ref, omega_ref)`` (the engine then
-    logs the attitude error; ``reference_samples(t_array)`` does it in one
-    call), ``log() -> dict`` of floats/arrays logged at each
-    controller sample, and the compiled path below.
-sensor
-    ``name``, ``period`` [s] and ``measure(t, truth, rng) -> array or None``.
-    ``truth`` is a :class:`Truth`.
-estimator
-    ``period`` [s] and ``update(t, measurements) -> Estimate``;
-    ``measurements`` maps sensor names to their newest sample (None when the
-    sensor did not sample at ``t``), plus ``"torque_command"`` (the body
-    torque command held over the last interval) and ``"wheel_momentum"``
-    (wheel tachometers). Optional ``log() -> dict``.
-disturbance
-    None, a constant torque ``(3,)`` [N m], or a callable
-    ``torque(t, q, omega) -> (3,)`` evaluated at each tick and held over it.
+Protocols
+---------
+Controllers, sensors, estimators and disturbances meet the protocols of
+:mod:`attitude.simulation.protocols` (:class:`Controller`, :class:`Sensor`,
+:class:`Estimator`, :data:`Disturbance`); sensors see a :class:`Truth`,
+controllers an :class:`Estimate`.
 
 Compiled path
 -------------
@@ -44,20 +29,23 @@ from __future__ import annotations
 import dataclasses
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import casadi as ca
-import matplotlib.figure
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
-from attitude.integrators import normalize_quaternion_components, rk4_step
 from attitude.results import ResultIO
 from attitude.rigid_body import RigidBody, split_components
 from attitude.rng import as_generator
+from attitude.simulation.plant import PlantModel
+from attitude.simulation.protocols import Controller, Disturbance, Estimate, Estimator, Sensor, Truth
 from attitude.validation import as_float_array, check_positive, check_vector
+
+if TYPE_CHECKING:
+    import matplotlib.figure
 
 __all__ = [
     "Estimate",
@@ -67,48 +55,6 @@ __all__ = [
     "settling_time_after",
     "simulate",
 ]
-
-
-@dataclass(frozen=True)
-class Truth:
-    """The true state handed to sensors.
-
-    Attributes
-    ----------
-    t : float
-        Time [s].
-    q : ndarray (4,)
-        Attitude ``q_BN``.
-    omega : ndarray (3,)
-        Body rate [rad/s].
-    h_wheels : ndarray (n,)
-        Wheel spin-axis momenta [N m s] (empty without wheels).
-    """
-
-    t: float
-    q: NDArray[np.float64]
-    omega: NDArray[np.float64]
-    h_wheels: NDArray[np.float64]
-
-
-@dataclass(frozen=True)
-class Estimate:
-    """What the controller sees: attitude, body rate and wheel momenta.
-
-    ``h_body`` is the wheels' momentum *relative to the body*,
-    ``sum_i J_i Omega_i a_i`` in body components [N m s] (the engine fills it
-    from the wheel tachometers). With the whole-spacecraft inertia ``I`` a
-    controller uses, ``I omega + h_body`` is then exactly the total angular
-    momentum ``I_s omega + A h`` (the wheels' spin inertia is counted once).
-    ``covariance`` is optional (an estimator's error covariance).
-    """
-
-    t: float
-    q: NDArray[np.float64]
-    omega: NDArray[np.float64]
-    h_wheels: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
-    h_body: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
-    covariance: NDArray[np.float64] | None = None
 
 
 @dataclass
@@ -230,12 +176,12 @@ def simulate(
     omega0: ArrayLike,
     duration: float,
     *,
-    controller: Any = None,
+    controller: Controller | None = None,
     wheels: ReactionWheels | None = None,
     h_wheels0: ArrayLike | None = None,
-    sensors: tuple[Any, ...] | list[Any] = (),
-    estimator: Any = None,
-    disturbance: Any = None,
+    sensors: tuple[Sensor, ...] | list[Sensor] = (),
+    estimator: Estimator | None = None,
+    disturbance: Disturbance = None,
     dt: float | None = None,
     substeps: int = 1,
     rng: Any = None,
@@ -340,7 +286,7 @@ def simulate(
             "wheels spin_inertia is too large for body: the hub inertia I - sum J a a^T (the spacecraft without "
             f"the wheels' spin-axis inertia) must be a valid inertia: {exc}"
         ) from exc
-    model = _PlantModel(plant, wheels)
+    model = PlantModel(plant, wheels)
     compiled_ok = (
         controller is not None
         and not sensors
@@ -377,56 +323,6 @@ def simulate(
     return result
 
 
-class _PlantModel:
-    """Plant (hub body + wheels) derivative and a compiled hold step."""
-
-    def __init__(self, body: RigidBody, wheels: ReactionWheels | None) -> None:
-        self.body = body
-        self.wheels = wheels
-        self.n_w = 0 if wheels is None else wheels.n_wheels
-        self.n_x = 7 + self.n_w
-        self._step: ca.Function | None = None
-
-    def derivative(self, x: list, u: list, tau_ext: list | None) -> list:
-        """x = [q, omega, h]; u = motor torques (wheels) or body torque (no wheels)."""
-        if self.wheels is None:
-            tau = u if tau_ext is None else [a + b for a, b in zip(u, tau_ext)]
-            return self.body.state_derivative_components(x, tau)
-        return self.wheels.state_derivative_components(self.body, x, u, tau_ext)
-
-    def hold_step(self, x: list, u: list, tau_ext: list | None, dt: Any, substeps: int) -> list:
-        h = dt / substeps
-        for _ in range(substeps):
-            x = normalize_quaternion_components(rk4_step(lambda _t, xc: self.derivative(xc, u, tau_ext), 0.0, x, h))
-        return x
-
-    def compiled_step(self, substeps: int) -> ca.Function:
-        if self._step is None:
-            n_u = self.n_w if self.wheels is not None else 3
-            x = ca.SX.sym("x", self.n_x)
-            u = ca.SX.sym("u", n_u)
-            tau = ca.SX.sym("tau_ext", 3)
-            dt = ca.SX.sym("dt")
-            xn = self.hold_step(
-                split_components(x, self.n_x), split_components(u, n_u), split_components(tau, 3), dt, substeps
-            )
-            self._step = ca.Function("hold_step", [x, u, tau, dt], [ca.vertcat(*xn)])
-        return self._step
-
-    def command(self, tau_cmd: list, x: list) -> tuple[list, list]:
-        """Motor (or body) torque and the applied body torque for a command."""
-        if self.wheels is None:
-            return tau_cmd, tau_cmd
-        u = self.wheels.allocate_components(tau_cmd, x[7:], x[4:7])
-        return u, self.wheels._body_components(u, scale=-1.0)
-
-    def momentum_N(self, q: NDArray, omega: NDArray, h: NDArray) -> NDArray:
-        h_b = omega @ self.body.inertia.T
-        if self.wheels is not None:
-            h_b = h_b + h @ self.wheels.distribution.T
-        return quat.rotate(quat.normalize(q), h_b)
-
-
 def _finish(model, t, x, tau_cmd, tau_app, u, err, est_q, est_w, logs) -> SimulationResult:
     q, omega, h = x[:, :4], x[:, 4:7], x[:, 7:]
     speed = model.wheels.wheel_speed(h, omega) if model.wheels is not None else np.zeros((t.size, 0))
@@ -460,7 +356,7 @@ def _run_compiled(
     x = ca.SX.sym("x", model.n_x)
     p = ca.SX.sym("p", m)
     xc = split_components(x, model.n_x)
-    tau_cmd = controller.torque_components(xc[:4], xc[4:7], _body_momentum(model, xc), split_components(p, m))
+    tau_cmd = controller.torque_components(xc[:4], xc[4:7], model.body_momentum(xc), split_components(p, m))
     u, tau_app = model.command(tau_cmd, xc)
     commands = ca.vertcat(*tau_cmd, *tau_app, *u)
     tau_ext = [0.0, 0.0, 0.0] if disturbance is None else [float(v) for v in disturbance]
@@ -492,15 +388,6 @@ def _diverged(t: float, x_before: NDArray) -> None:
         f"the closed-loop state became non-finite at t = {float(t):.6g} s (body rate {rate:.3g} rad/s one tick "
         "before): check the controller gains and sample time, the torque limits, or use more substeps"
     )
-
-
-def _body_momentum(model: _PlantModel, xc: list) -> list:
-    """Wheel momentum relative to the body, ``A (J Omega)``, in body components (zeros without wheels)."""
-    if model.wheels is None:
-        return [0.0 * xc[4]] * 3
-    wheels = model.wheels
-    relative = [wheels.spin_inertia[i] * s for i, s in enumerate(wheels.wheel_speed_components(xc[7:], xc[4:7]))]
-    return wheels._body_components(relative, scale=1.0)
 
 
 def _error_angles(controller: Any, t: NDArray, q: NDArray) -> NDArray:
@@ -563,7 +450,7 @@ def _run_python(model, controller, sensors, estimator, disturbance, q0, omega0, 
                 record("estimator", k, estimator.log())
         elif estimator is None:
             estimate = Estimate(tk, truth.q, truth.omega, truth.h_wheels)
-        h_body = np.array([float(v) for v in _body_momentum(model, list(x))])
+        h_body = np.array([float(v) for v in model.body_momentum(list(x))])
         estimate = dataclasses.replace(estimate, h_wheels=truth.h_wheels, h_body=h_body)
         est_q[k] = estimate.q
         est_w[k] = estimate.omega

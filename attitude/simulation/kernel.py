@@ -8,7 +8,7 @@ A tick of :func:`attitude.simulation.batch.simulate_batch` at time
    threshold, the first time the state went non-finite);
 2. :func:`command`: at controller samples, the control law's torque on the
    true state, allocated to the wheels (held between samples);
-3. the plant's hold step over ``dt`` (:class:`attitude.simulation.engine._PlantModel`,
+3. the plant's hold step over ``dt`` (:class:`attitude.simulation.plant.PlantModel`,
    the single-run engine's).
 
 These functions are written on components with :mod:`attitude.backend`, so
@@ -42,7 +42,7 @@ from attitude import backend as bk
 from attitude import quaternion as quat
 from attitude.rigid_body import ParametricBody, split_components
 from attitude.simulation.codegen import compile_functions
-from attitude.simulation.engine import _body_momentum, _PlantModel
+from attitude.simulation.plant import PlantModel
 
 __all__ = ["FOLDS", "METRICS", "CompiledHold", "CompiledTicks", "command", "observe"]
 
@@ -52,12 +52,12 @@ METRICS = ("peak_rate", "peak_wheel_speed", "last_above", "diverged_at")
 FOLDS = (100, 10)
 
 
-def observe(model: _PlantModel, x: list, q_ref: list | None, threshold: Any, k: Any, t_k: Any, acc: list) -> tuple:
+def observe(model: PlantModel, x: list, q_ref: list | None, threshold: Any, k: Any, t_k: Any, acc: list) -> tuple:
     """Update the running metrics with the state ``x`` at tick ``k`` (module docstring).
 
     Parameters
     ----------
-    model : _PlantModel
+    model : PlantModel
         Plant (hub body and wheels).
     x : list
         State components ``[q (4), omega (3) [rad/s], h (n_w) [N m s]]``.
@@ -91,7 +91,7 @@ def observe(model: _PlantModel, x: list, q_ref: list | None, threshold: Any, k: 
     return [bk.fmax(acc[0], rate), peak_speed, last_above, diverged_at], err, speeds
 
 
-def command(model: _PlantModel, controller: Any, x: list, inputs: list, estimate: list | None = None) -> list:
+def command(model: PlantModel, controller: Any, x: list, inputs: list, estimate: list | None = None) -> list:
     """Motor torques (or the body torque without wheels) of the control law.
 
     As the single-run engine: the law sees ``estimate`` (``[q (4), omega
@@ -99,7 +99,7 @@ def command(model: _PlantModel, controller: Any, x: list, inputs: list, estimate
     state; the allocation uses the true wheel speeds.
     """
     seen = x if estimate is None else estimate
-    tau = controller.torque_components(seen[:4], seen[4:7], _body_momentum(model, x), inputs)
+    tau = controller.torque_components(seen[:4], seen[4:7], model.body_momentum(x), inputs)
     return model.command(tau, x)[0]
 
 
@@ -140,7 +140,7 @@ class CompiledTicks:
         p = zs[self.n_z - 15 :]
         q_ref = cs[n_inputs : n_inputs + 4] if has_reference else None
         k, t_k, sample, dt, threshold = cs[self.n_c - 5 :]
-        model = _PlantModel(ParametricBody(p[:6], p[6:12]), wheels)
+        model = PlantModel(ParametricBody(p[:6], p[6:12]), wheels)
         acc_next, _, _ = observe(model, x, q_ref, threshold, k, t_k, acc)
         u_new = command(model, controller, x, cs[:n_inputs])
         u = [bk.if_else(sample > 0.5, a, b) for a, b in zip(u_new, u_held)]
@@ -246,7 +246,7 @@ class CompiledHold:
         dt = ca.SX.sym("dt")
         zs = split_components(z, self.n_x + self.n_u + 15)
         x, u, p = zs[: self.n_x], zs[self.n_x : self.n_x + self.n_u], zs[self.n_x + self.n_u :]
-        model = _PlantModel(ParametricBody(p[:6], p[6:12]), wheels)
+        model = PlantModel(ParametricBody(p[:6], p[6:12]), wheels)
         hold = ca.Function("hold1", [z, dt], [ca.vertcat(*model.hold_step(x, u, p[12:15], dt, substeps))])
         (self._compiled,) = compile_functions([hold])
         self._mapped: dict[int, _Evaluator] = {}

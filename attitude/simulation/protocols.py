@@ -1,0 +1,149 @@
+"""What the engine exchanges with the parts a user plugs in: the data it hands over and the protocols.
+
+The engine (:func:`attitude.simulation.simulate`) and the batch paths talk to
+controllers, sensors and estimators only through these protocols, so the
+core never imports :mod:`controllers` or :mod:`estimation` and a user's own
+object drops in. They are :class:`typing.Protocol` classes: an object meets
+one by having the members, without inheriting from it
+(``isinstance(obj, Controller)`` checks the members' presence).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = [
+    "CompiledController",
+    "Controller",
+    "Disturbance",
+    "Estimate",
+    "Estimator",
+    "Sensor",
+    "Truth",
+]
+
+
+@dataclass(frozen=True)
+class Truth:
+    """The true state handed to sensors.
+
+    Attributes
+    ----------
+    t : float
+        Time [s].
+    q : ndarray (4,)
+        Attitude ``q_BN``.
+    omega : ndarray (3,)
+        Body rate [rad/s].
+    h_wheels : ndarray (n,)
+        Wheel spin-axis momenta [N m s] (empty without wheels).
+    """
+
+    t: float
+    q: NDArray[np.float64]
+    omega: NDArray[np.float64]
+    h_wheels: NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """What the controller sees: attitude, body rate and wheel momenta.
+
+    ``h_body`` is the wheels' momentum *relative to the body*,
+    ``sum_i J_i Omega_i a_i`` in body components [N m s] (the engine fills it
+    from the wheel tachometers). With the whole-spacecraft inertia ``I`` a
+    controller uses, ``I omega + h_body`` is then exactly the total angular
+    momentum ``I_s omega + A h`` (the wheels' spin inertia is counted once).
+    ``covariance`` is optional (an estimator's error covariance).
+    """
+
+    t: float
+    q: NDArray[np.float64]
+    omega: NDArray[np.float64]
+    h_wheels: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    h_body: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
+    covariance: NDArray[np.float64] | None = None
+
+
+@runtime_checkable
+class Controller(Protocol):
+    """A feedback law sampled every ``period`` seconds.
+
+    Optional members the engine uses when present: ``prepare(t0, q0, omega0)``
+    (called once before the run, e.g. to latch limits from the initial error),
+    ``reference(t) -> (q_ref, omega_ref)`` (the engine then logs the attitude
+    error; ``reference_samples(t_array)`` does it in one call) and
+    ``log() -> dict`` of floats or arrays logged at each sample.
+    """
+
+    period: float
+    """Sample period [s], a whole multiple of the engine tick."""
+
+    def torque(self, t: float, estimate: Estimate) -> NDArray[np.float64]:
+        """Commanded body torque ``(3,)`` [N m] at time ``t`` [s] from what the controller sees."""
+        ...
+
+
+@runtime_checkable
+class CompiledController(Controller, Protocol):
+    """A controller the compiled (casadi) path can fold into the plant step.
+
+    ``torque_components`` is written on components with the backend-neutral
+    operations of :mod:`attitude.backend`, so numpy, casadi and generated C
+    evaluate the same law.
+    """
+
+    def compiled_inputs(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Time-varying inputs ``(m, N)`` of the law at the sample times ``t`` [s] (references, gains)."""
+        ...
+
+    def torque_components(
+        self, q: Sequence[Any], omega: Sequence[Any], h_body: Sequence[Any], inputs: Sequence[Any]
+    ) -> list:
+        """Commanded body torque [N m] on components from the attitude, body rate [rad/s], wheel momentum
+        relative to the body [N m s] and the inputs of one sample."""
+        ...
+
+
+@runtime_checkable
+class Sensor(Protocol):
+    """A sensor sampled every ``period`` seconds; its samples reach the estimator under ``name``."""
+
+    name: str
+    period: float
+
+    def measure(self, t: float, truth: Truth, rng: np.random.Generator) -> Any:
+        """The sample at time ``t`` [s] from the true state, or None when it has none (e.g. blinded)."""
+        ...
+
+
+@runtime_checkable
+class Estimator(Protocol):
+    """An estimator updated every ``period`` seconds from the newest sensor samples.
+
+    ``measurements`` maps sensor names to their newest sample (None when the
+    sensor did not sample at ``t``), plus ``"torque_command"`` (the body
+    torque command held over the last interval [N m]) and
+    ``"wheel_momentum"`` (wheel tachometers [N m s]). Optional ``log() -> dict``.
+    """
+
+    period: float
+
+    def update(self, t: float, measurements: Mapping[str, Any]) -> Estimate:
+        """The estimate at time ``t`` [s]."""
+        ...
+
+
+#: A disturbance: None, a constant body torque ``(3,)`` [N m], or
+#: ``torque(t, q, omega) -> (3,)`` evaluated at each tick and held over it.
+Disturbance = (
+    None
+    | Sequence[float]
+    | NDArray[np.float64]
+    | Callable[[float, NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]
+)
