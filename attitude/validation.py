@@ -20,6 +20,7 @@ __all__ = [
     "check_vector",
     "describe",
     "positive_scalar",
+    "scalar_angle",
     "scalar_time",
 ]
 
@@ -255,3 +256,24 @@ def check_time_grid(t: ArrayLike, name: str = "t") -> NDArray[np.float64]:
             f"{name} must be strictly increasing; {name}[{i + 1}]={arr[i + 1]!r} <= {name}[{i}]={arr[i]!r}"
         )
     return arr
+
+
+def scalar_angle(value: ArrayLike, name: str) -> float:
+    """A finite scalar angle [rad], or a ValueError naming ``name``.
+
+    Parameters
+    ----------
+    value : float
+        The angle [rad].
+    name : str
+        Argument name used in the error message.
+
+    Returns
+    -------
+    float
+        The angle as a float.
+    """
+    arr = as_float_array(value, name)
+    if arr.ndim != 0:
+        raise ValueError(f"{name} must be a scalar angle in rad, got shape {arr.shape}")
+    return float(arr)

@@ -1,9 +1,6 @@
-"""The space environment at the spacecraft: orbits and disturbance torques."""
+"""The space environment at the spacecraft: orbits and the disturbance torques they bring."""
 
 from attitude.environment.gravity_gradient import (
-    MU_EARTH,
-    R_EARTH,
-    CircularOrbit,
     GravityGradientStability,
     constant_plus_orbital_disturbance,
     gravity_gradient_stability,
@@ -13,6 +10,7 @@ from attitude.environment.gravity_gradient import (
     linearize_gravity_gradient,
     lvlh_relative_dynamics,
 )
+from attitude.environment.orbit import MU_EARTH, R_EARTH, CircularOrbit
 
 __all__ = [
     "MU_EARTH",

@@ -10,7 +10,7 @@ from scipy.optimize import linear_sum_assignment
 
 from attitude import RigidBody
 from attitude import quaternion as quat
-from attitude.environment.gravity_gradient import (
+from attitude.environment import (
     MU_EARTH,
     R_EARTH,
     CircularOrbit,
