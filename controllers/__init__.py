@@ -1,1 +1,43 @@
-"""Attitude controllers (PD, LQR, optimal slews, tracking); imports ``attitude`` only."""
+"""Attitude controllers: PD and LQR design, loop analysis, tracking and optimal slews; imports ``attitude`` only.
+
+The front door: ``from controllers import QuaternionPD, design_lqr, margins, plan_slew``.
+"""
+
+from controllers.analysis import (
+    Margins,
+    attitude_closed_loop,
+    loop_gain,
+    margins,
+    plot_bode,
+    plot_step,
+    sample_time_study,
+    sampled_loop,
+)
+from controllers.lqr import LQRController, LQRDesign, bryson_weights, design_lqr
+from controllers.pd import QuaternionPD, RateLimitedPD
+from controllers.slew import EigenaxisSlew, KeepOutCone, SlewPlan, eigenaxis_slew, plan_slew
+from controllers.tracking import ReferenceTrajectory, TrackingController
+
+__all__ = [
+    "EigenaxisSlew",
+    "KeepOutCone",
+    "LQRController",
+    "LQRDesign",
+    "Margins",
+    "QuaternionPD",
+    "RateLimitedPD",
+    "ReferenceTrajectory",
+    "SlewPlan",
+    "TrackingController",
+    "attitude_closed_loop",
+    "bryson_weights",
+    "design_lqr",
+    "eigenaxis_slew",
+    "loop_gain",
+    "margins",
+    "plan_slew",
+    "plot_bode",
+    "plot_step",
+    "sample_time_study",
+    "sampled_loop",
+]
