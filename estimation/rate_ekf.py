@@ -78,7 +78,7 @@ the sample time: :meth:`RateEKF.from_gyro` checks that the
 :class:`attitude.sensors.Gyro` has ``sampling="instantaneous"`` (an
 interval-mean sample lags it by about ``dt/2`` times the angular
 acceleration, which the filter does not model: on the 5 deg/s tumble of
-``examples/test_estimator.py`` that lag is as large as the white noise of
+``examples/estimator_consistency.py`` that lag is as large as the white noise of
 one sample, and the average NEES grows from 6 to about 500). The
 check warns (:class:`attitude.sensors.GyroSamplingWarning`) by default,
 raises with ``sampling_check="raise"`` and is silenced with ``"ignore"``.
