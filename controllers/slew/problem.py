@@ -157,7 +157,7 @@ def validate(
     substeps: Any,
     keep_out_margin: Any = True,
 ) -> Problem:
-    """Check the physical inputs of :func:`controllers.slew.plan_slew` and scale them (module docstring there)."""
+    """Check the physical inputs of :func:`controllers.slew.plan_slew` and scale them (docs/slew_planning.md)."""
     if not isinstance(body, RigidBody) or body.batch_shape:
         raise ValueError(f"body must be a single (unbatched) RigidBody, got {body!r}")
     q0 = quat.as_unit_quaternion(q0, "q0")
