@@ -666,12 +666,24 @@ class AxisymmetricPrecession:
     transverse_moment: float
 
     def save(self, path: str | PathLike[str]) -> None:
-        """Write every field to a ``.npz`` file at ``path``."""
+        """Write every field to a ``.npz`` file at ``path``.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            Destination ``.npz`` file.
+        """
         np.savez(path, **{f.name: np.asarray(getattr(self, f.name)) for f in fields(self)})
 
     @classmethod
     def load(cls, path: str | PathLike[str]) -> AxisymmetricPrecession:
-        """Read a result written by :meth:`save`."""
+        """Read a result written by :meth:`save`.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The ``.npz`` file written by :meth:`save`.
+        """
         with np.load(path) as data:
             values = {}
             for f in fields(cls):
