@@ -54,7 +54,13 @@ DISPLAY_UNITS: dict[str, tuple[float, str]] = {
 
 
 def display_unit(name: str) -> tuple[float, str]:
-    """Scale and unit label for plotting a metric, history or parameter (``(1, "")`` when unknown)."""
+    """Scale and unit label for plotting a metric, history or parameter (``(1, "")`` when unknown).
+
+    Parameters
+    ----------
+    name : str
+        Name of a metric, history or dispersed parameter (its suffix says the unit).
+    """
     for key in (name, name.split(".")[0], name.split("[")[0]):
         if key in DISPLAY_UNITS:
             return DISPLAY_UNITS[key]
@@ -71,6 +77,13 @@ def plot_histograms(result: CampaignResult, metrics: Sequence[str] | None = None
 
     Non-finite values (a run that never settled has ``settling_time = inf``)
     are counted in the panel title, not drawn.
+
+    Parameters
+    ----------
+    result : CampaignResult
+        The campaign.
+    metrics : sequence of str, optional
+        Metrics to show; default every metric.
     """
     names = list(result.metrics) if metrics is None else list(metrics)
     for m in names:
@@ -153,7 +166,17 @@ def plot_envelope(result: CampaignResult, key: str, component: int | None = None
 
 
 def plot_scatter(result: CampaignResult, metric: str, parameter: str) -> Figure:
-    """A metric against a dispersed parameter; runs that failed a requirement in red."""
+    """A metric against a dispersed parameter; runs that failed a requirement in red.
+
+    Parameters
+    ----------
+    result : CampaignResult
+        The campaign.
+    metric : str
+        Name of the metric (vertical axis).
+    parameter : str
+        Table column of the dispersed parameter (horizontal axis).
+    """
     if metric not in result.metrics:
         raise ValueError(f"metric {metric!r} is not in the result; metrics are {list(result.metrics)}")
     if parameter not in result.parameters:
@@ -180,7 +203,15 @@ def plot_scatter(result: CampaignResult, metric: str, parameter: str) -> Figure:
 
 
 def most_influential_parameter(result: CampaignResult, metric: str) -> str | None:
-    """The dispersed parameter with the largest |Spearman rank correlation| with ``metric`` (None if undecidable)."""
+    """The dispersed parameter with the largest |Spearman rank correlation| with ``metric`` (None if undecidable).
+
+    Parameters
+    ----------
+    result : CampaignResult
+        The campaign.
+    metric : str
+        Name of the metric.
+    """
     y = result.metrics[metric]
     ok = (result.status == "ok") & np.isfinite(y)
     best, score = None, -1.0
@@ -197,6 +228,13 @@ def save_figures(result: CampaignResult, directory: str | Path) -> list[Path]:
     """Histograms, an envelope per history, and per requirement metric a scatter against its most influential parameter.
 
     Returns the paths written (PNG).
+
+    Parameters
+    ----------
+    result : CampaignResult
+        The campaign.
+    directory : str or Path
+        Folder for the PNG files (created).
     """
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
