@@ -116,7 +116,13 @@ class KeepOutCone:
         )
 
     def separation(self, q: ArrayLike) -> NDArray[np.float64]:
-        """Angle [rad] between the boresight and the avoided direction at attitudes ``q_BN`` (..., 4)."""
+        """Angle [rad] between the boresight and the avoided direction at attitudes ``q_BN`` (..., 4).
+
+        Parameters
+        ----------
+        q : array_like
+            Attitudes ``q_BN``, shape (..., 4).
+        """
         b_n = quat.rotate(quat.normalize(q), self.boresight_B)
         return np.arccos(np.clip(b_n @ self.direction_N, -1.0, 1.0))
 
