@@ -456,6 +456,17 @@ class RateEKF:
         (ValueError) or ``"ignore"`` (for samples that are not this gyro's
         own, e.g. generated separately). Other keywords as for the class
         (``torque_noise`` and ``P0`` are required).
+
+        Parameters
+        ----------
+        body : RigidBody
+            The spacecraft (inertia [kg m^2]).
+        gyro : Gyro
+            The gyro (``sampling="instantaneous"``, ``sigma_v > 0``).
+        sampling_check : {"warn", "raise", "ignore"}, optional
+            What a gyro that does not sample instantaneously does.
+        **kwargs
+            Other keywords of the constructor (``torque_noise`` and ``P0`` required).
         """
         if not isinstance(gyro, Gyro):
             raise ValueError(f"gyro must be an attitude.sensors.Gyro, got {gyro!r}")
@@ -484,6 +495,13 @@ class RateEKF:
         """Continuous Jacobian ``d omega_dot / d omega`` (3, 3) [1/s] at ``omega`` [rad/s] and ``h_body`` [N m s].
 
         ``h_body`` is the internal (wheel) momentum in body components.
+
+        Parameters
+        ----------
+        omega : array_like (3,)
+            Body rate [rad/s].
+        h_body : array_like (3,), optional
+            Internal (wheel) momentum in body components [N m s]; default zero.
         """
         wh = np.concatenate([_vector3(omega, "omega"), np.zeros(3) if h_body is None else _vector3(h_body, "h_body")])
         return self._a0 + (self._a_coeff @ wh).reshape((3, 3), order="F")
@@ -795,6 +813,14 @@ class RateEKF:
         ``[omega, beta]``. A non-finite attitude sample is skipped and
         counted (:attr:`n_attitude_nan_skipped`).
 
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        measurements : dict
+            Sensor name to newest sample (None: no sample), plus
+            ``"torque_command"`` [N m] and ``"wheel_momentum"`` [N m s].
+
         Raises
         ------
         ValueError
@@ -958,6 +984,11 @@ class RateEKFResult(ResultIO):
         """``"errors"``: errors with +-3 sigma (needs the truth); ``"nis"``: NIS with its thresholds.
 
         Default: errors when the truth is known, NIS otherwise.
+
+        Parameters
+        ----------
+        kind : {"errors", "nis"}, optional
+            What to draw; default errors when the truth is known, NIS otherwise.
         """
         if kind is None:
             kind = "errors" if self.omega_true is not None else "nis"

@@ -200,6 +200,15 @@ def process_noise(sigma_v: float, sigma_u: float, dt: float) -> NDArray[np.float
     Junkins, sec. 7.2.1) for ``sigma_v`` [rad/s^0.5] and ``sigma_u``
     [rad/s^1.5]: ``[[(sv^2 dt + su^2 dt^3/3) I, -(su^2 dt^2/2) I],
     [-(su^2 dt^2/2) I, su^2 dt I]]``.
+
+    Parameters
+    ----------
+    sigma_v : float
+        Angle random walk [rad/s^0.5].
+    sigma_u : float
+        Rate random walk [rad/s^1.5].
+    dt : float
+        Propagation interval [s].
     """
     sv = float(check_positive(sigma_v, "sigma_v", allow_zero=True))
     su = float(check_positive(sigma_u, "sigma_u", allow_zero=True))
@@ -418,6 +427,23 @@ class MEKF:
         this gyro's own, e.g. interval-mean rates generated separately).
         Another object with ``sigma_v``, ``sigma_u``, ``period`` and ``name``
         is accepted unchecked, as before.
+
+        Parameters
+        ----------
+        gyro : Gyro
+            The gyro (``sampling="mean"``, ``sigma_u > 0``).
+        tracker : StarTracker
+            The star tracker.
+        q0 : array_like (4,)
+            Initial attitude estimate ``q_BN`` (unit norm).
+        P0 : array_like (6, 6)
+            Initial error covariance [rad^2, rad^2/s, rad^2/s^2].
+        bias0 : array_like (3,) or float, optional
+            Initial gyro bias estimate [rad/s].
+        sampling_check : {"warn", "raise", "ignore"}, optional
+            What a gyro that does not sample interval means does.
+        **kwargs
+            Other keywords of the constructor.
         """
         if isinstance(gyro, Gyro):
             gyro.check_sampling("mean", consumer="MEKF.from_sensors", action=sampling_check)
@@ -659,6 +685,13 @@ class MEKF:
         """Moving-window NIS check of the tracker samples so far, gated ones included (3 dof).
 
         See :func:`estimation.consistency.nis_health`.
+
+        Parameters
+        ----------
+        window : int, optional
+            Number of samples per window.
+        confidence : float, optional
+            Two-sided confidence of each window's chi-square band, in (0, 1).
         """
         t, values = self.nis_history
         return nis_health(values, 3, window, confidence, t=t)
@@ -1061,11 +1094,29 @@ class MEKFResult(ResultIO):
         return np.concatenate([dtheta, np.broadcast_to(bt, self.bias.shape) - self.bias], axis=-1)
 
     def nees(self, q_true: ArrayLike, bias_true: ArrayLike) -> NDArray[np.float64]:
-        """NEES (..., n) of the 6-component error (chi-square, 6 dof, for a consistent filter)."""
+        """NEES (..., n) of the 6-component error (chi-square, 6 dof, for a consistent filter).
+
+        Parameters
+        ----------
+        q_true : array_like (..., n, 4)
+            True attitudes ``q_BN`` (broadcast against the runs axis).
+        bias_true : array_like (..., n, 3)
+            True gyro biases at the step times [rad/s].
+        """
         return nees(self.errors(q_true, bias_true), self.P)
 
     def nis_health(self, window: int = 50, confidence: float = 0.999, run: int = 0) -> NisHealth:
-        """Moving-window NIS check (:func:`estimation.consistency.nis_health`) of one run."""
+        """Moving-window NIS check (:func:`estimation.consistency.nis_health`) of one run.
+
+        Parameters
+        ----------
+        window : int, optional
+            Number of samples per window.
+        confidence : float, optional
+            Two-sided confidence of each window's chi-square band, in (0, 1).
+        run : int, optional
+            The run of a batch to check.
+        """
         values = self.nis if self.nis.ndim == 1 else self.nis[run]
         return nis_health(values, 3, window, confidence, t=self.t)
 
@@ -1074,6 +1125,15 @@ class MEKFResult(ResultIO):
 
         Attitude in arcsec, bias in deg/h. With the truth, every run of a
         batch is drawn; without it, the residuals of run ``run``.
+
+        Parameters
+        ----------
+        q_true : array_like (..., n, 4), optional
+            True attitudes ``q_BN``.
+        bias_true : array_like (..., n, 3), optional
+            True gyro biases [rad/s].
+        run : int, optional
+            The run of a batch whose residuals are drawn (without the truth).
         """
         if (q_true is None) != (bias_true is None):
             raise ValueError("q_true and bias_true must be given together (or neither)")
