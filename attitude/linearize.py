@@ -309,6 +309,11 @@ def rate_block_eigenvalues(sys: control.StateSpace) -> NDArray[np.complex128]:
     imaginary then real part; the remaining three (``0, +-i |omega_ref|``) are
     those of the attitude block ``A[:3, :3]``.
 
+    Parameters
+    ----------
+    sys : control.StateSpace
+        A 6-state model from :func:`linearize`.
+
     Raises
     ------
     ValueError

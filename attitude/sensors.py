@@ -68,12 +68,23 @@ def arw_to_sigma_v(arw_deg_per_sqrt_h: float) -> float:
     Example: 0.15 deg/sqrt(h) = 4.363e-5 rad/s^0.5. (A noise density quoted
     in deg/s/sqrt(Hz) is ARW/60 in these units: multiply it by 60 to get
     deg/sqrt(h).)
+
+    Parameters
+    ----------
+    arw_deg_per_sqrt_h : float
+        Angle random walk [deg/sqrt(h)].
     """
     return float(check_positive(arw_deg_per_sqrt_h, "arw_deg_per_sqrt_h", allow_zero=True)) * _DEG / _SQRT_HOUR
 
 
 def arw_from_sigma_v(sigma_v: float) -> float:
-    """Inverse of :func:`arw_to_sigma_v`: ``sigma_v`` [rad/s^0.5] to ARW [deg/sqrt(h)]."""
+    """Inverse of :func:`arw_to_sigma_v`: ``sigma_v`` [rad/s^0.5] to ARW [deg/sqrt(h)].
+
+    Parameters
+    ----------
+    sigma_v : float
+        ARW density [rad/s^0.5].
+    """
     return float(check_positive(sigma_v, "sigma_v", allow_zero=True)) * _SQRT_HOUR / _DEG
 
 
@@ -83,18 +94,35 @@ def rrw_to_sigma_u(rrw_deg_per_h_per_sqrt_h: float) -> float:
     ``sigma_u = RRW * (pi / 180) / 3600 / 60`` (deg -> rad, per hour -> per
     second, per sqrt(h) -> per sqrt(s)). Example: 1 deg/h/sqrt(h) =
     8.080e-8 rad/s^1.5.
+
+    Parameters
+    ----------
+    rrw_deg_per_h_per_sqrt_h : float
+        Rate random walk [deg/h/sqrt(h)].
     """
     value = float(check_positive(rrw_deg_per_h_per_sqrt_h, "rrw_deg_per_h_per_sqrt_h", allow_zero=True))
     return value * _DEG / _HOUR / _SQRT_HOUR
 
 
 def rrw_from_sigma_u(sigma_u: float) -> float:
-    """Inverse of :func:`rrw_to_sigma_u`: ``sigma_u`` [rad/s^1.5] to RRW [deg/h/sqrt(h)]."""
+    """Inverse of :func:`rrw_to_sigma_u`: ``sigma_u`` [rad/s^1.5] to RRW [deg/h/sqrt(h)].
+
+    Parameters
+    ----------
+    sigma_u : float
+        RRW density [rad/s^1.5].
+    """
     return float(check_positive(sigma_u, "sigma_u", allow_zero=True)) * _HOUR * _SQRT_HOUR / _DEG
 
 
 def deg_per_h_to_rad_per_s(value_deg_per_h: ArrayLike) -> NDArray[np.float64]:
-    """A rate or bias [deg/h] in rad/s: ``* (pi / 180) / 3600``."""
+    """A rate or bias [deg/h] in rad/s: ``* (pi / 180) / 3600``.
+
+    Parameters
+    ----------
+    value_deg_per_h : array_like
+        A rate or bias [deg/h].
+    """
     return as_float_array(value_deg_per_h, "value_deg_per_h") * _DEG / _HOUR
 
 
@@ -509,12 +537,23 @@ class Gyro:
         ``e = -(beta_{k+1} - beta_k)/2 + noise`` of variance
         ``sigma_v**2/dt + sigma_u**2 dt/3``, correlated with the bias step
         (covariance ``-sigma_u**2 dt / 2``).
+
+        Parameters
+        ----------
+        dt : float, optional
+            Sample interval [s]; default :attr:`period`.
         """
         dt = self._dt(dt)
         return self.sigma_v**2 / dt + self.sigma_u**2 * dt / 12.0
 
     def bias_step_variance(self, dt: float | None = None) -> float:
-        """Variance [rad^2/s^2] of the bias increment over ``dt`` [s], per axis: ``sigma_u**2 dt``."""
+        """Variance [rad^2/s^2] of the bias increment over ``dt`` [s], per axis: ``sigma_u**2 dt``.
+
+        Parameters
+        ----------
+        dt : float, optional
+            Interval [s]; default :attr:`period`.
+        """
         return self.sigma_u**2 * self._dt(dt)
 
     def process_noise(self, dt: float | None = None) -> NDArray[np.float64]:
@@ -529,6 +568,11 @@ class Gyro:
 
         (Crassidis and Junkins, 2nd ed., sec. 7.2.1; exact for the sampled
         model at zero rate, to first order in ``|omega| dt`` otherwise).
+
+        Parameters
+        ----------
+        dt : float, optional
+            Propagation interval [s]; default :attr:`period`.
         """
         return farrenkopf_process_noise(self.sigma_v**2, self.sigma_u**2, self._dt(dt))
 
@@ -617,7 +661,13 @@ class Gyro:
         return errors, biases
 
     def ideal_output(self, omega_BN_B: ArrayLike) -> NDArray[np.float64]:
-        """Noise-free, unquantised output ``(I + S + M) omega`` [rad/s], shape (..., 3)."""
+        """Noise-free, unquantised output ``(I + S + M) omega`` [rad/s], shape (..., 3).
+
+        Parameters
+        ----------
+        omega_BN_B : array_like (..., 3)
+            True body rate [rad/s].
+        """
         omega = check_vector(omega_BN_B, "omega_BN_B", 3)
         return _apply_transfer(self.transfer_matrix, omega)
 
@@ -1136,6 +1186,23 @@ class StarTracker:
 
         ``1 arcsec = pi / 648000 rad`` (:data:`ARCSEC`). Datasheets quote
         either 1 sigma or 3 sigma: divide a 3-sigma figure by 3 first.
+
+        Parameters
+        ----------
+        cross_boresight_arcsec : float
+            1-sigma noise about each cross-boresight axis [arcsec].
+        roll_arcsec : float
+            1-sigma noise about the boresight (roll) [arcsec].
+        period : float
+            Sample period [s].
+        boresight_B : array_like (3,), optional
+            Boresight direction in body axes (normalised).
+        sun_direction_N : array_like (3,) or callable, optional
+            Sun direction in N, or ``f(t) -> (3,)`` for a moving Sun; None for no Sun exclusion.
+        sun_exclusion_deg : float, optional
+            Sun-exclusion half-angle about the boresight [deg].
+        name : str, optional
+            Sensor name (the key of its samples in the engine's measurements).
         """
         cross = positive_scalar(cross_boresight_arcsec, "cross_boresight_arcsec")
         roll = positive_scalar(roll_arcsec, "roll_arcsec")
@@ -1205,7 +1272,13 @@ class StarTracker:
         return self.sigma_cross**2 * np.eye(3) + (self.sigma_roll**2 - self.sigma_cross**2) * np.outer(b, b)
 
     def sun_direction_at(self, t: float) -> NDArray[np.float64] | None:
-        """Unit Sun direction in N at ``t`` [s] (None without Sun exclusion)."""
+        """Unit Sun direction in N at ``t`` [s] (None without Sun exclusion).
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        """
         if self.sun_direction_N is None:
             return None
         if callable(self.sun_direction_N):
@@ -1263,6 +1336,13 @@ class StarTracker:
 
         The batch path shared with :meth:`measure`: a batch of ``n`` draws
         the same numbers as ``n`` calls of :meth:`measure` with one Generator.
+
+        Parameters
+        ----------
+        q_BN : array_like (..., 4)
+            True attitudes.
+        rng : numpy.random.Generator, int or None, optional
+            Random source (a Generator, a seed, or None).
         """
         q = quat.as_unit_quaternion(q_BN, "q_BN")
         return self._noisy(q, as_generator(rng).standard_normal((*q.shape[:-1], 3)))

@@ -101,6 +101,21 @@ class Estimate:
     controller uses, ``I omega + h_body`` is then exactly the total angular
     momentum ``I_s omega + A h`` (the wheels' spin inertia is counted once).
     ``covariance`` is optional (an estimator's error covariance).
+
+    Parameters
+    ----------
+    t : float
+        Time of the estimate [s].
+    q : ndarray (4,)
+        Attitude ``q_BN``.
+    omega : ndarray (3,)
+        Body rate ``omega_BN_B`` [rad/s].
+    h_wheels : ndarray (n,), optional
+        Wheel momenta [N m s] (empty without wheels).
+    h_body : ndarray (3,), optional
+        Wheel momentum relative to the body, in body components [N m s].
+    covariance : ndarray, optional
+        The estimator's error covariance.
     """
 
     t: float
@@ -161,7 +176,13 @@ class SimulationResult(ResultIO):
     info: dict[str, Any] = field(default_factory=dict)
 
     def settling_time(self, threshold_rad: float) -> float:
-        """First time [s] after which the error angle stays below ``threshold_rad`` (inf if never)."""
+        """First time [s] after which the error angle stays below ``threshold_rad`` (inf if never).
+
+        Parameters
+        ----------
+        threshold_rad : float
+            Error-angle threshold [rad].
+        """
         above = np.nonzero(self.error_angle > threshold_rad)[0]
         return float(settling_time_after(self.t, above[-1] if above.size else -1))
 
