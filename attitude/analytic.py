@@ -16,65 +16,8 @@ angular velocity of the body B relative to the inertial frame N in body
 components [rad/s], ``q = q_BN`` is scalar-first Hamilton and rotates body
 vectors into inertial ones.
 
-The elliptic solution
----------------------
-Work in the principal frame P (``omega_P = C_PB @ omega_B``, moments
-``I1 <= I2 <= I3``). With ``H^2 = |I omega|^2`` and ``2T = omega . I omega``
-the three non-negative combinations
-
-.. math::
-
-    D_3 = 2T I_3 - H^2,\\quad D_1 = H^2 - 2T I_1,\\quad
-    D_2 = H^2 - 2T I_2 = I_3 (I_3 - I_2)\\,\\omega_3^2 - I_1 (I_2 - I_1)\\,\\omega_1^2
-
-are evaluated as sums of squares (``D_2`` as a product of two factors), never
-as differences of large numbers. ``D_2 > 0`` is the **major** regime (the rate
-vector circles the major axis 3), ``D_2 < 0`` the **minor** regime (it circles
-axis 1). With ``u = lam t + u0``, parameter ``m = k^2`` and ``s`` the sign of
-the component that never changes sign:
-
-============  ==========================  ==========================
-              major (``s = sign w3``)     minor (``s = sign w1``)
-============  ==========================  ==========================
-``w1``        ``A cn u``                  ``s A dn u``
-``w2``        ``s B sn u``                ``s B sn u``
-``w3``        ``s C dn u``                ``C cn u``
-``A^2``       ``D3 / (I1 (I3-I1))``       ``D3 / (I1 (I3-I1))``
-``B^2``       ``D3 / (I2 (I3-I2))``       ``D1 / (I2 (I2-I1))``
-``C^2``       ``D1 / (I3 (I3-I1))``       ``D1 / (I3 (I3-I1))``
-``lam^2``     ``(I3-I2) D1 / (I1 I2 I3)`` ``(I2-I1) D3 / (I1 I2 I3)``
-``m``         ``(I2-I1) D3/((I3-I2) D1)`` ``(I3-I2) D1/((I2-I1) D3)``
-``1 - m``     ``(I3-I1) D2/((I3-I2) D1)`` ``(I3-I1)(-D2)/((I2-I1) D3)``
-============  ==========================  ==========================
-
-These signs were checked by substitution into ``I1 w1' = (I2 - I3) w2 w3``
-(and cyclic) and against a tight numerical integration
-(``tests/attitude/test_analytic.py``).
-
-Why the elliptic functions are evaluated here, not with ``scipy.special.ellipj``
---------------------------------------------------------------------------------
-Near the separatrix ``m -> 1``, and the interesting cases (a spin slightly off
-the middle axis, the flip) live there: a perturbation ``eps`` of a middle-axis
-spin gives ``1 - m = O(eps^2)``. Measured against mpmath (50 digits), scipy
-1.17's ``ellipj(u, m)`` is accurate to ~1e-14 for ``1 - m >= 1e-9`` but for
-``m >= 1 - 1e-10`` switches to a first-order expansion in ``1 - m`` that is
-only valid for small ``u``: over a period its error exceeds 1e11. Passing
-``m`` as a float also rounds ``1 - m`` to an absolute 1.1e-16, so ``K`` loses
-``~5e-17 / (1 - m)``. :func:`jacobi_sncndn` therefore takes the complementary
-parameter ``mc = 1 - m`` itself (computed above without cancellation) and
-uses Bulirsch's AGM algorithm after reducing ``u`` to ``|v| <= K/2`` with the
-quarter-period shifts; its measured error against mpmath is below 5e-14
-(absolute, ``|u| <= 9K``) for every ``mc`` from 1 down to 1e-30. ``K`` comes
-from ``scipy.special.ellipkm1(mc)`` (relative error < 2e-16 over the same
-range) and ``u0`` from Carlson's ``elliprf``.
-
-Separatrix
-----------
-Because the evaluation is accurate for any ``mc > 0``, orbits arbitrarily
-close to the separatrix are handled. What cannot be handled is data that do
-not decide the regime: :func:`torque_free_motion` raises :class:`ValueError`
-when ``|D2| <= SEPARATRIX_TOLERANCE * (I3 (I3-I2) w3^2 + I1 (I2-I1) w1^2)``
-(see :data:`SEPARATRIX_TOLERANCE`), which includes the separatrix itself.
+See docs/torque_free_motion.md for the derivation (the elliptic solution and
+its signs, why the elliptic functions are evaluated here, the separatrix).
 """
 
 from __future__ import annotations
@@ -137,7 +80,7 @@ SPIN_TOLERANCE = 1e-12
 #: ``I3 / gap`` for nearly equal moments), so 1e-9 keeps the regime decided by
 #: the data with a margin of 1e4 or more for moment gaps down to 1e-3 I3.
 #: The elliptic evaluation itself is accurate for any ``1 - m > 0`` (see the
-#: module docstring); scipy's ``ellipj`` would not be (error up to 1e11 for
+#: docs/torque_free_motion.md); scipy's ``ellipj`` would not be (error up to 1e11 for
 #: ``1 - m <= 1e-10``).
 SEPARATRIX_TOLERANCE = 1e-9
 
@@ -283,7 +226,7 @@ def jacobi_sncndn(u: ArrayLike, mc: float) -> tuple[NDArray[np.float64], NDArray
     """Jacobi elliptic functions ``sn, cn, dn (u | m)`` from the complementary parameter.
 
     Unlike ``scipy.special.ellipj(u, m)`` this takes ``mc = 1 - m`` itself, so
-    it keeps full accuracy as ``m -> 1`` (see the module docstring for the
+    it keeps full accuracy as ``m -> 1`` (see docs/torque_free_motion.md for the
     measured errors of both).
 
     Parameters
@@ -723,12 +666,24 @@ class AxisymmetricPrecession:
     transverse_moment: float
 
     def save(self, path: str | PathLike[str]) -> None:
-        """Write every field to a ``.npz`` file at ``path``."""
+        """Write every field to a ``.npz`` file at ``path``.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            Destination ``.npz`` file.
+        """
         np.savez(path, **{f.name: np.asarray(getattr(self, f.name)) for f in fields(self)})
 
     @classmethod
     def load(cls, path: str | PathLike[str]) -> AxisymmetricPrecession:
-        """Read a result written by :meth:`save`."""
+        """Read a result written by :meth:`save`.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The ``.npz`` file written by :meth:`save`.
+        """
         with np.load(path) as data:
             values = {}
             for f in fields(cls):

@@ -109,6 +109,15 @@ _LETTERS = {"X": "1", "Y": "2", "Z": "3"}
 class GimbalLockError(ValueError):
     """Euler-angle rates requested at (or too near) gimbal lock.
 
+    Parameters
+    ----------
+    message : str
+        The error message.
+    sequence : str
+        The Euler sequence (digits).
+    middle_angle : float
+        The offending middle angle ``t2`` [rad] (the first one in a batch).
+
     Attributes
     ----------
     sequence : str
@@ -146,7 +155,13 @@ def _parse_sequence(sequence: object) -> tuple[str, tuple[int, int, int]]:
 
 
 def is_tait_bryan(sequence: str) -> bool:
-    """True for a Tait-Bryan sequence (three different axes), False for a proper one."""
+    """True for a Tait-Bryan sequence (three different axes), False for a proper one.
+
+    Parameters
+    ----------
+    sequence : str
+        Axis sequence of three digits, e.g. ``"321"`` or ``"313"``.
+    """
     _, (a, _, c) = _parse_sequence(sequence)
     return a != c
 

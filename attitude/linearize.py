@@ -4,91 +4,12 @@ The plant is built as a python-control nonlinear system
 (:func:`plant_nlsys`, a ``control.NonlinearIOSystem`` with named signals) and
 linearised at an operating point (:func:`linearize`), either by
 python-control's own finite differences or exactly, by casadi automatic
-differentiation of the same equations.
+differentiation of the same equations. The six states are the vector part
+of the error quaternion ``q_e = q_RN* ⊗ q_BN`` [-] and the body rate
+``omega_BN_B`` [rad/s]; the inputs are the body torque [N m].
 
-State, inputs and outputs
--------------------------
-The attitude is measured relative to a reference frame R: the error
-quaternion ``q_e = q_RN* ⊗ q_BN = q_BR`` (the attitude of the body relative to
-R, the convention of :func:`attitude.quaternion.error_quaternion`). The
-six states are
-
-============  ===========================================================
-``qe1..qe3``  vector part of ``q_e`` [-] (about half the error angle)
-``w1..w3``    body rate ``omega_BN_B`` [rad/s] (absolute, body components)
-============  ===========================================================
-
-with the scalar part recovered on the shortest-way branch,
-``q_e0 = sqrt(1 - |q_ev|^2) >= 0``. Inputs are the body torque
-``tau1..tau3`` [N m]; outputs are the six states (``C = I``, ``D = 0``).
-
-The equations are the one definition of :mod:`attitude.rigid_body`
-(``quaternion_rate`` and :meth:`RigidBody.omega_dot_components`): with R
-rotating at the constant rate ``omega_ref`` (R components),
-
-.. math::
-
-    \\dot q_e = \\tfrac12\\, q_e \\otimes [0, \\omega]
-               - \\tfrac12\\, [0, \\omega_{ref}] \\otimes q_e, \\qquad
-    I \\dot\\omega = \\tau - \\omega \\times I \\omega .
-
-(From ``q_e = q_RN* ⊗ q_BN`` with ``q_RN' = 0.5 q_RN ⊗ [0, omega_ref]``.)
-
-Operating points
-----------------
-* **Rest** (``omega_ref = None`` or zero): ``q_e = 1``, ``omega = 0``. The
-  model does not depend on the reference attitude ``q_RN`` (the dynamics are
-  invariant under a constant rotation of the inertial frame), so one linear
-  model serves every reference attitude:
-  ``A = [[0, I/2], [0, 0]]``, ``B = [[0], [I^-1]]``.
-* **Steady spin** (``omega_ref`` along a principal axis, body components; the
-  body frame coincides with R at the operating point, so ``omega_ref`` is
-  both ``omega_RN_R`` and the operating body rate): ``q_e = 1``,
-  ``omega = omega_ref``. Then
-
-  .. math::
-
-      A = \\begin{bmatrix} -[\\omega_{ref}\\times] & \\tfrac12 I_3 \\\\
-                           0 & I^{-1}([I\\omega_{ref}\\times] - [\\omega_{ref}\\times] I)
-          \\end{bmatrix}
-
-  is block upper-triangular. The **rate block** ``A[3:, 3:]`` carries the
-  torque-free physics (nutation ``+-i sqrt((I3-I1)(I3-I2)/(I1 I2)) w3`` and 0
-  for a spin about the major or minor axis, the real pair ``+-k`` of
-  :func:`attitude.analytic.intermediate_axis_growth_rate` about the middle
-  axis); the **attitude block** ``A[:3, :3] = -[omega_ref x]`` adds ``0`` and
-  ``+-i |omega_ref|``: a tilt of the body relative to R is carried round once
-  per revolution of R. :func:`rate_block_eigenvalues` returns the first set.
-
-A linear state deviation is ``[q_ev, omega - omega_ref]``; a controller
-designed on the model feeds back exactly that (:mod:`controllers.lqr`).
-
-Why six states, not seven
--------------------------
-On the unit sphere ``q_e0`` is a function of ``q_ev``; carrying all four
-quaternion components adds a direction (the norm) that the dynamics cannot
-move. Precisely: ``|q|^2`` is a first integral of ``q' = 0.5 q ⊗ [0, omega]``
-for every ``omega`` and torque, so at a rest operating point ``q*`` the
-7-state Jacobian ``(A7, B7)`` (of ``x = [q, omega]``) has the left eigenvector
-``w = [q*, 0]`` with ``w^T A7 = 0`` and ``w^T B7 = 0``. By the
-Popov-Belevitch-Hautus test the mode at eigenvalue 0 is uncontrollable (the
-controllability matrix has rank 6) and, being on the imaginary axis, not
-stabilisable: the continuous Riccati equation has no stabilising solution.
-``control.lqr`` then either fails ("Failed to find a finite solution") or,
-when ``Q`` does not weight that direction, silently returns a gain that leaves
-a closed-loop pole at exactly 0 (``tests/attitude/test_linearize.py`` shows both). The
-6-state chart is valid for error angles below 180 degrees (at 180 degrees
-``q_e0 = 0`` and the square root is not differentiable).
-
-Finite differences versus the exact Jacobian
----------------------------------------------
-``control.linearize`` uses one-sided differences with step ``eps = 1e-6``:
-column ``i`` of ``A`` carries the truncation error ``eps/2 d^2f/dx_i^2``,
-about 1e-7 relative for this plant (Euler's equations are quadratic in
-``omega`` and ``q_e0`` is curved in ``q_ev``). ``method="exact"`` takes
-``casadi.jacobian`` of the same component equations evaluated on ``SX``
-symbols, which is exact to rounding; a test shows the two differ by exactly
-the predicted truncation term.
+See docs/linearize.md for the derivation (states, operating points, why
+six states and not seven, finite differences versus the exact Jacobian).
 """
 
 from __future__ import annotations
@@ -221,7 +142,7 @@ def error_state_derivative_components(
     Returns
     -------
     list of 6
-        ``[q_ev', omega']`` from the one definition (module docstring).
+        ``[q_ev', omega']`` from the one definition (docs/linearize.md).
     """
     qv = list(x[:3])
     w = list(x[3:6])
@@ -387,6 +308,11 @@ def rate_block_eigenvalues(sys: control.StateSpace) -> NDArray[np.complex128]:
     rates (nutation, middle-axis growth, and 0 along the spin axis), sorted by
     imaginary then real part; the remaining three (``0, +-i |omega_ref|``) are
     those of the attitude block ``A[:3, :3]``.
+
+    Parameters
+    ----------
+    sys : control.StateSpace
+        A 6-state model from :func:`linearize`.
 
     Raises
     ------

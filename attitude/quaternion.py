@@ -574,6 +574,13 @@ def error_angle_components(q_ref: list, q: list) -> Any:
 
     The one definition behind :func:`error_angle` and the compiled Monte
     Carlo kernels (unit quaternions: the plain square root cannot overflow).
+
+    Parameters
+    ----------
+    q_ref : list
+        Components ``[w, x, y, z]`` of the reference quaternion (numbers, casadi or numpy expressions).
+    q : list
+        Components ``[w, x, y, z]`` of the attitude quaternion, same backend.
     """
     e = multiply_components(conjugate_components(q_ref), q)
     return 2.0 * bk.atan2(bk.sqrt(e[1] * e[1] + e[2] * e[2] + e[3] * e[3]), bk.fabs(e[0]))

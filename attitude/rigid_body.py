@@ -526,7 +526,13 @@ class ParametricBody(_EulerEquations):
 
 
 def symmetric_entries(matrix: ArrayLike) -> NDArray[np.float64]:
-    """The six independent entries ``[xx, yy, zz, xy, xz, yz]`` of symmetric 3x3 matrices (..., 3, 3) -> (..., 6)."""
+    """The six independent entries ``[xx, yy, zz, xy, xz, yz]`` of symmetric 3x3 matrices (..., 3, 3) -> (..., 6).
+
+    Parameters
+    ----------
+    matrix : array_like
+        Symmetric matrices of shape ``(..., 3, 3)``.
+    """
     m = np.asarray(matrix, dtype=float)
     return np.stack([m[..., 0, 0], m[..., 1, 1], m[..., 2, 2], m[..., 0, 1], m[..., 0, 2], m[..., 1, 2]], axis=-1)
 

@@ -7,95 +7,8 @@ datasheet units (deg/sqrt(h), deg/h, deg/h/sqrt(h), ppm, arcsec) appear only
 in the ``from_datasheet`` constructors and the converters below, whose
 argument names carry the unit.
 
-Gyro model
-----------
-The continuous Farrenkopf model (Farrenkopf, "Analytic steady-state accuracy
-solutions for two common spacecraft attitude estimators", J. Guidance and
-Control 1(4), 1978; Crassidis and Junkins, *Optimal Estimation of Dynamic
-Systems*, 2nd ed., sec. 7.2.1) of each gyro axis is
-
-.. math::
-
-    \\tilde\\omega(t) = \\omega(t) + \\beta(t) + \\eta_v(t), \\qquad
-    \\dot\\beta(t) = \\eta_u(t),
-
-with independent zero-mean white noises of spectral densities
-``sigma_v**2`` (angle random walk, ARW, [rad^2/s]) and ``sigma_u**2`` (rate
-random walk, RRW, [rad^2/s^3]). A digital gyro reports the *average* of
-``omega_tilde`` over each sample interval ``dt`` (what the integrated angle
-increment divided by ``dt`` gives). Averaging the model exactly over
-``[t_k, t_k + dt]`` gives (Crassidis and Junkins, sec. 7.2.1, the discrete
-gyro simulation model)
-
-.. math::
-
-    \\beta_{k+1} = \\beta_k + \\sigma_u \\sqrt{dt}\\, N_u, \\qquad
-    \\tilde\\omega_{k+1} = \\omega_{k+1} + \\tfrac12(\\beta_{k+1} + \\beta_k)
-        + \\sqrt{\\sigma_v^2/dt + \\sigma_u^2\\, dt / 12}\\; N_v,
-
-with ``N_u``, ``N_v`` independent standard normal vectors, independent from
-step to step. This is not an Euler approximation: the mean of a Brownian
-motion over an interval, given its end points, is the mid-point average plus
-an independent Brownian-bridge term of variance ``sigma_u**2 dt / 12``, and
-the mean of the white noise has variance ``sigma_v**2 / dt``. The sampled
-sequence therefore has exactly the Allan variance of the continuous model at
-every ``tau = m dt``: ``sigma_v**2 / tau + sigma_u**2 tau / 3``.
-
-Deterministic errors act on the true rate before the noise is added, then the
-output is quantised and saturated::
-
-    raw  = (I + S + M) omega_BN_B + beta + noise
-    out  = clip(LSB * round(raw / LSB), -saturation, +saturation)
-
-``S = diag(scale_factor)`` (dimensionless, e.g. 1e-3 for 1000 ppm), ``M`` the
-axis misalignment / non-orthogonality with zero diagonal (``M[i, j]`` is the
-sensitivity of gyro axis ``i`` to body rate ``j``). A misalignment given as a
-small rotation vector ``theta`` [rad] (the gyro triad rotated by ``theta``
-from the body axes) is ``M = -[theta x]``, the first-order part of
-``C(theta)^T``. Quantisation acts on the reported rate (a gyro that reports
-integrated angle increments carries its quantisation residue over to the
-next sample; that is not modelled). Quantising before clipping keeps every
-output within ``+-saturation``.
-
-The true part of a sample depends on :attr:`Gyro.sampling`. With
-``"instantaneous"`` (the default) it is the engine's rate at the sample time
-(the engine hands sensors the state at ``t``); with ``"mean"`` it is the mean
-rate over the interval since the previous sample, formed exactly from the
-attitude increment ``rotvec(q_prev* ⊗ q) / dt`` (a rate-integrating gyro's
-angle increment). The two differ by ``O(dt * d omega/dt)``: about ``dt/2``
-times the angular acceleration. :class:`estimation.rate_ekf.RateEKF` models
-the first, :class:`estimation.mekf.filter.MEKF` the second, and their constructors
-from a :class:`Gyro` check it. :meth:`Gyro.measure_history` reproduces
-:meth:`Gyro.measure` bit for bit in both modes (it needs the attitude history
-for ``"mean"``).
-
-Star tracker model
-------------------
-The tracker reports the attitude ``q_meas = q_BN ⊗ dq``, where ``dq`` is the
-rotation vector ``C_BS [s_c N_1, s_c N_2, s_r N_3]`` [rad]: independent
-Gaussian errors about the two cross-boresight axes (standard deviation
-``s_c``) and about the boresight (``s_r``, the roll, usually several times
-larger because a star pattern near the boresight constrains roll only through
-the short lever arm of the field of view), expressed in the sensor frame S
-whose third axis is the boresight and rotated into body axes by ``C_BS``.
-The error rotation vector ``to_rotation_vector(q_BN* ⊗ q_meas)`` in body
-axes therefore has covariance :attr:`StarTracker.covariance_B`
-``= s_c**2 I + (s_r**2 - s_c**2) b b^T`` (``b`` the boresight), the measurement
-noise an MEKF with the body-frame error convention ``q = q_est ⊗ dq`` needs.
-With a Sun direction and an exclusion half-angle, no measurement is made
-(``measure`` returns None) while the Sun is strictly inside the cone of that
-half-angle about the boresight.
-
-Batches of runs
----------------
-A vectorised Monte Carlo campaign advances N runs together, one tick at a
-time. :class:`GyroBatch` (N gyros that may differ in their transfer matrix
-and initial bias) and :meth:`StarTracker.measure_batch` sample all runs at
-once with the same code as :meth:`Gyro.measure` and
-:meth:`StarTracker.measure`, elementwise along a leading runs axis, so run
-``r`` gets bit for bit the samples of its single-run sensor when it is
-given the normals its own generator would have drawn; the runs' generators
-are served by :class:`attitude.rng.NormalStreams`.
+See docs/sensors.md for the models (Farrenkopf gyro and its discrete
+sampling, deterministic errors, star-tracker noise, batches of runs).
 """
 
 from __future__ import annotations
@@ -155,12 +68,23 @@ def arw_to_sigma_v(arw_deg_per_sqrt_h: float) -> float:
     Example: 0.15 deg/sqrt(h) = 4.363e-5 rad/s^0.5. (A noise density quoted
     in deg/s/sqrt(Hz) is ARW/60 in these units: multiply it by 60 to get
     deg/sqrt(h).)
+
+    Parameters
+    ----------
+    arw_deg_per_sqrt_h : float
+        Angle random walk [deg/sqrt(h)].
     """
     return float(check_positive(arw_deg_per_sqrt_h, "arw_deg_per_sqrt_h", allow_zero=True)) * _DEG / _SQRT_HOUR
 
 
 def arw_from_sigma_v(sigma_v: float) -> float:
-    """Inverse of :func:`arw_to_sigma_v`: ``sigma_v`` [rad/s^0.5] to ARW [deg/sqrt(h)]."""
+    """Inverse of :func:`arw_to_sigma_v`: ``sigma_v`` [rad/s^0.5] to ARW [deg/sqrt(h)].
+
+    Parameters
+    ----------
+    sigma_v : float
+        ARW density [rad/s^0.5].
+    """
     return float(check_positive(sigma_v, "sigma_v", allow_zero=True)) * _SQRT_HOUR / _DEG
 
 
@@ -170,18 +94,35 @@ def rrw_to_sigma_u(rrw_deg_per_h_per_sqrt_h: float) -> float:
     ``sigma_u = RRW * (pi / 180) / 3600 / 60`` (deg -> rad, per hour -> per
     second, per sqrt(h) -> per sqrt(s)). Example: 1 deg/h/sqrt(h) =
     8.080e-8 rad/s^1.5.
+
+    Parameters
+    ----------
+    rrw_deg_per_h_per_sqrt_h : float
+        Rate random walk [deg/h/sqrt(h)].
     """
     value = float(check_positive(rrw_deg_per_h_per_sqrt_h, "rrw_deg_per_h_per_sqrt_h", allow_zero=True))
     return value * _DEG / _HOUR / _SQRT_HOUR
 
 
 def rrw_from_sigma_u(sigma_u: float) -> float:
-    """Inverse of :func:`rrw_to_sigma_u`: ``sigma_u`` [rad/s^1.5] to RRW [deg/h/sqrt(h)]."""
+    """Inverse of :func:`rrw_to_sigma_u`: ``sigma_u`` [rad/s^1.5] to RRW [deg/h/sqrt(h)].
+
+    Parameters
+    ----------
+    sigma_u : float
+        RRW density [rad/s^1.5].
+    """
     return float(check_positive(sigma_u, "sigma_u", allow_zero=True)) * _HOUR * _SQRT_HOUR / _DEG
 
 
 def deg_per_h_to_rad_per_s(value_deg_per_h: ArrayLike) -> NDArray[np.float64]:
-    """A rate or bias [deg/h] in rad/s: ``* (pi / 180) / 3600``."""
+    """A rate or bias [deg/h] in rad/s: ``* (pi / 180) / 3600``.
+
+    Parameters
+    ----------
+    value_deg_per_h : array_like
+        A rate or bias [deg/h].
+    """
     return as_float_array(value_deg_per_h, "value_deg_per_h") * _DEG / _HOUR
 
 
@@ -337,8 +278,8 @@ class GyroSamplingWarning(UserWarning):
 class Gyro:
     """A three-axis rate gyro: Farrenkopf noise, bias, scale factor, misalignment, quantisation, saturation.
 
-    The model and its exact discrete-time sampling are described in the
-    module docstring. The object is a sensor for
+    The model and its exact discrete-time sampling are described in
+    docs/sensors.md. The object is a sensor for
     :func:`attitude.simulation.engine.simulate`; it carries state (the current bias
     and the time of the previous sample), so call :meth:`reset` (or build a
     new gyro) before reusing it in another run. :meth:`sample_errors` and
@@ -589,19 +530,30 @@ class Gyro:
     def rate_noise_variance(self, dt: float | None = None) -> float:
         """Variance [rad^2/s^2] of the white part of one rate sample, per axis.
 
-        ``sigma_v**2 / dt + sigma_u**2 dt / 12`` (the term ``N_v`` of the
-        module docstring), for a sample averaged over ``dt`` [s] (default
+        ``sigma_v**2 / dt + sigma_u**2 dt / 12`` (the term ``N_v`` of
+        docs/sensors.md), for a sample averaged over ``dt`` [s] (default
         :attr:`period`). A filter whose state holds the bias at the sample
         time (``omega_meas = omega + beta_{k+1} + e``) sees the error
         ``e = -(beta_{k+1} - beta_k)/2 + noise`` of variance
         ``sigma_v**2/dt + sigma_u**2 dt/3``, correlated with the bias step
         (covariance ``-sigma_u**2 dt / 2``).
+
+        Parameters
+        ----------
+        dt : float, optional
+            Sample interval [s]; default :attr:`period`.
         """
         dt = self._dt(dt)
         return self.sigma_v**2 / dt + self.sigma_u**2 * dt / 12.0
 
     def bias_step_variance(self, dt: float | None = None) -> float:
-        """Variance [rad^2/s^2] of the bias increment over ``dt`` [s], per axis: ``sigma_u**2 dt``."""
+        """Variance [rad^2/s^2] of the bias increment over ``dt`` [s], per axis: ``sigma_u**2 dt``.
+
+        Parameters
+        ----------
+        dt : float, optional
+            Interval [s]; default :attr:`period`.
+        """
         return self.sigma_u**2 * self._dt(dt)
 
     def process_noise(self, dt: float | None = None) -> NDArray[np.float64]:
@@ -616,6 +568,11 @@ class Gyro:
 
         (Crassidis and Junkins, 2nd ed., sec. 7.2.1; exact for the sampled
         model at zero rate, to first order in ``|omega| dt`` otherwise).
+
+        Parameters
+        ----------
+        dt : float, optional
+            Propagation interval [s]; default :attr:`period`.
         """
         return farrenkopf_process_noise(self.sigma_v**2, self.sigma_u**2, self._dt(dt))
 
@@ -704,7 +661,13 @@ class Gyro:
         return errors, biases
 
     def ideal_output(self, omega_BN_B: ArrayLike) -> NDArray[np.float64]:
-        """Noise-free, unquantised output ``(I + S + M) omega`` [rad/s], shape (..., 3)."""
+        """Noise-free, unquantised output ``(I + S + M) omega`` [rad/s], shape (..., 3).
+
+        Parameters
+        ----------
+        omega_BN_B : array_like (..., 3)
+            True body rate [rad/s].
+        """
         omega = check_vector(omega_BN_B, "omega_BN_B", 3)
         return _apply_transfer(self.transfer_matrix, omega)
 
@@ -757,7 +720,7 @@ class Gyro:
         Propagates the bias exactly over the time since the previous sample
         (a first sample, after construction or :meth:`reset`, starts from the
         initial bias with no propagation and the white noise of one nominal
-        period), then applies the model of the module docstring.
+        period), then applies the model of docs/sensors.md.
 
         Parameters
         ----------
@@ -1139,7 +1102,7 @@ def _sensor_frame(boresight: NDArray[np.float64]) -> NDArray[np.float64]:
 class StarTracker:
     """A star tracker: noisy attitude quaternions, larger noise about the boresight, Sun blinding.
 
-    See the module docstring for the model. Stateless: ``measure`` depends
+    See docs/sensors.md for the model. Stateless: ``measure`` depends
     only on its arguments.
 
     Parameters
@@ -1223,6 +1186,23 @@ class StarTracker:
 
         ``1 arcsec = pi / 648000 rad`` (:data:`ARCSEC`). Datasheets quote
         either 1 sigma or 3 sigma: divide a 3-sigma figure by 3 first.
+
+        Parameters
+        ----------
+        cross_boresight_arcsec : float
+            1-sigma noise about each cross-boresight axis [arcsec].
+        roll_arcsec : float
+            1-sigma noise about the boresight (roll) [arcsec].
+        period : float
+            Sample period [s].
+        boresight_B : array_like (3,), optional
+            Boresight direction in body axes (normalised).
+        sun_direction_N : array_like (3,) or callable, optional
+            Sun direction in N, or ``f(t) -> (3,)`` for a moving Sun; None for no Sun exclusion.
+        sun_exclusion_deg : float, optional
+            Sun-exclusion half-angle about the boresight [deg].
+        name : str, optional
+            Sensor name (the key of its samples in the engine's measurements).
         """
         cross = positive_scalar(cross_boresight_arcsec, "cross_boresight_arcsec")
         roll = positive_scalar(roll_arcsec, "roll_arcsec")
@@ -1292,7 +1272,13 @@ class StarTracker:
         return self.sigma_cross**2 * np.eye(3) + (self.sigma_roll**2 - self.sigma_cross**2) * np.outer(b, b)
 
     def sun_direction_at(self, t: float) -> NDArray[np.float64] | None:
-        """Unit Sun direction in N at ``t`` [s] (None without Sun exclusion)."""
+        """Unit Sun direction in N at ``t`` [s] (None without Sun exclusion).
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        """
         if self.sun_direction_N is None:
             return None
         if callable(self.sun_direction_N):
@@ -1350,6 +1336,13 @@ class StarTracker:
 
         The batch path shared with :meth:`measure`: a batch of ``n`` draws
         the same numbers as ``n`` calls of :meth:`measure` with one Generator.
+
+        Parameters
+        ----------
+        q_BN : array_like (..., 4)
+            True attitudes.
+        rng : numpy.random.Generator, int or None, optional
+            Random source (a Generator, a seed, or None).
         """
         q = quat.as_unit_quaternion(q_BN, "q_BN")
         return self._noisy(q, as_generator(rng).standard_normal((*q.shape[:-1], 3)))

@@ -171,6 +171,13 @@ def positive_scalar(value: ArrayLike, name: str, *, allow_zero: bool = False, wh
 def scalar_time(value: ArrayLike, name: str = "t") -> float:
     """A finite scalar time [s] as a float (any sign).
 
+    Parameters
+    ----------
+    value : array_like
+        The time [s]: a finite scalar.
+    name : str, optional
+        Argument name used in the error message.
+
     Raises
     ------
     ValueError

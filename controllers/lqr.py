@@ -442,7 +442,13 @@ class LQRController:
     # -- reference ------------------------------------------------------------
 
     def reference_samples(self, t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """References at many times: ``q_RN`` (n, 4) and ``omega_ref`` (n, 3) [rad/s]."""
+        """References at many times: ``q_RN`` (n, 4) and ``omega_ref`` (n, 3) [rad/s].
+
+        Parameters
+        ----------
+        t : array_like
+            Times [s], shape (n,).
+        """
         t = np.atleast_1d(as_float_array(t, "t")).reshape(-1)
         if np.any(self.omega_ref != 0.0):
             turn = quat.from_rotation_vector(t[:, None] * self.omega_ref)
@@ -452,24 +458,58 @@ class LQRController:
         return q_r, np.tile(self.omega_ref, (t.size, 1))
 
     def reference(self, t: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Reference attitude ``q_RN`` and rate ``omega_ref`` [rad/s] at time ``t`` [s]."""
+        """Reference attitude ``q_RN`` and rate ``omega_ref`` [rad/s] at time ``t`` [s].
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        """
         q_r, w_r = self.reference_samples(t)
         return q_r[0], w_r[0]
 
     def compiled_inputs(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Reference samples ``[q_ref; omega_ref]`` (7, len(t)) for the compiled engine."""
+        """Reference samples ``[q_ref; omega_ref]`` (7, len(t)) for the compiled engine.
+
+        Parameters
+        ----------
+        t : ndarray
+            Tick times [s].
+        """
         q_r, w_r = self.reference_samples(t)
         return np.concatenate([q_r, w_r], axis=1).T
 
     # -- law ------------------------------------------------------------------
 
     def state_components(self, q: Components, omega: Components, inputs: Components) -> Components:
-        """The linear model's state ``[q_ev, omega - omega_ref]`` on components (numpy or casadi)."""
+        """The linear model's state ``[q_ev, omega - omega_ref]`` on components (numpy or casadi).
+
+        Parameters
+        ----------
+        q : list
+            Attitude components ``[w, x, y, z]`` of ``q_BN`` (numbers or casadi expressions).
+        omega : list
+            Body rate components ``omega_BN_B`` [rad/s].
+        inputs : list
+            ``[q_ref (4), omega_ref (3)]`` components.
+        """
         q_e, _ = quaternion_error_components(list(inputs[:4]), list(q))
         return [q_e[1], q_e[2], q_e[3], *(w - r for w, r in zip(omega, inputs[4:7]))]
 
     def torque_components(self, q: Components, omega: Components, h_body: Components, inputs: Components) -> Components:
-        """``-K x`` on components; ``inputs = [q_ref (4), omega_ref (3)]`` (``h_body`` unused)."""
+        """``-K x`` on components; ``inputs = [q_ref (4), omega_ref (3)]`` (``h_body`` unused).
+
+        Parameters
+        ----------
+        q : list
+            Attitude components ``[w, x, y, z]`` of ``q_BN`` (numbers or casadi expressions).
+        omega : list
+            Body rate components ``omega_BN_B`` [rad/s].
+        h_body : list
+            Internal (wheel) momentum in body components [N m s]; unused.
+        inputs : list
+            ``[q_ref (4), omega_ref (3)]`` components.
+        """
         x = self.state_components(q, omega, inputs)
         tau = []
         for i in range(3):
@@ -481,7 +521,15 @@ class LQRController:
         return tau
 
     def torque(self, t: float, estimate: Any) -> NDArray[np.float64]:
-        """Commanded body torque [N m] for an estimate with ``q`` and ``omega`` [rad/s]."""
+        """Commanded body torque [N m] for an estimate with ``q`` and ``omega`` [rad/s].
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        estimate : Estimate
+            The estimator's output (anything with ``q`` and ``omega``).
+        """
         q_r, w_r = self.reference(t)
         q = check_vector(estimate.q, "estimate.q", 4)
         q = q / np.linalg.norm(q)  # estimators may drift off the unit sphere; the compiled path sees unit q

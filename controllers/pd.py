@@ -53,6 +53,13 @@ def quaternion_error_components(q_ref: Components, q: Components) -> tuple[Compo
 
     Returns the error quaternion with non-negative scalar part, and its raw
     (unsigned) form.
+
+    Parameters
+    ----------
+    q_ref : list
+        Components ``[w, x, y, z]`` of the reference quaternion (numbers or casadi expressions).
+    q : list
+        Components ``[w, x, y, z]`` of the attitude quaternion, same backend.
     """
     conj = [q_ref[0], -q_ref[1], -q_ref[2], -q_ref[3]]
     e = quaternion_multiply_components(conj, q)
@@ -92,9 +99,9 @@ class QuaternionPD:
     period : float
         Sample time [s].
     q_ref : array_like (4,)
-        Constant reference attitude ``q_RN`` (ignored if ``reference`` given).
-    reference : callable, optional
-        ``reference(t) -> (q_RN, omega_RN_R)`` for a moving reference.
+        Constant reference attitude ``q_RN`` (ignored if ``reference_fn`` given).
+    reference_fn : callable, optional
+        ``reference_fn(t) -> (q_RN, omega_RN_R)`` for a moving reference.
     inertia : array_like (3, 3), optional
         Needed for the gyroscopic compensation.
     gyroscopic : bool
@@ -134,6 +141,19 @@ class QuaternionPD:
         factor 2 because ``q_v`` is half the angle). Warns when ``wn`` exceeds
         a tenth of the sample rate ``2 pi / period``, where the continuous
         design no longer predicts the sampled loop.
+
+        Parameters
+        ----------
+        body : RigidBody
+            The spacecraft (its inertia [kg m^2] sets the gains).
+        wn : array_like
+            Natural frequency per axis [rad/s], scalar or (3,).
+        zeta : array_like
+            Damping ratio per axis [-], scalar or (3,).
+        period : float
+            Sample time of the controller [s].
+        **kwargs
+            Further fields of :class:`QuaternionPD` (``q_ref``, ``reference_fn``, ``gyroscopic`` ...).
         """
         if not isinstance(body, RigidBody) or body.batch_shape:
             raise ValueError(f"body must be a single RigidBody, got {type(body).__name__}")
@@ -156,7 +176,13 @@ class QuaternionPD:
     # -- reference --------------------------------------------------------------
 
     def reference(self, t: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Reference attitude ``q_RN`` and rate ``omega_RN_R`` [rad/s] at ``t``."""
+        """Reference attitude ``q_RN`` and rate ``omega_RN_R`` [rad/s] at ``t``.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        """
         if self.reference_fn is None:
             return self.q_ref, np.zeros(3)
         q_r, w_r = self.reference_fn(t)
@@ -165,7 +191,19 @@ class QuaternionPD:
     # -- law ------------------------------------------------------------------------
 
     def torque_components(self, q: Components, omega: Components, h_body: Components, inputs: Components) -> Components:
-        """The control law on components; ``inputs = [q_ref (4), omega_ref (3)]``."""
+        """The control law on components; ``inputs = [q_ref (4), omega_ref (3)]``.
+
+        Parameters
+        ----------
+        q : list
+            Attitude components ``[w, x, y, z]`` of ``q_BN`` (numbers or casadi expressions).
+        omega : list
+            Body rate components ``omega_BN_B`` [rad/s].
+        h_body : list
+            Internal (wheel) momentum in body components [N m s] (gyroscopic term).
+        inputs : list
+            ``[q_ref (4), omega_ref (3)]`` components.
+        """
         q_e, _ = quaternion_error_components(inputs[:4], q)
         w_ref_b = quat.rotate_inverse_components(q_e, inputs[4:7])
         w_e = [w - r for w, r in zip(omega, w_ref_b)]
@@ -184,7 +222,13 @@ class QuaternionPD:
         return tau
 
     def reference_samples(self, t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """References at many times: ``q_ref`` (n, 4) and ``omega_ref`` (n, 3)."""
+        """References at many times: ``q_ref`` (n, 4) and ``omega_ref`` (n, 3).
+
+        Parameters
+        ----------
+        t : array_like
+            Times [s], shape (n,).
+        """
         t = np.atleast_1d(np.asarray(t, dtype=float))
         if self.reference_fn is None:
             return np.tile(self.q_ref, (t.size, 1)), np.zeros((t.size, 3))
@@ -192,12 +236,26 @@ class QuaternionPD:
         return np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
 
     def compiled_inputs(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Reference samples ``[q_ref; omega_ref]`` (7, len(t)) for the compiled engine."""
+        """Reference samples ``[q_ref; omega_ref]`` (7, len(t)) for the compiled engine.
+
+        Parameters
+        ----------
+        t : ndarray
+            Tick times [s].
+        """
         q_r, w_r = self.reference_samples(t)
         return np.concatenate([q_r, w_r], axis=1).T
 
     def torque(self, t: float, estimate: Any) -> NDArray[np.float64]:
-        """Commanded body torque [N m] for an estimate with ``q``, ``omega`` (and ``h_wheels``)."""
+        """Commanded body torque [N m] for an estimate with ``q``, ``omega`` (and ``h_wheels``).
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        estimate : Estimate
+            The estimator's output (``q``, ``omega`` and, for the gyroscopic term, ``h_wheels``).
+        """
         q_r, w_r = self.reference(t)
         q = quat.as_unit_quaternion(estimate.q, "estimate.q")
         w = np.asarray(estimate.omega, dtype=float)
@@ -434,6 +492,13 @@ class RateLimitedPD:
         ``e`` is the vector part of the shortest-way error ``q_ref* ⊗ q``.
         When ``|e| <= (c/k) omega_max`` (a slew too small to reach the rate
         limit) every limit is ``(c/k) omega_max`` (class docstring).
+
+        Parameters
+        ----------
+        q_ref : array_like
+            Target attitude ``q_RN`` (4,).
+        q : array_like
+            Attitude ``q_BN`` (4,) at the start of the slew.
         """
         e = quat.error_quaternion(q_ref, q)
         if e.shape != (4,):
@@ -470,6 +535,15 @@ class RateLimitedPD:
         A controller reused for a second run (another start attitude) must not
         keep the first run's limits: they would hold the error at zero on the
         axes the first slew did not use.
+
+        Parameters
+        ----------
+        t : float
+            Start time of the run [s].
+        q : array_like
+            Initial attitude ``q_BN`` (4,).
+        omega : array_like
+            Initial body rate ``omega_BN_B`` [rad/s] (3,).
         """
         if self.saturation == "initial":
             self.limits = self.saturation_limits(self.q_ref, q)
@@ -477,11 +551,23 @@ class RateLimitedPD:
     # -- reference (rest-to-rest: the target is at rest) ---------------------------
 
     def reference(self, t: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Target attitude ``q_RN`` and rate (zero) [rad/s] at ``t``."""
+        """Target attitude ``q_RN`` and rate (zero) [rad/s] at ``t``.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        """
         return self.q_ref, np.zeros(3)
 
     def reference_samples(self, t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Targets at many times: ``q_ref`` (n, 4) and zero rates (n, 3)."""
+        """Targets at many times: ``q_ref`` (n, 4) and zero rates (n, 3).
+
+        Parameters
+        ----------
+        t : array_like
+            Times [s], shape (n,).
+        """
         t = np.atleast_1d(np.asarray(t, dtype=float))
         return np.tile(self.q_ref, (t.size, 1)), np.zeros((t.size, 3))
 
@@ -496,7 +582,13 @@ class RateLimitedPD:
         return self.limits
 
     def compiled_inputs(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Constant inputs ``[q_ref; L]`` (7, len(t)) for the compiled engine."""
+        """Constant inputs ``[q_ref; L]`` (7, len(t)) for the compiled engine.
+
+        Parameters
+        ----------
+        t : ndarray
+            Tick times [s].
+        """
         t = np.atleast_1d(np.asarray(t, dtype=float))
         column = np.concatenate([self.q_ref, self._limits_for_compiled()])
         return np.tile(column[:, None], (1, t.size))
@@ -504,7 +596,19 @@ class RateLimitedPD:
     # -- law ------------------------------------------------------------------------
 
     def torque_components(self, q: Components, omega: Components, h_body: Components, inputs: Components) -> Components:
-        """The control law on components; ``inputs = [q_ref (4), L (3)]``."""
+        """The control law on components; ``inputs = [q_ref (4), L (3)]``.
+
+        Parameters
+        ----------
+        q : list
+            Attitude components ``[w, x, y, z]`` of ``q_BN`` (numbers or casadi expressions).
+        omega : list
+            Body rate components ``omega_BN_B`` [rad/s].
+        h_body : list
+            Internal (wheel) momentum in body components [N m s].
+        inputs : list
+            ``[q_ref (4), L (3)]`` components.
+        """
         q_e, _ = quaternion_error_components(inputs[:4], q)
         e = q_e[1:]
         if self.saturation == "norm":
@@ -527,7 +631,15 @@ class RateLimitedPD:
         return tau
 
     def torque(self, t: float, estimate: Any) -> NDArray[np.float64]:
-        """Commanded body torque [N m]; latches the limits at the first call of a slew."""
+        """Commanded body torque [N m]; latches the limits at the first call of a slew.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        estimate : Estimate
+            The estimator's output (anything with ``q`` and ``omega``).
+        """
         q = np.asarray(estimate.q, dtype=float)
         w = np.asarray(estimate.omega, dtype=float)
         if self.saturation == "initial" and self.limits is None:

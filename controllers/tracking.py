@@ -87,13 +87,25 @@ class ReferenceTrajectory:
 
     @classmethod
     def from_plan(cls, plan: Any) -> ReferenceTrajectory:
-        """Build from any object with ``t``, ``q``, ``omega`` and ``torque`` arrays (e.g. a slew plan)."""
+        """Build from any object with ``t``, ``q``, ``omega`` and ``torque`` arrays (e.g. a slew plan).
+
+        Parameters
+        ----------
+        plan : object
+            Anything with ``t`` [s], ``q``, ``omega`` [rad/s] and ``torque`` [N m] arrays (e.g. a :class:`SlewPlan`).
+        """
         return cls(
             t=np.asarray(plan.t), q=np.asarray(plan.q), omega=np.asarray(plan.omega), torque=np.asarray(plan.torque)
         )
 
     def torque_integral(self, t: ArrayLike) -> NDArray[np.float64]:
-        """``integral_0^t torque dt`` of the held plan torque [N m s], shape (n, 3); constant after the end."""
+        """``integral_0^t torque dt`` of the held plan torque [N m s], shape (n, 3); constant after the end.
+
+        Parameters
+        ----------
+        t : array_like
+            Times [s], shape (n,).
+        """
         t = np.clip(np.atleast_1d(as_float_array(t, "t")), self.t[0], self.t[-1])
         steps = np.diff(self.t)[:, None] * self.torque[:-1]
         cumulative = np.concatenate([np.zeros((1, 3)), np.cumsum(steps, axis=0)])
@@ -206,32 +218,76 @@ class TrackingController:
         return q, omega, torque
 
     def reference(self, t: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Planned attitude ``q_RN`` and rate [rad/s] at simulation time ``t``."""
+        """Planned attitude ``q_RN`` and rate [rad/s] at simulation time ``t``.
+
+        Parameters
+        ----------
+        t : float
+            Simulation time [s].
+        """
         q, w, _ = self._samples(t)
         return q[0], w[0]
 
     def reference_samples(self, t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Planned attitudes (n, 4) and rates (n, 3) at many times."""
+        """Planned attitudes (n, 4) and rates (n, 3) at many times.
+
+        Parameters
+        ----------
+        t : array_like
+            Simulation times [s], shape (n,).
+        """
         q, w, _ = self._samples(t)
         return q, w
 
     def feedforward(self, t: float) -> NDArray[np.float64]:
-        """Planned torque [N m] at simulation time ``t``."""
+        """Planned torque [N m] at simulation time ``t``.
+
+        Parameters
+        ----------
+        t : float
+            Simulation time [s].
+        """
         return self._samples(t)[2][0]
 
     def compiled_inputs(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
-        """``[q_ref; omega_ref; torque_ff]`` (10, len(t)) for the compiled engine."""
+        """``[q_ref; omega_ref; torque_ff]`` (10, len(t)) for the compiled engine.
+
+        Parameters
+        ----------
+        t : ndarray
+            Tick times [s].
+        """
         q, w, tau = self._samples(t)
         return np.concatenate([q, w, tau], axis=1).T
 
     def torque_components(self, q: Components, omega: Components, h_body: Components, inputs: Components) -> Components:
-        """The law on components; ``inputs = [q_ref (4), omega_ref (3), torque_ff (3)]``."""
+        """The law on components; ``inputs = [q_ref (4), omega_ref (3), torque_ff (3)]``.
+
+        Parameters
+        ----------
+        q : list
+            Attitude components ``[w, x, y, z]`` of ``q_BN`` (numbers or casadi expressions).
+        omega : list
+            Body rate components ``omega_BN_B`` [rad/s].
+        h_body : list
+            Internal (wheel) momentum in body components [N m s].
+        inputs : list
+            ``[q_ref (4), omega_ref (3), torque_ff (3)]`` components.
+        """
         fb = self.feedback.torque_components(q, omega, h_body, inputs[:7])
         wheel_gyro = cross(omega, h_body)
         return [f + ff + g for f, ff, g in zip(fb, inputs[7:10], wheel_gyro)]
 
     def torque(self, t: float, estimate: Any) -> NDArray[np.float64]:
-        """Commanded body torque [N m]: feedforward plus PD on the tracking error."""
+        """Commanded body torque [N m]: feedforward plus PD on the tracking error.
+
+        Parameters
+        ----------
+        t : float
+            Simulation time [s].
+        estimate : Estimate
+            The estimator's output (anything with ``q`` and ``omega``).
+        """
         q_r, w_r, tau = (a[0] for a in self._samples(t))
         h_body = getattr(estimate, "h_body", None)
         h_body = [0.0] * 3 if h_body is None else list(np.asarray(h_body, float))

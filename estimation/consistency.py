@@ -191,7 +191,17 @@ def average_nees(errors: ArrayLike, covariances: ArrayLike, axis: int = 0) -> ND
 
 
 def average_nis(innovations: ArrayLike, innovation_covariances: ArrayLike, axis: int = 0) -> NDArray[np.float64]:
-    """NIS averaged over Monte Carlo runs (see :func:`average_nees`)."""
+    """NIS averaged over Monte Carlo runs (see :func:`average_nees`).
+
+    Parameters
+    ----------
+    innovations : array_like (n_runs, n_times, m) or (n_times, m)
+        Innovations of each run (runs along ``axis``).
+    innovation_covariances : array_like (n_runs, n_times, m, m) or (n_times, m, m)
+        Innovation covariances of each run, or one shared history.
+    axis : int
+        The runs axis of the NIS array ``(n_runs, n_times)``.
+    """
     return np.mean(nis(innovations, innovation_covariances), axis=axis)
 
 
@@ -200,6 +210,17 @@ def fraction_inside_band(values: ArrayLike, dof: int, n_runs: int = 1, confidenc
 
     About ``confidence`` for a consistent filter. NaN entries (no sample)
     are left out; infinite ones count as outside.
+
+    Parameters
+    ----------
+    values : array_like
+        Averaged NEES or NIS values.
+    dof : int
+        Degrees of freedom (state or measurement dimension).
+    n_runs : int, optional
+        Number of runs averaged in each value.
+    confidence : float, optional
+        Two-sided confidence of the band, in (0, 1).
     """
     v = as_float_array(values, "values", allow_nonfinite=True).ravel()
     v = v[~np.isnan(v)]

@@ -1,190 +1,14 @@
 """Rate EKF: body rate and gyro bias from a gyro and Euler's equations (filterpy).
 
-State and models
-----------------
-The state is ``x = [omega_BN_B (3) [rad/s], beta (3) [rad/s]]`` (body rate
-and gyro bias), or the rate alone when the bias is known
-(``estimate_bias=False``). The continuous process model is
+The state is ``[omega_BN_B (3) [rad/s], beta (3) [rad/s]]`` (body rate and
+gyro bias), or the rate alone when the bias is known. The mean is
+propagated with RK4 on Euler's equations (:mod:`attitude.rigid_body`), the
+covariance with the exact discrete transition and Van Loan's process noise;
+gyro samples update it with the Farrenkopf-correlated noise model, behind an
+innovation gate, with NIS health checks (:class:`RateEKF`, filterpy).
 
-.. math::
-
-    I \\dot\\omega = \\tau - \\omega \\times (I \\omega + h) + w_\\tau, \\qquad
-    \\dot\\beta = w_u,
-
-with ``tau`` the known body torque, ``h`` the internal (wheel) momentum in
-body components, ``w_tau`` a white torque uncertainty of intensity
-``diag(torque_noise**2)`` [N^2 m^2 s] (external disturbances and model
-errors: ``torque_noise`` [N m / sqrt(Hz)] is the two-sided density, so the
-impulse ``integral tau dt`` over ``T`` seconds has variance
-``torque_noise**2 T``; a one-sided PSD is ``2 torque_noise**2``) and ``w_u``
-the gyro's rate random walk of intensity ``sigma_u**2`` [rad^2/s^3].
-
-- **Mean propagation** (the nonlinear part filterpy cannot do: its
-  ``predict`` computes ``F x``). ``predict_x`` of the filterpy filter
-  (:attr:`RateEKF.kf`) is overridden: the rate is integrated with RK4 (:func:`attitude.integrators.rk4_step`) on
-  :meth:`attitude.rigid_body.RigidBody.omega_dot_components`, the one
-  definition of Euler's equations; the bias is constant.
-- **Transition matrix**. Euler's equations are quadratic in ``omega``, so
-  their Jacobian ``A = d omega_dot / d omega`` is affine in ``(omega, h)``.
-  Its coefficients are taken once from casadi's exact symbolic Jacobian of
-  the same ``omega_dot_components`` (and the affinity is proved
-  symbolically: the second derivative is structurally zero), then
-  ``A(omega_est, h)`` costs one small matrix product per step. ``F`` is the
-  exact discrete transition ``blockdiag(expm(A dt), I)`` of the model
-  linearised at the estimate at the start of the step.
-- **Process noise**: Van Loan's method (C. F. Van Loan, "Computing integrals
-  involving the matrix exponential", IEEE TAC 23(3), 1978): the exponential
-  of ``[[-A, G G^T], [0, A^T]] dt`` gives ``Phi`` and
-  ``Q = integral_0^dt Phi(s) G G^T Phi(s)^T ds`` exactly, with
-  ``G = I^-1 diag(torque_noise)``; the bias block is ``sigma_u**2 dt I``
-  (the two noises are independent, so ``Q`` is block diagonal). The block
-  exponential is what :func:`filterpy.common.van_loan_discretization`
-  computes; it is evaluated here with numpy products only (see
-  :func:`_van_loan`: scipy's ``expm`` uses multi-threaded BLAS, which is
-  slow on a loaded machine); the tests check the two agree and compare
-  ``Q`` with a quadrature of the integral.
-- Long intervals (a gap in the data, a slow gyro) are split into substeps
-  of at most ``max_step`` [s], each a filterpy ``predict`` with ``F`` and
-  ``Q`` set at the propagated estimate.
-
-Measurement: the gyro and the Farrenkopf correlation
-----------------------------------------------------
-A sample (see :mod:`attitude.sensors`) is ``z = omega(t_k) + (beta_k +
-beta_{k-1})/2 + n``, ``n`` white with variance ``sigma_v**2/dt_g +
-sigma_u**2 dt_g/12`` (``dt_g`` the gyro's own sample interval). With the
-bias at the sample time in the state, ``z = H x + v``, ``H = [I, I]`` and
-``v = -(beta_k - beta_{k-1})/2 + n``:
-
-- ``R = Var(v) = (sigma_v**2 / dt_g + sigma_u**2 dt_g / 3) I``;
-- ``v`` is correlated with the bias process noise of the current
-  prediction interval: ``M = Cov(x_k - x_prior, v) = [0; -sigma_u**2 tau/2 I]``
-  with ``tau = min(dt_g, t_k - t_last_update)``.
-
-``noise_model="farrenkopf"`` (default) uses the exact correlated-noise
-update (Simon, *Optimal State Estimation*, 2006, sec. 7.1: ``S = H P H^T +
-H M + M^T H^T + R``, ``K = (P H^T + M) S^-1``), written as an ordinary
-filterpy update of the equivalent decorrelated measurement: with
-``L = M^T P^-1``, ``H' = H + L`` and ``R' = R - L M`` give the same ``S``,
-``K``, innovation and (Joseph-form) covariance. ``noise_model=
-"uncorrelated"`` ignores ``M``. The difference is of relative size
-``sigma_u**2 dt_g / (sigma_v**2 / dt_g)``, below 1e-4 for the gyro presets
-at 10 Hz (negligible), but large for a gyro whose rate random walk
-dominates at its sample rate (the tests show the uncorrelated filter is then
-over-confident and the exact one is not).
-
-The gyro's scale factor, misalignment, quantisation and saturation are not
-modelled (calibrate them out first). The model takes a sample as the rate at
-the sample time: :meth:`RateEKF.from_gyro` checks that the
-:class:`attitude.sensors.Gyro` has ``sampling="instantaneous"`` (an
-interval-mean sample lags it by about ``dt/2`` times the angular
-acceleration, which the filter does not model: on the 5 deg/s tumble of
-``examples/test_estimator.py`` that lag is as large as the white noise of
-one sample, and the average NEES grows from 6 to about 500). The
-check warns (:class:`attitude.sensors.GyroSamplingWarning`) by default,
-raises with ``sampling_check="raise"`` and is silenced with ``"ignore"``.
-
-Outliers: the innovation gate
------------------------------
-Before a sample is applied, its NIS ``nu^T S^-1 nu`` is compared with the
-gate ``chi2.ppf(gate_probability, 3)`` (default ``gate_probability = 1 -
-1e-9``, a gate at NIS 44.8: a consistent filter rejects one good sample in
-10^9). Above it (or when the NIS is not finite) the sample is *rejected*:
-not applied, the step predicts only, exactly as if the sample were missing.
-It is counted (:attr:`RateEKF.n_gated`), reported (``StepReport.gated``,
-:meth:`RateEKF.log`, ``RateEKFResult.gated`` and ``info["n_gated"]``) and its
-NIS still feeds the health checks below (an exceedance of the per-step
-threshold, and the window mean; a NIS too large for float64 is recorded as
-1e300). Without the gate, one +10 deg/s spike on a tactical gyro (NIS 2e7)
-is taken at face value and throws the bias estimate off by 30 to 45 sigma
-for the rest of the run (the tests). ``gate_probability=None`` disables the
-gate.
-
-A gate has the classical failure mode: a filter that has really lost track
-(e.g. a far too small ``P0``) rejects every sample from then on. It does
-not hide it: every rejected sample is an NIS exceedance, so the health flag
-rises after ``nis_run_length`` of them.
-
-Numerical breakdown: a state or covariance that becomes non-finite (only
-possible with the gate disabled and absurd input, e.g. a 1e5 rad/s sample,
-whose estimate then makes Euler's equations overflow) raises ValueError at
-the step where it happens, naming the time and the cause; the filter is left
-as it was before that step. filterpy is never handed a non-finite matrix.
-
-Observability: what a gyro alone can tell
------------------------------------------
-The gyro measures ``omega + beta``. Rate and bias separate only through the
-dynamics: a constant bias offsets ``omega`` while the true rate must obey
-Euler's equations, whose gyroscopic term ``omega x (I omega + h)`` depends
-on ``omega`` but not on ``beta``. The linearised pair is observable where
-``A(omega)`` is invertible; for a principal-axis inertia ``det A = 2 k1 k2
-k3 omega1 omega2 omega3`` (``k1 = (I2 - I3)/I1`` etc.), so the bias is
-learned from a tumbling asymmetric body in a time of order ``1/|A|``; not
-at all at rest or for a sphere without internal momentum (``A = 0``), and
-not along the spin axis of a pure principal-axis spin (or along ``h`` for a
-sphere with wheel momentum). In those directions ``P`` keeps the bias
-uncertainty and only ``omega + beta`` converges.
-This is physics, not a filter defect; the MEKF (star tracker plus gyro)
-observes the bias directly.
-
-Torque inputs
--------------
-Without wheels, ``torque`` (the engine's ``"torque_command"``, held over the
-interval just ended) is the known body torque. With
-:class:`attitude.actuators.ReactionWheels`, the filter uses the hub inertia
-(:meth:`ReactionWheels.hub_body`, as the engine does) and, when the wheel
-momenta (tachometers) are known at both ends of an interval, the exact mean
-reaction torque ``-A (h_k - h_{k-1}) / dt`` with the internal momentum
-``A h`` interpolated linearly: this includes saturation and wheel friction,
-which the command does not. Without both momenta it falls back to the
-command as the body torque and the latest known momentum.
-
-Missing samples, NaN, time
---------------------------
-``None`` for the gyro means no sample: predict only. A sample holding NaN or
-inf is skipped (no update), counted (:attr:`RateEKF.n_nan_skipped`) and
-reported (step report, :meth:`RateEKF.log`, :class:`RateEKFResult`); it never
-reaches the state. A non-finite wheel momentum is treated as missing and
-counted (:attr:`RateEKF.n_wheel_nan_skipped`). Time must not go backwards
-(ValueError); a step to the same time updates without predicting.
-Multi-rate operation is natural: the filter predicts over the actual
-elapsed time to each update, whatever the gyro and filter periods.
-
-Health
-------
-Each update's NIS ``nu^T S^-1 nu`` is tested against the upper
-``nis_confidence`` quantile of chi-square(3). A run of ``nis_run_length``
-consecutive exceedances, or a window of ``nis_window`` updates whose mean
-NIS leaves its two-sided chi-square band
-(:func:`estimation.consistency.nis_health`), raises the health flag; the
-flag is logged at every step and every flagged stretch is kept in
-:class:`RateEKFResult` (``nis_flagged``, ``info["nis_intervals"]``).
-
-False alarms of a consistent filter with the defaults (``nis_confidence``
-0.99, runs of 3, windows of 50 at ``health_confidence`` 0.99999), measured
-on white chi-square(3) sequences: about 1.5 % (runs) and 2 % (windows) of
-10,000-sample runs. The sliding windows overlap, so the per-run rate is far
-above ``(n / window) (1 - confidence)``: at 0.999 the window test alone
-flags about 80 % of 10,000-sample and 19 % of 1,500-sample clean runs.
-
-Attitude (engine protocol)
---------------------------
-A rate filter has no attitude measurement. :meth:`RateEKF.update` returns
-the attitude ``q0`` (or, with ``attitude_name``, the latest sample of that
-sensor, e.g. a star tracker, taken as is) propagated open loop with the
-estimated rate (``q <- q ⊗ exp(omega_mean dt / 2)``). Its error grows
-without bound between attitude samples; use the MEKF for a filtered
-attitude. ``Estimate.covariance`` is the ``(6, 6)`` (or ``(3, 3)``)
-covariance of ``[omega, beta]``.
-
-filterpy 2.0.0 notes (checked in its source)
---------------------------------------------
-``predict`` uses ``self.F`` and ``self.Q`` as they stand, so both are set
-before every call; ``x`` and ``z`` are kept one-dimensional (a column ``x``
-with a 1-D ``z`` broadcasts the residual to a matrix; the constructor's
-column ``x``, ``y`` and ``z`` are replaced); ``update`` takes ``R`` per call,
-which carries the decorrelated ``R'`` without touching ``kf.R``;
-``predict_update`` ignores an overridden ``predict_x`` and evaluates ``H``
-at the old state, so it is disabled here (it raises).
+See docs/rate_ekf.md for the derivation (models, measurement correlation,
+gate, observability, torque inputs, health thresholds, filterpy notes).
 """
 
 from __future__ import annotations
@@ -385,7 +209,7 @@ class _FilterpyEKF(ExtendedKalmanFilter):
 class RateEKF:
     """Extended Kalman filter of body rate and gyro bias, built on filterpy's ``ExtendedKalmanFilter``.
 
-    See the module docstring for the models. Drive it with :meth:`step`, the
+    See docs/rate_ekf.md for the models. Drive it with :meth:`step`, the
     engine protocol :meth:`update`, or :func:`run_rate_ekf` for a recorded
     run. The filterpy object is :attr:`kf` (its ``predict_x`` is the
     nonlinear propagation; its ``predict_update`` is disabled); :attr:`x`,
@@ -404,7 +228,7 @@ class RateEKF:
         each sample (sets ``R``).
     torque_noise : float or array_like (3,)
         Torque-uncertainty density [N m / sqrt(Hz)] per body axis (>= 0;
-        0 trusts the model and the torque exactly). See the module docstring.
+        0 trusts the model and the torque exactly). See docs/rate_ekf.md.
     P0 : array_like (n, n) or (n,)
         Initial covariance of ``[omega, beta]`` (``n = 6``) or of ``omega``
         (``n = 3`` when ``estimate_bias`` is False) [rad^2/s^2], or its
@@ -413,7 +237,7 @@ class RateEKF:
         Initial estimate [rad/s] (default zero).
     wheels : ReactionWheels, optional
         Reaction wheels: hub inertia, internal momentum and reaction torque
-        from the wheel momenta (module docstring).
+        from the wheel momenta (docs/rate_ekf.md).
     h_wheels0 : array_like (n_wheels,), optional
         Wheel momenta at ``t0`` [N m s] (default: taken from the first step
         that provides them).
@@ -424,7 +248,7 @@ class RateEKF:
         The known bias [rad/s] when ``estimate_bias`` is False.
     noise_model : {"farrenkopf", "uncorrelated"}
         Treatment of the correlation between the gyro noise and the bias
-        random walk (module docstring).
+        random walk (docs/rate_ekf.md).
     t0 : float
         Time of ``x0`` [s].
     period : float, optional
@@ -626,12 +450,23 @@ class RateEKF:
 
         ``gyro.sigma_v`` must be > 0. The filter models a sample as the rate
         at the sample time, so ``gyro.sampling`` must be
-        ``"instantaneous"`` (module docstring); ``sampling_check`` says what
+        ``"instantaneous"`` (docs/rate_ekf.md); ``sampling_check`` says what
         a mismatch does: ``"warn"`` (default, a
         :class:`attitude.sensors.GyroSamplingWarning`), ``"raise"``
         (ValueError) or ``"ignore"`` (for samples that are not this gyro's
         own, e.g. generated separately). Other keywords as for the class
         (``torque_noise`` and ``P0`` are required).
+
+        Parameters
+        ----------
+        body : RigidBody
+            The spacecraft (inertia [kg m^2]).
+        gyro : Gyro
+            The gyro (``sampling="instantaneous"``, ``sigma_v > 0``).
+        sampling_check : {"warn", "raise", "ignore"}, optional
+            What a gyro that does not sample instantaneously does.
+        **kwargs
+            Other keywords of the constructor (``torque_noise`` and ``P0`` required).
         """
         if not isinstance(gyro, Gyro):
             raise ValueError(f"gyro must be an attitude.sensors.Gyro, got {gyro!r}")
@@ -660,12 +495,19 @@ class RateEKF:
         """Continuous Jacobian ``d omega_dot / d omega`` (3, 3) [1/s] at ``omega`` [rad/s] and ``h_body`` [N m s].
 
         ``h_body`` is the internal (wheel) momentum in body components.
+
+        Parameters
+        ----------
+        omega : array_like (3,)
+            Body rate [rad/s].
+        h_body : array_like (3,), optional
+            Internal (wheel) momentum in body components [N m s]; default zero.
         """
         wh = np.concatenate([_vector3(omega, "omega"), np.zeros(3) if h_body is None else _vector3(h_body, "h_body")])
         return self._a0 + (self._a_coeff @ wh).reshape((3, 3), order="F")
 
     def measurement_variance(self) -> float:
-        """Per-axis ``R = sigma_v**2 / dt_g + sigma_u**2 dt_g / 3`` [rad^2/s^2] (module docstring)."""
+        """Per-axis ``R = sigma_v**2 / dt_g + sigma_u**2 dt_g / 3`` [rad^2/s^2] (docs/rate_ekf.md)."""
         return self.sigma_v**2 / self.gyro_period + self.sigma_u**2 * self.gyro_period / 3.0
 
     # -- state --------------------------------------------------------------------
@@ -810,7 +652,7 @@ class RateEKF:
         gyro : array_like (3,) or None
             Gyro sample [rad/s]; None: no sample (predict only). A
             non-finite sample is skipped and counted; a sample whose NIS is
-            above the gate is rejected and counted (module docstring).
+            above the gate is rejected and counted (docs/rate_ekf.md).
         torque : array_like (3,), optional
             Known body torque held over the interval ending at ``t`` [N m]
             (default zero). With wheels and known momenta it is not used.
@@ -967,9 +809,17 @@ class RateEKF:
         :mod:`attitude.simulation.engine`). The gyro is read under ``gyro_name``,
         an attitude sample under ``attitude_name``. The returned
         :class:`attitude.simulation.engine.Estimate` carries the filtered rate,
-        the open-loop attitude (module docstring) and the covariance of
+        the open-loop attitude (docs/rate_ekf.md) and the covariance of
         ``[omega, beta]``. A non-finite attitude sample is skipped and
         counted (:attr:`n_attitude_nan_skipped`).
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+        measurements : dict
+            Sensor name to newest sample (None: no sample), plus
+            ``"torque_command"`` [N m] and ``"wheel_momentum"`` [N m s].
 
         Raises
         ------
@@ -1134,6 +984,11 @@ class RateEKFResult(ResultIO):
         """``"errors"``: errors with +-3 sigma (needs the truth); ``"nis"``: NIS with its thresholds.
 
         Default: errors when the truth is known, NIS otherwise.
+
+        Parameters
+        ----------
+        kind : {"errors", "nis"}, optional
+            What to draw; default errors when the truth is known, NIS otherwise.
         """
         if kind is None:
             kind = "errors" if self.omega_true is not None else "nis"

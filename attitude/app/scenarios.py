@@ -107,6 +107,13 @@ def requirements_from_config(config: SpacecraftConfig, *, keep_out: bool = True)
     limit (when given); ``keep_out.<name>``: margin >= 0 for each keep-out
     cone. ``keep_out=False`` leaves the cones out, for a guidance that does
     not plan around them (``ClosedLoopScenario(guidance="eigenaxis")``).
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file (its ``[requirements]``).
+    keep_out : bool, optional
+        Include a rule per keep-out cone.
     """
     req = config.requirements
     out = [
@@ -452,7 +459,15 @@ class ClosedLoopScenario:
         )
 
     def gyro(self, misalignment: np.ndarray | None, bias: np.ndarray | None = None) -> Gyro:
-        """The file's gyro with an extra misalignment rotation vector [rad] and turn-on bias [rad/s]."""
+        """The file's gyro with an extra misalignment rotation vector [rad] and turn-on bias [rad/s].
+
+        Parameters
+        ----------
+        misalignment : ndarray (3,) or None
+            Extra misalignment rotation vector [rad]; None for none.
+        bias : ndarray (3,), optional
+            Extra turn-on bias [rad/s], added to the file's constant bias; None for none.
+        """
         g = self.config.gyro_config
         figures = g.figures()
         if misalignment is not None:
@@ -467,7 +482,13 @@ class ClosedLoopScenario:
         return Gyro.from_datasheet(arw, period=g.period_s, sampling="mean", **figures)
 
     def estimator(self, gyro: Gyro) -> MEKF:
-        """The MEKF matched to the (nominal) sensors, started at the nominal start attitude."""
+        """The MEKF matched to the (nominal) sensors, started at the nominal start attitude.
+
+        Parameters
+        ----------
+        gyro : Gyro
+            The run's gyro (its noise figures set the filter).
+        """
         return MEKF(
             gyro.sigma_v,
             gyro.sigma_u,
@@ -530,6 +551,13 @@ class ClosedLoopScenario:
         so its metrics equal :meth:`__call__`'s to rounding. The eigenaxis
         guidance (a rate-limited PD that latches its limits per run) is run
         run by run.
+
+        Parameters
+        ----------
+        params_list : sequence of mapping
+            The dispersed parameters of each run.
+        rngs : sequence of numpy.random.Generator
+            The generator of each run.
         """
         if self._reference is None:
             return [self(p, r) for p, r in zip(params_list, rngs)]
@@ -697,7 +725,15 @@ class PDWheelsScenario:
 
     @classmethod
     def from_config(cls, config: SpacecraftConfig, **kwargs: Any) -> PDWheelsScenario:
-        """The file's spacecraft, wheels, control bandwidth and slew (pointing threshold: its accuracy)."""
+        """The file's spacecraft, wheels, control bandwidth and slew (pointing threshold: its accuracy).
+
+        Parameters
+        ----------
+        config : SpacecraftConfig
+            The spacecraft file.
+        **kwargs
+            Other fields of the scenario.
+        """
         c = config.control
         kwargs.setdefault("pointing_threshold", config.requirements.pointing_accuracy_rad)
         return cls(
@@ -729,6 +765,15 @@ class PDWheelsScenario:
         return RunOutput(closed_loop_metrics(result, self.pointing_threshold), _history(result, self.history_stride))
 
     def run_batch(self, params_list: Sequence[Mapping[str, Any]], rngs: Sequence[Any]) -> list[RunOutput]:
+        """All runs at once (``run_campaign(..., vectorized=True)``): the same runs as :meth:`__call__`.
+
+        Parameters
+        ----------
+        params_list : sequence of mapping
+            The dispersed parameters of each run.
+        rngs : sequence of numpy.random.Generator
+            The generator of each run.
+        """
         initial = [self._initial(p) for p in params_list]
         result = simulate_batch(
             RigidBody(np.stack([np.asarray(i[0], dtype=float) for i in initial])),

@@ -563,6 +563,15 @@ class InertiaConfig:
     Exactly one of the two is set. The tensor is about the centre of mass, in
     body axes, wheels included (the rotor spin inertia is removed for the
     hub by :meth:`attitude.actuators.ReactionWheels.hub_body`).
+
+    Parameters
+    ----------
+    moments_kg_m2 : tuple of float or None, optional
+        Principal moments [Ixx, Iyy, Izz] when the body axes are principal axes [kg m^2] (key
+        ``inertia.moments_kg_m2``).
+    tensor_kg_m2 : tuple of tuple of float or None, optional
+        Full symmetric inertia tensor (3 rows of 3), products of inertia included [kg m^2] (key
+        ``inertia.tensor_kg_m2``).
     """
 
     moments_kg_m2: Vector | None = None
@@ -582,7 +591,44 @@ class InertiaConfig:
 
 @dataclass(frozen=True)
 class WheelsConfig:
-    """The ``[wheels]`` table (units in the field names; per-wheel values as tuples)."""
+    """The ``[wheels]`` table (units in the field names; per-wheel values as tuples).
+
+    Parameters
+    ----------
+    layout : str
+        Wheel layout: 'pyramid' (4 wheels), 'orthogonal' (3 wheels on x, y, z) or 'custom' (key
+        ``wheels.layout``).
+    count : int
+        Number of wheels (pyramid 4, orthogonal 3, custom: the number of axes_B) (key
+        ``wheels.count``).
+    spin_inertia_kg_m2 : float or tuple of float
+        Wheel spin-axis inertia (one value, or one per wheel) [kg m^2] (key
+        ``wheels.spin_inertia_kg_m2``).
+    torque_max_Nm : float or tuple of float
+        Largest motor torque of a wheel (one value, or one per wheel) [N m] (key
+        ``wheels.torque_max_Nm``).
+    momentum_max_Nms : float or tuple of float
+        Largest wheel momentum relative to the body (one value, or one per wheel) [N m s] (key
+        ``wheels.momentum_max_Nms``).
+    axes_B : tuple of tuple of float or None, optional
+        Custom layout only: spin axis of each wheel in body axes (normalised) (key
+        ``wheels.axes_B``).
+    elevation_deg : float or None, optional
+        Pyramid only: elevation of the wheel axes above the body x-y plane (default
+        atan(1/sqrt(2))) [deg] (key ``wheels.elevation_deg``).
+    viscous_friction_Nms_per_rad : float or tuple of float, optional
+        Viscous friction coefficient (one value, or one per wheel) [N m s/rad] (key
+        ``wheels.viscous_friction_Nms_per_rad``).
+    coulomb_friction_Nm : float or tuple of float, optional
+        Coulomb friction torque (one value, or one per wheel) [N m] (key
+        ``wheels.coulomb_friction_Nm``).
+    null_space_gain_per_s : float, optional
+        Gain of null-space momentum management (0: off) [1/s] (key
+        ``wheels.null_space_gain_per_s``).
+    bias_momentum_Nms : float or tuple of float, optional
+        Target wheel momenta of the null-space management (one value, or per wheel) [N m s] (key
+        ``wheels.bias_momentum_Nms``).
+    """
 
     layout: str
     count: int
@@ -631,7 +677,38 @@ _GYRO_FIGURES = (
 
 @dataclass(frozen=True)
 class GyroConfig:
-    """The ``[gyro]`` table: a preset grade and/or datasheet figures (figures override the preset)."""
+    """The ``[gyro]`` table: a preset grade and/or datasheet figures (figures override the preset).
+
+    Parameters
+    ----------
+    period_s : float
+        Sample period [s] (key ``gyro.period_s``).
+    preset : str or None, optional
+        Gyro grade: 'mems', 'tactical', 'navigation'; figures below override it (key
+        ``gyro.preset``).
+    arw_deg_per_sqrt_h : float or None, optional
+        Angle random walk [deg/sqrt(h)] (key ``gyro.arw_deg_per_sqrt_h``).
+    rrw_deg_per_h_per_sqrt_h : float or None, optional
+        Rate random walk (or give a bias instability) [deg/h/sqrt(h)] (key
+        ``gyro.rrw_deg_per_h_per_sqrt_h``).
+    bias_instability_deg_per_h : float or None, optional
+        Bias instability (used without a rate random walk) [deg/h] (key
+        ``gyro.bias_instability_deg_per_h``).
+    bias_instability_time_s : float or None, optional
+        Averaging time at the Allan-deviation floor (with the bias instability) [s] (key
+        ``gyro.bias_instability_time_s``).
+    bias_deg_per_h : float or tuple of float or None, optional
+        Constant bias (one value, or one per axis) [deg/h] (key ``gyro.bias_deg_per_h``).
+    scale_factor_ppm : float or tuple of float or None, optional
+        Scale-factor error (one value, or one per axis) [ppm] (key ``gyro.scale_factor_ppm``).
+    misalignment_arcsec : tuple of float or None, optional
+        Small rotation vector of the gyro triad from the body axes [arcsec] (key
+        ``gyro.misalignment_arcsec``).
+    quantization_deg_per_s : float or None, optional
+        Output resolution per LSB (0: none) [deg/s] (key ``gyro.quantization_deg_per_s``).
+    saturation_deg_per_s : float or None, optional
+        Measurement range (inf: none) [deg/s] (key ``gyro.saturation_deg_per_s``).
+    """
 
     period_s: float
     preset: str | None = None
@@ -664,6 +741,11 @@ class GyroConfig:
         ``sampling`` ("instantaneous" or "mean") chooses what a sample is:
         the rate at the sample time (what the rate EKF models) or the mean
         rate over the interval (an integrating gyro; what the MEKF models).
+
+        Parameters
+        ----------
+        sampling : {"instantaneous", "mean"}, optional
+            What a sample is: the rate at the sample time or the mean rate over the interval.
         """
         if self.preset is not None:
             return Gyro.preset(self.preset, period=self.period_s, sampling=sampling, **self.figures())
@@ -674,7 +756,25 @@ class GyroConfig:
 
 @dataclass(frozen=True)
 class StarTrackerConfig:
-    """The ``[star_tracker]`` table: a preset and/or datasheet figures (figures override the preset)."""
+    """The ``[star_tracker]`` table: a preset and/or datasheet figures (figures override the preset).
+
+    Parameters
+    ----------
+    period_s : float
+        Sample period [s] (key ``star_tracker.period_s``).
+    preset : str or None, optional
+        Star tracker type: 'typical'; figures below override it (key ``star_tracker.preset``).
+    cross_boresight_arcsec : float or None, optional
+        1-sigma error about each cross-boresight axis [arcsec] (key
+        ``star_tracker.cross_boresight_arcsec``).
+    roll_arcsec : float or None, optional
+        1-sigma error about the boresight [arcsec] (key ``star_tracker.roll_arcsec``).
+    boresight_B : tuple of float, optional
+        Boresight direction in body axes (normalised) (key ``star_tracker.boresight_B``).
+    sun_exclusion_deg : float or None, optional
+        Half-angle of the Sun-exclusion cone about the boresight (applies with
+        environment.sun_direction_N) [deg] (key ``star_tracker.sun_exclusion_deg``).
+    """
 
     period_s: float
     preset: str | None = None
@@ -719,7 +819,20 @@ class StarTrackerConfig:
 
 @dataclass(frozen=True)
 class LQRBounds:
-    """The ``[control.lqr]`` table: Bryson's-rule bounds (one value or one per axis)."""
+    """The ``[control.lqr]`` table: Bryson's-rule bounds (one value or one per axis).
+
+    Parameters
+    ----------
+    max_angle_deg : float or tuple of float
+        Largest acceptable attitude error (one value, or one per axis) [deg] (key
+        ``control.lqr.max_angle_deg``).
+    max_rate_deg_per_s : float or tuple of float
+        Largest acceptable rate error (one value, or one per axis) [deg/s] (key
+        ``control.lqr.max_rate_deg_per_s``).
+    max_torque_Nm : float or tuple of float
+        Largest acceptable control torque (one value, or one per axis) [N m] (key
+        ``control.lqr.max_torque_Nm``).
+    """
 
     max_angle_deg: PerWheel
     max_rate_deg_per_s: PerWheel
@@ -743,7 +856,19 @@ class LQRBounds:
 
 @dataclass(frozen=True)
 class ControlConfig:
-    """The ``[control]`` table: sample period [s], PD bandwidth [rad/s] and damping, optional LQR bounds."""
+    """The ``[control]`` table: sample period [s], PD bandwidth [rad/s] and damping, optional LQR bounds.
+
+    Parameters
+    ----------
+    period_s : float
+        Controller sample period (1 / control rate) [s] (key ``control.period_s``).
+    bandwidth_rad_per_s : float
+        Natural frequency of the PD attitude loop [rad/s] (key ``control.bandwidth_rad_per_s``).
+    damping : float
+        Damping ratio of the PD attitude loop (key ``control.damping``).
+    lqr : LQRBounds or None, optional
+        LQR weights by Bryson's rule (optional) (key ``control.lqr``).
+    """
 
     period_s: float
     bandwidth_rad_per_s: float
@@ -753,7 +878,19 @@ class ControlConfig:
 
 @dataclass(frozen=True)
 class OrbitConfig:
-    """The ``[orbit]`` table: a circular Earth orbit (angles in degrees, altitude in km)."""
+    """The ``[orbit]`` table: a circular Earth orbit (angles in degrees, altitude in km).
+
+    Parameters
+    ----------
+    altitude_km : float
+        Altitude above the Earth's equatorial radius [km] (key ``orbit.altitude_km``).
+    inclination_deg : float, optional
+        Inclination [deg] (key ``orbit.inclination_deg``).
+    raan_deg : float, optional
+        Right ascension of the ascending node [deg] (key ``orbit.raan_deg``).
+    argument_of_latitude_deg : float, optional
+        Argument of latitude at t = 0 [deg] (key ``orbit.argument_of_latitude_deg``).
+    """
 
     altitude_km: float
     inclination_deg: float = 0.0
@@ -772,7 +909,13 @@ class OrbitConfig:
 
 @dataclass(frozen=True)
 class EnvironmentConfig:
-    """The ``[environment]`` table: the inertial Sun direction (as written; normalise to use)."""
+    """The ``[environment]`` table: the inertial Sun direction (as written; normalise to use).
+
+    Parameters
+    ----------
+    sun_direction_N : tuple of float or None, optional
+        Direction to the Sun in inertial axes (normalised) (key ``environment.sun_direction_N``).
+    """
 
     sun_direction_N: Vector | None = None
 
@@ -793,6 +936,24 @@ class SlewRequirement:
     the start attitude (``q_target = q_start ⊗ q(axis_B, angle)``: a rotation
     about a body axis multiplies on the right, because ``q_BN`` rotates body
     vectors into inertial ones), or ``target_q_BN``.
+
+    Parameters
+    ----------
+    max_time_s : float
+        Largest allowed slew time [s] (key ``requirements.slew.max_time_s``).
+    angle_deg : float or None, optional
+        Slew angle about axis_B (with axis_B; or give target_q_BN) [deg] (key
+        ``requirements.slew.angle_deg``).
+    axis_B : tuple of float or None, optional
+        Slew axis in body axes (normalised) (key ``requirements.slew.axis_B``).
+    target_q_BN : tuple of 4 float or None, optional
+        Target attitude [w, x, y, z] (instead of angle_deg and axis_B) (key
+        ``requirements.slew.target_q_BN``).
+    start_q_BN : tuple of 4 float, optional
+        Start attitude [w, x, y, z] (key ``requirements.slew.start_q_BN``).
+    rate_max_deg_per_s : float or None, optional
+        Largest allowed body rate during the slew (optional) [deg/s] (key
+        ``requirements.slew.rate_max_deg_per_s``).
     """
 
     max_time_s: float
@@ -831,6 +992,22 @@ class KeepOutConfig:
 
     ``direction_N`` is the direction as resolved (the Sun direction when the
     file says ``"sun"``, then ``follows_sun`` is True). Vectors as written.
+
+    Parameters
+    ----------
+    name : str
+        Label of the cone (key ``requirements.keep_out[i].name``).
+    boresight_B : tuple of float
+        Body-fixed boresight that must stay out of the cone (key
+        ``requirements.keep_out[i].boresight_B``).
+    direction_N : tuple of float
+        Inertial direction to avoid, or "sun" for environment.sun_direction_N (key
+        ``requirements.keep_out[i].direction_N``).
+    half_angle_deg : float
+        Smallest allowed angle between boresight and direction [deg] (key
+        ``requirements.keep_out[i].half_angle_deg``).
+    follows_sun : bool, optional
+        The file gives the direction as ``"sun"``: ``direction_N`` is the Sun direction.
     """
 
     name: str
@@ -845,7 +1022,13 @@ class KeepOutConfig:
         return math.radians(self.half_angle_deg)
 
     def separation(self, q_BN: Any) -> NDArray[np.float64]:
-        """Angle [rad] between the boresight and the direction at attitudes ``q_BN`` (..., 4)."""
+        """Angle [rad] between the boresight and the direction at attitudes ``q_BN`` (..., 4).
+
+        Parameters
+        ----------
+        q_BN : array_like (..., 4)
+            Attitudes.
+        """
         b = np.array(self.boresight_B, dtype=np.float64)
         d = np.array(self.direction_N, dtype=np.float64)
         b_N = quat.rotate(quat.normalize(q_BN), b / np.linalg.norm(b))
@@ -854,7 +1037,21 @@ class KeepOutConfig:
 
 @dataclass(frozen=True)
 class RequirementsConfig:
-    """The ``[requirements]`` table."""
+    """The ``[requirements]`` table.
+
+    Parameters
+    ----------
+    pointing_accuracy_deg : float
+        Largest attitude error angle after settling [deg] (key
+        ``requirements.pointing_accuracy_deg``).
+    settling_time_s : float
+        Time after the end of the slew by which the pointing accuracy is met [s] (key
+        ``requirements.settling_time_s``).
+    slew : SlewRequirement
+        The required reorientation (key ``requirements.slew``).
+    keep_out : tuple of KeepOutConfig, optional
+        Keep-out cones (array of tables [[requirements.keep_out]]) (key ``requirements.keep_out``).
+    """
 
     pointing_accuracy_deg: float
     settling_time_s: float
@@ -875,6 +1072,18 @@ class Dispersion:
     (``uniform``: uniform on ``[-scale, scale]``), in the unit named by
     ``unit`` (the key suffix: ``percent``, ``deg_per_s``, ``deg``, ``arcsec``);
     None for ``uniform_so3`` (an attitude uniformly distributed on SO(3)).
+
+    Parameters
+    ----------
+    distribution : str
+        ``"normal"``, ``"uniform"`` or ``"uniform_so3"``.
+    scale : float or None
+        Standard deviation (normal) or half-width (uniform) in ``unit``; None for ``uniform_so3``.
+    unit : str
+        Unit of ``scale``, the key suffix: ``percent``, ``deg_per_s``, ``deg``, ``deg_per_h`` or
+        ``arcsec``.
+    axis_sigma_deg : float, optional
+        Inertia only: standard deviation of a rotation of the principal axes, per axis [deg].
     """
 
     distribution: str
@@ -899,7 +1108,32 @@ class Dispersion:
 
 @dataclass(frozen=True)
 class MonteCarloConfig:
-    """The ``[montecarlo]`` table: runs, master seed and the dispersions (None: not dispersed)."""
+    """The ``[montecarlo]`` table: runs, master seed and the dispersions (None: not dispersed).
+
+    Parameters
+    ----------
+    runs : int
+        Number of runs (key ``montecarlo.runs``).
+    seed : int
+        Master seed (non-negative integer): the same seed reproduces the campaign (key
+        ``montecarlo.seed``).
+    inertia : Dispersion or None, optional
+        Dispersion of each principal moment, relative [%] (key ``montecarlo.inertia``).
+    initial_rate : Dispersion or None, optional
+        Dispersion of the initial body rate, per axis [deg/s] (key ``montecarlo.initial_rate``).
+    initial_attitude : Dispersion or None, optional
+        Dispersion of the initial attitude about the start attitude, per axis ('uniform_so3':
+        any attitude) [deg] (key ``montecarlo.initial_attitude``).
+    gyro_misalignment : Dispersion or None, optional
+        Dispersion of the gyro triad misalignment, per axis [arcsec] (key
+        ``montecarlo.gyro_misalignment``).
+    star_tracker_misalignment : Dispersion or None, optional
+        Dispersion of the star-tracker mounting misalignment, per axis [arcsec] (key
+        ``montecarlo.star_tracker_misalignment``).
+    gyro_bias : Dispersion or None, optional
+        Dispersion of the gyro turn-on bias about the file's bias, per axis [deg/h] (key
+        ``montecarlo.gyro_bias``).
+    """
 
     runs: int
     seed: int
@@ -922,6 +1156,33 @@ class SpacecraftConfig:
     ``[orbit]`` :attr:`orbit_config`. Values keep the units of their key
     names; the builders convert to SI. ``source`` (the file it came from) is
     not part of equality.
+
+    Parameters
+    ----------
+    name : str
+        Spacecraft name, used in report titles (key ``name``).
+    description : str
+        Free text shown in the report (key ``description``).
+    inertia : InertiaConfig
+        Inertia about the centre of mass, body axes, wheels included (key ``inertia``).
+    wheels_config : WheelsConfig
+        Reaction wheels (key ``wheels``).
+    gyro_config : GyroConfig
+        Rate gyro (Farrenkopf model) (key ``gyro``).
+    star_tracker_config : StarTrackerConfig
+        Star tracker (key ``star_tracker``).
+    control : ControlConfig
+        Controller design parameters (key ``control``).
+    requirements : RequirementsConfig
+        What the design must achieve (key ``requirements``).
+    orbit_config : OrbitConfig or None, optional
+        Circular orbit (optional: gravity gradient) (key ``orbit``).
+    environment : EnvironmentConfig, optional
+        Scene (optional) (key ``environment``).
+    montecarlo : MonteCarloConfig or None, optional
+        Monte Carlo campaign (optional) (key ``montecarlo``).
+    source : str, optional
+        The file the configuration was read from (messages only; not compared).
     """
 
     name: str
@@ -950,7 +1211,13 @@ class SpacecraftConfig:
         return self.wheels_config.build()
 
     def gyro(self, sampling: str = "instantaneous") -> Gyro:
-        """A fresh :class:`Gyro` (stateful: build one per run); ``sampling`` as in :class:`Gyro`."""
+        """A fresh :class:`Gyro` (stateful: build one per run); ``sampling`` as in :class:`Gyro`.
+
+        Parameters
+        ----------
+        sampling : {"instantaneous", "mean"}, optional
+            What a sample is: the rate at the sample time or the mean rate over the interval.
+        """
         return self.gyro_config.build(sampling)
 
     def star_tracker(self) -> StarTracker:
@@ -1356,6 +1623,13 @@ _TOML_POSITION = re.compile(r"\(at line (\d+), column (\d+)\)")
 def parse_config(text: str, file: str = "<config>") -> SpacecraftConfig:
     """Parse and validate the text of a spacecraft file.
 
+    Parameters
+    ----------
+    text : str
+        The TOML text of a spacecraft file.
+    file : str, optional
+        The file name, for the error messages.
+
     Raises
     ------
     ConfigError
@@ -1465,6 +1739,11 @@ def config_to_toml(config: SpacecraftConfig) -> str:
     (floats are written with their shortest round-trip representation).
     Presets are written by name with the figures that override them; the
     preset's own figures appear as a comment.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        A valid configuration.
     """
     w = _Writer()
     w.comment(f"Resolved spacecraft description{f' (from {config.source})' if config.source else ''}.")

@@ -1,67 +1,14 @@
 """Gravity-gradient environment on a circular orbit, its linearisation and stability regions.
 
-Physics
--------
-A rigid body at position ``r`` from the centre of a spherical planet feels,
-to second order in (body size / ``|r|``), the gravity-gradient torque
+The torque ``tau_B = 3 mu / |r|^5 r_B x (I r_B)`` [N m] on a rigid body at
+``r`` [m] from the centre of a spherical planet (Wie, *Space Vehicle
+Dynamics and Control*; Hughes, *Spacecraft Attitude Dynamics*), in the
+local-vertical local-horizontal (LVLH) frame L of a circular orbit, its
+linearisation about the LVLH-aligned attitude and the classical stability
+regions.
 
-.. math::
-
-    \\tau_B = \\frac{3\\mu}{|r|^5}\\, r_B \\times (I\\, r_B),
-
-with ``r_B`` the body components of ``r`` [m] and ``I`` the inertia tensor
-about the centre of mass [kg m^2] (Wie, *Space Vehicle Dynamics and
-Control*, gravity-gradient torque; Hughes, *Spacecraft Attitude Dynamics*,
-chapter on gravitational torques). The torque is quadratic in ``r_B``, so
-``r`` or the nadir direction ``-r`` give the same torque.
-
-Frames
-------
-N is inertial (Earth-centred), B the body frame and L the local-vertical
-local-horizontal (LVLH) orbit frame of a circular orbit, with the textbook
-axes of Wie and Hughes:
-
-* ``o3`` (yaw) points to nadir, ``o3 = -r / |r|``;
-* ``o2`` (pitch) is the negative orbit normal, ``o2 = -(r x v) / |r x v|``;
-* ``o1`` (roll) ``= o2 x o3``, along the velocity on a circular orbit.
-
-L rotates relative to N at the mean motion ``n`` about the orbit normal,
-i.e. about ``-o2``: ``omega_LN_L = [0, -n, 0]``. Attitudes follow the
-toolkit convention: ``q_LN`` is scalar-first Hamilton and rotates L vectors
-into N (``v_N = rotate(q_LN, v_L)``), and ``q_BL = q_LN* ⊗ q_BN``.
-
-Linearisation
--------------
-:func:`lvlh_relative_dynamics` writes the nonlinear motion of B relative to L
-with the one definition of Euler's equations
-(:meth:`attitude.rigid_body.RigidBody.omega_dot_components`) and the
-component form of the gravity-gradient torque; :func:`linearize_gravity_gradient`
-differentiates it exactly with casadi. The state is
-
-``x = [e1, e2, e3, w1, w2, w3]``:
-    ``e`` the vector part of ``q_BL`` (about half the roll, pitch and yaw
-    angles for small errors) and ``w = omega_BL_B``, the rate of B relative to
-    L in body components [rad/s]. The inertial rate is
-    ``omega_BN_B = w + C_BL omega_LN_L``. The LVLH-aligned attitude is the
-    equilibrium ``x = 0``.
-
-``u = [u1, u2, u3]``:
-    control torque in body components [N m] (besides gravity gradient).
-
-With principal moments ``I1`` (roll), ``I2`` (pitch), ``I3`` (yaw) the
-classical linear equations in the small angles ``theta = 2 e`` are (Wie;
-re-derived here for the axes above, and tested to agree with the casadi
-Jacobian entry by entry):
-
-.. math::
-
-    I_1 \\ddot\\theta_1 - n (I_1 - I_2 + I_3) \\dot\\theta_3 + 4 n^2 (I_2 - I_3) \\theta_1 &= u_1 \\\\
-    I_2 \\ddot\\theta_2 + 3 n^2 (I_1 - I_3) \\theta_2 &= u_2 \\\\
-    I_3 \\ddot\\theta_3 + n (I_1 - I_2 + I_3) \\dot\\theta_1 + n^2 (I_2 - I_1) \\theta_3 &= u_3
-
-so pitch librates at ``n sqrt(3 (I1 - I3) / I2)`` and roll-yaw obeys
-``s^4 + (1 + 3 k1 + k1 k3) n^2 s^2 + 4 k1 k3 n^4 = 0`` with
-``k1 = (I2 - I3) / I1`` and ``k3 = (I2 - I1) / I3``.
+See docs/gravity_gradient.md for the derivation (physics, frames,
+linearisation).
 """
 
 from __future__ import annotations
@@ -366,7 +313,7 @@ def gravity_gradient_stability(
 ) -> GravityGradientStability:
     """Classify the gravity-gradient stability of an LVLH-aligned body.
 
-    Conditions from the linear equations in the module docstring (Wie, *Space
+    Conditions from the linear equations in docs/gravity_gradient.md (Wie, *Space
     Vehicle Dynamics and Control*, gravity-gradient stabilisation; Hughes,
     *Spacecraft Attitude Dynamics*, gravitational stabilisation; DeBra and
     Delp, J. Astronaut. Sci. 8, 1961): pitch needs ``I1 > I3``; roll-yaw needs

@@ -151,6 +151,21 @@ class CircularOrbit:
     ) -> CircularOrbit:
         """Orbit at ``altitude_m`` [m] above a planet of radius ``central_body_radius_m`` [m].
 
+        Parameters
+        ----------
+        altitude_m : float
+            Altitude above the planet's surface [m], > 0.
+        inclination : float, optional
+            Orbit inclination [rad].
+        raan : float, optional
+            Right ascension of the ascending node [rad].
+        argument_of_latitude : float, optional
+            Argument of latitude at ``t = 0`` [rad].
+        mu : float, optional
+            Gravitational parameter of the planet [m^3/s^2] (default: Earth).
+        central_body_radius_m : float, optional
+            Radius of the planet [m] (default: Earth's equatorial radius).
+
         Raises
         ------
         ValueError
@@ -213,7 +228,13 @@ class CircularOrbit:
         return self.radius_m * (np.cos(u) * node + np.sin(u) * in_plane)
 
     def velocity_N(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Inertial velocity in N [m/s], shape ``(..., 3)`` for times ``t`` [s] of shape ``(...)``."""
+        """Inertial velocity in N [m/s], shape ``(..., 3)`` for times ``t`` [s] of shape ``(...)``.
+
+        Parameters
+        ----------
+        t : array_like
+            Times [s], any shape ``(...)``.
+        """
         u = self._argument_of_latitude(t)[..., None]
         node, in_plane, _ = self._plane_axes()
         return self.radius_m * self.mean_motion * (-np.sin(u) * node + np.cos(u) * in_plane)

@@ -147,20 +147,44 @@ class Campaign:
         object.__setattr__(self, "requirements", reqs)
 
     def parameters(self, run: int) -> dict[str, Any]:
-        """The dispersed parameters of run ``run`` (the same on every machine)."""
+        """The dispersed parameters of run ``run`` (the same on every machine).
+
+        Parameters
+        ----------
+        run : int
+            Run index, ``0 <= run < runs``.
+        """
         return draw_parameters(self.dispersions, self.seed, run)
 
     def generator(self, run: int) -> np.random.Generator:
-        """The generator the scenario of run ``run`` receives."""
+        """The generator the scenario of run ``run`` receives.
+
+        Parameters
+        ----------
+        run : int
+            Run index, ``0 <= run < runs``.
+        """
         return scenario_generator(self.seed, run)
 
     def replay(self, run: int) -> RunOutput:
-        """Run one run again in this process (exceptions propagate: for debugging a failed run)."""
+        """Run one run again in this process (exceptions propagate: for debugging a failed run).
+
+        Parameters
+        ----------
+        run : int
+            Run index, ``0 <= run < runs``.
+        """
         out = self.scenario(self.parameters(run), self.generator(run))
         return out if isinstance(out, RunOutput) else RunOutput(dict(out))
 
     def fingerprint(self, vectorized: bool = False) -> str:
-        """A hash of what determines the results: seed, dispersions, scenario and mode."""
+        """A hash of what determines the results: seed, dispersions, scenario and mode.
+
+        Parameters
+        ----------
+        vectorized : bool, optional
+            Whether the campaign runs the vectorised path (``run_batch``); part of the hash.
+        """
         ident = getattr(self.scenario, "fingerprint", None)
         if not isinstance(ident, str):
             text = repr(self.scenario)

@@ -73,7 +73,15 @@ def _check_seed(seed: Any) -> int:
 
 
 def run_seed_sequence(seed: int, run: int) -> np.random.SeedSequence:
-    """The stream of run ``run``: ``SeedSequence(seed).spawn(runs)[run]`` (``spawn_key = (run,)``)."""
+    """The stream of run ``run``: ``SeedSequence(seed).spawn(runs)[run]`` (``spawn_key = (run,)``).
+
+    Parameters
+    ----------
+    seed : int
+        The campaign seed.
+    run : int
+        Run index, >= 0.
+    """
     return np.random.SeedSequence(_check_seed(seed), spawn_key=(int(run),))
 
 
@@ -82,12 +90,30 @@ def _name_key(name: str) -> int:
 
 
 def scenario_generator(seed: int, run: int) -> np.random.Generator:
-    """The generator handed to the scenario of run ``run`` (``spawn_key = (run, 1)``)."""
+    """The generator handed to the scenario of run ``run`` (``spawn_key = (run, 1)``).
+
+    Parameters
+    ----------
+    seed : int
+        The campaign seed.
+    run : int
+        Run index, >= 0.
+    """
     return np.random.default_rng(np.random.SeedSequence(_check_seed(seed), spawn_key=(int(run), 1)))
 
 
 def draw_parameters(dispersions: Mapping[str, Dispersion], seed: int, run: int) -> dict[str, Any]:
-    """The dispersed parameters of run ``run``: ``{name: value}``, each from its own stream (module docstring)."""
+    """The dispersed parameters of run ``run``: ``{name: value}``, each from its own stream (module docstring).
+
+    Parameters
+    ----------
+    dispersions : mapping of str to Dispersion
+        The campaign's dispersed parameters by name.
+    seed : int
+        The campaign seed.
+    run : int
+        Run index, >= 0.
+    """
     seed = _check_seed(seed)
     out = {}
     for name, dispersion in dispersions.items():
@@ -97,12 +123,26 @@ def draw_parameters(dispersions: Mapping[str, Dispersion], seed: int, run: int) 
 
 
 def parameter_columns(dispersions: Mapping[str, Dispersion]) -> list[str]:
-    """Table column names of the dispersed parameters, in the order of ``dispersions``."""
+    """Table column names of the dispersed parameters, in the order of ``dispersions``.
+
+    Parameters
+    ----------
+    dispersions : mapping of str to Dispersion
+        The campaign's dispersed parameters by name.
+    """
     return [c for name, d in dispersions.items() for c in d.columns(name)]
 
 
 def flatten_parameters(dispersions: Mapping[str, Dispersion], params: Mapping[str, Any]) -> list[float]:
-    """One run's parameters as the scalar values of :func:`parameter_columns`."""
+    """One run's parameters as the scalar values of :func:`parameter_columns`.
+
+    Parameters
+    ----------
+    dispersions : mapping of str to Dispersion
+        The campaign's dispersed parameters by name.
+    params : mapping of str to value
+        One run's parameters, as returned by :func:`draw_parameters`.
+    """
     return [float(v) for name, d in dispersions.items() for v in d.flatten(params[name])]
 
 
@@ -123,10 +163,23 @@ class Dispersion:
     shape: tuple[int, ...] = ()
 
     def sample(self, rng: np.random.Generator) -> Any:  # pragma: no cover - abstract
+        """Draw one value of the parameter.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            The run's generator.
+        """
         raise NotImplementedError
 
     def columns(self, name: str) -> list[str]:
-        """Column names of this value in the table: ``name``, ``name.x`` ..., ``name[i]``."""
+        """Column names of this value in the table: ``name``, ``name.x`` ..., ``name[i]``.
+
+        Parameters
+        ----------
+        name : str
+            The parameter's name in the campaign.
+        """
         if self.shape == ():
             return [name]
         if len(self.shape) == 1 and self.shape[0] in _VECTOR_NAMES:
@@ -134,7 +187,13 @@ class Dispersion:
         return [f"{name}[{','.join(map(str, idx))}]" for idx in np.ndindex(*self.shape)]
 
     def flatten(self, value: Any) -> list[float]:
-        """The scalar column values of ``value`` (same order as :meth:`columns`)."""
+        """The scalar column values of ``value`` (same order as :meth:`columns`).
+
+        Parameters
+        ----------
+        value : scalar or array_like
+            One value drawn by :meth:`sample`.
+        """
         return [float(v) for v in np.asarray(value, dtype=float).reshape(-1)]
 
 
@@ -179,6 +238,13 @@ class Normal(Dispersion):
         return f"Normal(mean={self.mean.tolist()!r}, sigma={self.sigma.tolist()!r})"
 
     def sample(self, rng: np.random.Generator) -> Any:
+        """Draw one value from the normal distribution.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            The run's generator.
+        """
         value = self.mean + self.sigma * rng.standard_normal(self.shape)
         return float(value) if self.shape == () else value
 
@@ -204,7 +270,15 @@ class Uniform(Dispersion):
 
     @classmethod
     def centered(cls, center: ArrayLike, half_width: ArrayLike) -> Uniform:
-        """Uniform on ``[center - half_width, center + half_width]``."""
+        """Uniform on ``[center - half_width, center + half_width]``.
+
+        Parameters
+        ----------
+        center : array_like
+            Centre of the interval (same units as the parameter).
+        half_width : array_like
+            Half width of the interval, >= 0 (same units).
+        """
         c = as_float_array(center, "center")
         h = check_positive(half_width, "half_width", allow_zero=True)
         return cls(c - h, c + h)
@@ -213,6 +287,13 @@ class Uniform(Dispersion):
         return f"Uniform(low={self.low.tolist()!r}, high={self.high.tolist()!r})"
 
     def sample(self, rng: np.random.Generator) -> Any:
+        """Draw one value from the uniform distribution.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            The run's generator.
+        """
         value = self.low + (self.high - self.low) * rng.random(self.shape)
         return float(value) if self.shape == () else value
 
@@ -241,6 +322,13 @@ class Misalignment(Dispersion):
         return f"Misalignment({self.distribution}, scale_rad={self.scale.tolist()!r})"
 
     def sample(self, rng: np.random.Generator) -> NDArray[np.float64]:
+        """Draw one misalignment rotation vector [rad].
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            The run's generator.
+        """
         return _draw(rng, self.distribution, self.scale, (3,))
 
 
@@ -253,6 +341,13 @@ class RandomAttitude(Dispersion):
         return "RandomAttitude()"
 
     def sample(self, rng: np.random.Generator) -> NDArray[np.float64]:
+        """Draw one attitude ``q_BN``, uniform on SO(3).
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            The run's generator.
+        """
         return quat.random(rng=rng)
 
 
@@ -286,6 +381,13 @@ class AttitudeDispersion(Dispersion):
         )
 
     def sample(self, rng: np.random.Generator) -> NDArray[np.float64]:
+        """Draw one attitude ``q_BN`` near the nominal one.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            The run's generator.
+        """
         theta = _draw(rng, self.distribution, self.scale, (3,))
         return quat.normalize(quat.multiply(self.nominal, quat.from_rotation_vector(theta)))
 
@@ -364,6 +466,13 @@ class InertiaDispersion(Dispersion):
         )
 
     def sample(self, rng: np.random.Generator) -> NDArray[np.float64]:
+        """Draw one physically valid inertia tensor [kg m^2].
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            The run's generator.
+        """
         for _ in range(self.max_tries):
             moments = self.moments * (1.0 + _draw(rng, self.distribution, np.asarray(self.scale), (3,)))
             ordered = np.sort(moments)
@@ -382,9 +491,23 @@ class InertiaDispersion(Dispersion):
         return 0.5 * (tensor + tensor.T)
 
     def columns(self, name: str) -> list[str]:
+        """Column names of the inertia in the table: the six independent entries ``name.xx`` ... ``name.yz``.
+
+        Parameters
+        ----------
+        name : str
+            The parameter's name in the campaign.
+        """
         return [f"{name}.{label}" for label, _, _ in self._ENTRIES]
 
     def flatten(self, value: Any) -> list[float]:
+        """The six independent entries of one drawn inertia tensor (same order as :meth:`columns`).
+
+        Parameters
+        ----------
+        value : array_like
+            One inertia tensor drawn by :meth:`sample` [kg m^2].
+        """
         tensor = np.asarray(value, dtype=float)
         return [float(tensor[i, j]) for _, i, j in self._ENTRIES]
 

@@ -106,7 +106,27 @@ class RunOutput:
 
 @dataclass
 class RunRecord:
-    """The outcome of one run, as stored in the table and the checkpoint."""
+    """The outcome of one run, as stored in the table and the checkpoint.
+
+    Parameters
+    ----------
+    run : int
+        Run index.
+    status : str
+        ``"ok"`` or ``"error"``.
+    metrics : dict of float
+        Scalar results of the run (SI units).
+    error : str, optional
+        The exception type and message of a failed run.
+    attempts : int, optional
+        Number of attempts the run took.
+    cpu_s : float, optional
+        CPU time of the run [s].
+    wall_s : float, optional
+        Wall-clock time of the run [s].
+    history : dict of ndarray, optional
+        Time histories of the run (``"t"`` [s] plus series whose first axis is time).
+    """
 
     run: int
     status: str  # "ok" or "error"
@@ -220,7 +240,19 @@ def _execute_batch(scenario: Any, seed: int, items: Task) -> list[RunRecord]:
 
 
 class Progress:
-    """A one-line text progress bar on a stream (stderr by default), redrawn at most 5 times a second."""
+    """A one-line text progress bar on a stream (stderr by default), redrawn at most 5 times a second.
+
+    Parameters
+    ----------
+    total : int
+        Number of runs of the campaign.
+    enabled : bool
+        Draw the bar (False: stay silent).
+    stream : text stream, optional
+        Where to draw (default ``sys.stderr``).
+    width : int, optional
+        Width of the bar in characters.
+    """
 
     def __init__(self, total: int, enabled: bool, stream: TextIO | None = None, width: int = 30) -> None:
         self.total = total
@@ -233,6 +265,17 @@ class Progress:
         self.errors = 0
 
     def update(self, done: int, errors: int, force: bool = False) -> None:
+        """Record the progress and redraw the bar (at most 5 times a second unless ``force``).
+
+        Parameters
+        ----------
+        done : int
+            Runs completed so far.
+        errors : int
+            Runs that failed so far.
+        force : bool, optional
+            Redraw now, whatever the time since the last redraw.
+        """
         self.done, self.errors = done, errors
         now = time.perf_counter()
         if not self.enabled or (not force and now - self._last < 0.2 and done < self.total):
@@ -317,7 +360,13 @@ class Checkpoint:
         return records
 
     def start(self, resume: bool) -> None:
-        """Open for appending; without ``resume`` (or no file yet) start a new file with the header."""
+        """Open for appending; without ``resume`` (or no file yet) start a new file with the header.
+
+        Parameters
+        ----------
+        resume : bool
+            Keep the runs already in a checkpoint of the same campaign.
+        """
         if resume and self.path.exists() and self.path.stat().st_size > 0:
             self._file = self.path.open("a")
             return
@@ -329,6 +378,13 @@ class Checkpoint:
         return self.dir / _HISTORY_DIR / f"run_{run:06d}.npz"
 
     def append(self, records: Iterable[RunRecord]) -> None:
+        """Append completed records (and their histories) to the checkpoint, flushed at once.
+
+        Parameters
+        ----------
+        records : iterable of RunRecord
+            The completed runs.
+        """
         assert self._file is not None
         for r in records:
             if r.history is not None:
@@ -370,7 +426,21 @@ class Collector:
 
 
 def run_serial(scenario: Any, seed: int, tasks: Sequence[Task], vectorized: bool, collector: Collector) -> bool:
-    """Run every task in this process, in order."""
+    """Run every task in this process, in order.
+
+    Parameters
+    ----------
+    scenario : object
+        The campaign's scenario.
+    seed : int
+        The campaign seed.
+    tasks : sequence of Task
+        Lists of ``(run, parameters)`` pairs, one list per task.
+    vectorized : bool
+        Run each task through the scenario's ``run_batch``.
+    collector : Collector
+        Receives the records (progress bar, checkpoint).
+    """
     try:
         for task in tasks:
             collector.add(execute_task(scenario, seed, task, vectorized))
@@ -413,7 +483,27 @@ def run_processes(
     max_retries: int,
     mp_context: Any,
 ) -> bool:
-    """Run the tasks in a pool of ``workers`` local processes (faults: module docstring)."""
+    """Run the tasks in a pool of ``workers`` local processes (faults: module docstring).
+
+    Parameters
+    ----------
+    scenario : object
+        The campaign's scenario (picklable).
+    seed : int
+        The campaign seed.
+    tasks : sequence of Task
+        Lists of ``(run, parameters)`` pairs, one list per task.
+    vectorized : bool
+        Run each task through the scenario's ``run_batch``.
+    collector : Collector
+        Receives the records (progress bar, checkpoint).
+    workers : int
+        Number of worker processes, >= 1.
+    max_retries : int
+        Lone deaths of a worker a task may cause before its runs are recorded as errors, >= 0.
+    mp_context : multiprocessing context or None
+        Start method of the workers (None: the platform default).
+    """
     try:
         payload = pickle.dumps(scenario)
     except Exception as exc:
@@ -509,7 +599,25 @@ def run_dask(
     scheduler: Any,
     max_retries: int,
 ) -> bool:
-    """Run the tasks on a Dask cluster: ``scheduler`` is an address ``"tcp://HOST:PORT"`` or a ``Client``."""
+    """Run the tasks on a Dask cluster: ``scheduler`` is an address ``"tcp://HOST:PORT"`` or a ``Client``.
+
+    Parameters
+    ----------
+    scenario : object
+        The campaign's scenario (``scenario(params, rng)``, optionally ``run_batch``).
+    seed : int
+        The campaign seed.
+    tasks : sequence of Task
+        Lists of ``(run, parameters)`` pairs, one list per task.
+    vectorized : bool
+        Run each task through the scenario's ``run_batch``.
+    collector : Collector
+        Receives the records (progress bar, checkpoint).
+    scheduler : str or distributed.Client
+        Address ``"tcp://HOST:PORT"`` of the scheduler, or a client.
+    max_retries : int
+        Retries of a task that fails for infrastructure reasons, >= 0.
+    """
     try:
         from distributed import Client, as_completed
     except ImportError as exc:  # pragma: no cover - depends on the environment

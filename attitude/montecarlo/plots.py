@@ -62,6 +62,13 @@ def plot_histograms(result: CampaignData, metrics: Sequence[str] | None = None) 
 
     Non-finite values (a run that never settled has ``settling_time = inf``)
     are counted in the panel title, not drawn.
+
+    Parameters
+    ----------
+    result : CampaignData
+        The campaign.
+    metrics : sequence of str, optional
+        Metrics to show; default every metric.
     """
     names = list(result.metrics) if metrics is None else list(metrics)
     for m in names:
@@ -144,7 +151,17 @@ def plot_envelope(result: CampaignData, key: str, component: int | None = None) 
 
 
 def plot_scatter(result: CampaignData, metric: str, parameter: str) -> Figure:
-    """A metric against a dispersed parameter; runs that failed a requirement in red."""
+    """A metric against a dispersed parameter; runs that failed a requirement in red.
+
+    Parameters
+    ----------
+    result : CampaignData
+        The campaign.
+    metric : str
+        Name of the metric (vertical axis).
+    parameter : str
+        Table column of the dispersed parameter (horizontal axis).
+    """
     if metric not in result.metrics:
         raise ValueError(f"metric {metric!r} is not in the result; metrics are {list(result.metrics)}")
     if parameter not in result.parameters:
@@ -171,7 +188,15 @@ def plot_scatter(result: CampaignData, metric: str, parameter: str) -> Figure:
 
 
 def most_influential_parameter(result: CampaignData, metric: str) -> str | None:
-    """The dispersed parameter with the largest |Spearman rank correlation| with ``metric`` (None if undecidable)."""
+    """The dispersed parameter with the largest |Spearman rank correlation| with ``metric`` (None if undecidable).
+
+    Parameters
+    ----------
+    result : CampaignData
+        The campaign.
+    metric : str
+        Name of the metric.
+    """
     y = result.metrics[metric]
     ok = (result.status == "ok") & np.isfinite(y)
     best, score = None, -1.0
@@ -188,6 +213,13 @@ def save_figures(result: CampaignData, directory: str | Path) -> list[Path]:
     """Histograms, an envelope per history, and per requirement metric a scatter against its most influential parameter.
 
     Returns the paths written (PNG).
+
+    Parameters
+    ----------
+    result : CampaignData
+        The campaign.
+    directory : str or Path
+        Folder for the PNG files (created).
     """
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)

@@ -82,7 +82,13 @@ class Requirement:
             object.__setattr__(self, "name", self.metric)
 
     def passed(self, values: Any) -> NDArray[np.bool_]:
-        """Element-wise pass (NaN fails)."""
+        """Element-wise pass (NaN fails).
+
+        Parameters
+        ----------
+        values : array_like
+            Values of the metric, one per run, in the metric's unit.
+        """
         v = np.asarray(values, dtype=float)
         ok = ~np.isnan(v)
         if self.max is not None:
@@ -148,7 +154,13 @@ class CampaignResult:
         return int(self.status.size)
 
     def requirement_passed(self, requirement: Requirement) -> NDArray[np.bool_]:
-        """Pass of one requirement per run (a run without the metric fails)."""
+        """Pass of one requirement per run (a run without the metric fails).
+
+        Parameters
+        ----------
+        requirement : Requirement
+            The pass/fail rule.
+        """
         values = self.metrics.get(requirement.metric, np.full(self.runs, np.nan))
         return requirement.passed(values) & (self.status == "ok")
 
@@ -179,7 +191,13 @@ class CampaignResult:
         return cols
 
     def to_csv(self, path: str | Path) -> Path:
-        """Write the tidy table as CSV (floats via ``repr``: exact round trip)."""
+        """Write the tidy table as CSV (floats via ``repr``: exact round trip).
+
+        Parameters
+        ----------
+        path : str or Path
+            Destination CSV file.
+        """
         path = Path(path)
         cols = self.table()
         with path.open("w", newline="") as f:
@@ -190,7 +208,13 @@ class CampaignResult:
         return path
 
     def to_parquet(self, path: str | Path) -> Path | None:
-        """Write the table as Parquet if ``pyarrow`` is installed; return None otherwise."""
+        """Write the table as Parquet if ``pyarrow`` is installed; return None otherwise.
+
+        Parameters
+        ----------
+        path : str or Path
+            Destination Parquet file.
+        """
         try:
             import pyarrow as pa
             import pyarrow.parquet as pq
@@ -207,6 +231,13 @@ class CampaignResult:
 
         A run that raised counts as a failure of every requirement; runs not
         run (interrupted campaign) are left out of the bounds.
+
+        Parameters
+        ----------
+        q : sequence of float, optional
+            Percentiles to report [%], each in ``[0, 100]``.
+        confidence : float, optional
+            Confidence level of the success bounds, in (0, 1).
         """
         ran = self.status != "not run"
         n = int(np.sum(ran))
@@ -237,7 +268,13 @@ class CampaignResult:
         return out
 
     def summary(self, confidence: float = 0.95) -> str:
-        """The statistics in a few lines of text."""
+        """The statistics in a few lines of text.
+
+        Parameters
+        ----------
+        confidence : float, optional
+            Confidence level of the success bounds, in (0, 1).
+        """
         s = self.statistics(confidence=confidence)
         lines = [
             f"Monte Carlo campaign: {s['runs']} runs (seed {self.seed}), {s['completed']} completed, "
@@ -272,19 +309,41 @@ class CampaignResult:
     # -- figures ------------------------------------------------------------------
 
     def plot_histograms(self, metrics: Sequence[str] | None = None) -> Figure:
-        """One histogram per metric, with the requirement bounds (:mod:`attitude.montecarlo.plots`)."""
+        """One histogram per metric, with the requirement bounds (:mod:`attitude.montecarlo.plots`).
+
+        Parameters
+        ----------
+        metrics : sequence of str, optional
+            Metrics to show; default every metric.
+        """
         from attitude.montecarlo.plots import plot_histograms
 
         return plot_histograms(self, metrics)
 
     def plot_envelope(self, key: str, component: int | None = None) -> Figure:
-        """Percentile bands of a time history over the runs (:mod:`attitude.montecarlo.plots`)."""
+        """Percentile bands of a time history over the runs (:mod:`attitude.montecarlo.plots`).
+
+        Parameters
+        ----------
+        key : str
+            History name (``"error_angle"``, ``"omega"`` ...).
+        component : int, optional
+            For a vector history, the component to show; default its norm.
+        """
         from attitude.montecarlo.plots import plot_envelope
 
         return plot_envelope(self, key, component)
 
     def plot_scatter(self, metric: str, parameter: str) -> Figure:
-        """A metric against a dispersed parameter, failures marked (:mod:`attitude.montecarlo.plots`)."""
+        """A metric against a dispersed parameter, failures marked (:mod:`attitude.montecarlo.plots`).
+
+        Parameters
+        ----------
+        metric : str
+            Name of the metric (vertical axis).
+        parameter : str
+            Table column of the dispersed parameter (horizontal axis).
+        """
         from attitude.montecarlo.plots import plot_scatter
 
         return plot_scatter(self, metric, parameter)
@@ -292,7 +351,13 @@ class CampaignResult:
     # -- files ----------------------------------------------------------------------
 
     def save(self, out_dir: str | Path) -> Path:
-        """Write the files listed in the module docstring into ``out_dir``; return it."""
+        """Write the files listed in the module docstring into ``out_dir``; return it.
+
+        Parameters
+        ----------
+        out_dir : str or Path
+            Output directory (created).
+        """
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         self.to_csv(out / "results.csv")
@@ -316,7 +381,13 @@ class CampaignResult:
 
     @classmethod
     def load(cls, out_dir: str | Path) -> CampaignResult:
-        """Read a directory written by :meth:`save`."""
+        """Read a directory written by :meth:`save`.
+
+        Parameters
+        ----------
+        out_dir : str or Path
+            Directory written by :meth:`save`.
+        """
         out = Path(out_dir)
         meta = json.loads((out / "campaign.json").read_text())
         with (out / "results.csv").open(newline="") as f:

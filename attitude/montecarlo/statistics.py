@@ -49,14 +49,30 @@ def _confidence(confidence: float) -> float:
 
 
 def zero_failure_bound(runs: int, confidence: float = 0.95) -> float:
-    """Success probability proven by ``runs`` runs without a failure: ``(1 - C)^(1/N)``."""
+    """Success probability proven by ``runs`` runs without a failure: ``(1 - C)^(1/N)``.
+
+    Parameters
+    ----------
+    runs : int
+        Number of runs, all successful, >= 1.
+    confidence : float, optional
+        Confidence level of the one-sided bound, in (0, 1).
+    """
     if not isinstance(runs, (int, np.integer)) or runs < 1:
         raise ValueError(f"runs must be a positive integer, got {runs!r}")
     return float((1.0 - _confidence(confidence)) ** (1.0 / runs))
 
 
 def runs_for_zero_failures(success: float, confidence: float = 0.95) -> int:
-    """Fewest runs without a failure that prove ``success`` at ``confidence``: ``ceil(ln(1-C) / ln p)``."""
+    """Fewest runs without a failure that prove ``success`` at ``confidence``: ``ceil(ln(1-C) / ln p)``.
+
+    Parameters
+    ----------
+    success : float
+        Success probability to prove, in (0, 1).
+    confidence : float, optional
+        Confidence level of the proof, in (0, 1).
+    """
     p = float(success)
     if not 0.0 < p < 1.0:
         raise ValueError(f"success must be in (0, 1), got {success!r}")
@@ -69,6 +85,15 @@ def success_lower_bound(successes: int, runs: int, confidence: float = 0.95) -> 
     """One-sided Clopper-Pearson lower bound on the success probability (module docstring).
 
     Returns 0 when there is no success, ``(1 - C)^(1/N)`` when every run succeeded.
+
+    Parameters
+    ----------
+    successes : int
+        Number of successful runs, ``0 <= successes <= runs``.
+    runs : int
+        Number of runs, >= 1.
+    confidence : float, optional
+        Confidence level of the one-sided bound, in (0, 1).
     """
     if not isinstance(runs, (int, np.integer)) or runs < 1:
         raise ValueError(f"runs must be a positive integer, got {runs!r}")
@@ -83,7 +108,17 @@ def success_lower_bound(successes: int, runs: int, confidence: float = 0.95) -> 
 
 
 def success_statement(successes: int, runs: int, confidence: float = 0.95) -> str:
-    """The bound in words, e.g. ``"1000 runs, 0 failures: with 95% confidence P(success) >= 99.70%"``."""
+    """The bound in words, e.g. ``"1000 runs, 0 failures: with 95% confidence P(success) >= 99.70%"``.
+
+    Parameters
+    ----------
+    successes : int
+        Number of successful runs, ``0 <= successes <= runs``.
+    runs : int
+        Number of runs, >= 1.
+    confidence : float, optional
+        Confidence level of the one-sided bound, in (0, 1).
+    """
     bound = success_lower_bound(successes, runs, confidence)
     return (
         f"{runs} runs, {runs - successes} failures: with {100 * confidence:g}% confidence the probability of "
@@ -96,6 +131,13 @@ def percentiles(values: ArrayLike, q: Sequence[float] = DEFAULT_PERCENTILES) -> 
 
     Non-finite values (a failed run's NaN, a never-settled run's inf) are
     counted apart as ``nonfinite`` and left out of the others.
+
+    Parameters
+    ----------
+    values : array_like
+        The values of one metric over the runs (any shape; flattened).
+    q : sequence of float, optional
+        Percentiles to report [%], each in ``[0, 100]``.
     """
     v = np.asarray(values, dtype=float).reshape(-1)
     finite: NDArray[np.float64] = v[np.isfinite(v)]

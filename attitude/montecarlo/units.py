@@ -29,7 +29,13 @@ DISPLAY_UNITS: dict[str, tuple[float, str]] = {
 
 
 def display_unit(name: str) -> tuple[float, str]:
-    """Scale and unit label for plotting a metric, history or parameter (``(1, "")`` when unknown)."""
+    """Scale and unit label for plotting a metric, history or parameter (``(1, "")`` when unknown).
+
+    Parameters
+    ----------
+    name : str
+        Name of a metric, history or dispersed parameter (its suffix says the unit).
+    """
     for key in (name, name.split(".")[0], name.split("[")[0]):
         if key in DISPLAY_UNITS:
             return DISPLAY_UNITS[key]

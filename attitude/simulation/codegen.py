@@ -126,6 +126,13 @@ def compile_functions(functions: Sequence[ca.Function], *, flags: Sequence[str] 
 def library_path(functions: Sequence[ca.Function], *, flags: Sequence[str] = COMPILE_FLAGS) -> Path:
     """Where :func:`compile_functions` keeps the library of these functions (it may not exist yet).
 
+    Parameters
+    ----------
+    functions : sequence of casadi.Function
+        The functions of the library.
+    flags : sequence of str, optional
+        C compiler flags (part of the cache key).
+
     Raises
     ------
     ValueError, CompilationError

@@ -107,7 +107,13 @@ class SimulationResult(ResultIO):
     info: dict[str, Any] = field(default_factory=dict)
 
     def settling_time(self, threshold_rad: float) -> float:
-        """First time [s] after which the error angle stays below ``threshold_rad`` (inf if never)."""
+        """First time [s] after which the error angle stays below ``threshold_rad`` (inf if never).
+
+        Parameters
+        ----------
+        threshold_rad : float
+            Error-angle threshold [rad].
+        """
         above = np.nonzero(self.error_angle > threshold_rad)[0]
         return float(settling_time_after(self.t, above[-1] if above.size else -1))
 

@@ -97,6 +97,19 @@ def command(model: PlantModel, controller: Any, x: list, inputs: list, estimate:
     As the single-run engine: the law sees ``estimate`` (``[q (4), omega
     (3)]``, default the true state ``x``) and the wheel momentum of the true
     state; the allocation uses the true wheel speeds.
+
+    Parameters
+    ----------
+    model : _PlantModel
+        The plant (body and wheels).
+    controller : object
+        A controller with ``torque_components``.
+    x : list
+        State components ``[q (4), omega (3), wheel momenta (n)]`` (numbers or casadi expressions).
+    inputs : list
+        The controller's compiled inputs at this tick.
+    estimate : list, optional
+        ``[q (4), omega (3)]`` seen by the law; default the true state.
     """
     seen = x if estimate is None else estimate
     tau = controller.torque_components(seen[:4], seen[4:7], model.body_momentum(x), inputs)
@@ -255,7 +268,19 @@ class CompiledHold:
     def step(
         self, x: NDArray[np.float64], u: NDArray[np.float64], parameters: NDArray[np.float64], dt: float
     ) -> NDArray[np.float64]:
-        """Next states (n_runs, n_x) of states (n_runs, n_x), commands (n_runs, n_u), parameters (n_runs, 15)."""
+        """Next states (n_runs, n_x) of states (n_runs, n_x), commands (n_runs, n_u), parameters (n_runs, 15).
+
+        Parameters
+        ----------
+        x : ndarray (n_runs, n_x)
+            States of the runs.
+        u : ndarray (n_runs, n_u)
+            Commands held over the tick.
+        parameters : ndarray (n_runs, 15)
+            Per-run parameters of the tick state.
+        dt : float
+            Tick length [s].
+        """
         n = x.shape[0]
         evaluator = _mapped(
             self._mapped, self._lock, n, lambda: self._compiled.map(f"hold_runs{n}", "serial", n, [1], [])

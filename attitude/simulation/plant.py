@@ -39,19 +39,66 @@ class PlantModel:
         self._step: ca.Function | None = None
 
     def derivative(self, x: list, u: list, tau_ext: list | None) -> list:
-        """x = [q, omega, h]; u = motor torques (wheels) or body torque (no wheels)."""
+        """State derivative of the plant under held inputs.
+
+        Parameters
+        ----------
+        x : list of 7 + n
+            State ``[q (4), omega (3) [rad/s], h (n) [N m s]]`` on components, any backend.
+        u : list
+            Motor torques per wheel [N m] with wheels, else the body torque (3) [N m].
+        tau_ext : list of 3 or None
+            External (disturbance) body torque [N m], or None.
+
+        Returns
+        -------
+        list of 7 + n
+            ``[q_dot, omega_dot [rad/s^2], h_dot [N m]]``, same backend as ``x``.
+        """
         if self.wheels is None:
             tau = u if tau_ext is None else [a + b for a, b in zip(u, tau_ext)]
             return self.body.state_derivative_components(x, tau)
         return self.wheels.state_derivative_components(self.body, x, u, tau_ext)
 
     def hold_step(self, x: list, u: list, tau_ext: list | None, dt: Any, substeps: int) -> list:
+        """The state one tick later: RK4 over ``dt`` in ``substeps`` steps, inputs held, quaternion renormalised.
+
+        Parameters
+        ----------
+        x : list of 7 + n
+            State ``[q (4), omega (3) [rad/s], h (n) [N m s]]`` on components, any backend.
+        u : list
+            Motor torques per wheel [N m] with wheels, else the body torque (3) [N m].
+        tau_ext : list of 3 or None
+            External (disturbance) body torque [N m], or None.
+        dt : float or symbolic
+            Tick length [s].
+        substeps : int
+            RK4 steps per tick.
+
+        Returns
+        -------
+        list of 7 + n
+            The state at the end of the tick, same backend as ``x``.
+        """
         h = dt / substeps
         for _ in range(substeps):
             x = normalize_quaternion_components(rk4_step(lambda _t, xc: self.derivative(xc, u, tau_ext), 0.0, x, h))
         return x
 
     def compiled_step(self, substeps: int) -> ca.Function:
+        """The hold step as a casadi Function ``(x, u, tau_ext, dt) -> x_next``, built once and cached.
+
+        Parameters
+        ----------
+        substeps : int
+            RK4 steps per tick.
+
+        Returns
+        -------
+        casadi.Function
+            :meth:`hold_step` on symbols, for the compiled engine paths.
+        """
         if self._step is None:
             n_u = self.n_w if self.wheels is not None else 3
             x = ca.SX.sym("x", self.n_x)
@@ -65,13 +112,43 @@ class PlantModel:
         return self._step
 
     def command(self, tau_cmd: list, x: list) -> tuple[list, list]:
-        """Motor (or body) torque and the applied body torque for a command."""
+        """Motor (or body) torque and the applied body torque for a command.
+
+        Parameters
+        ----------
+        tau_cmd : list of 3
+            Commanded body torque [N m], any backend.
+        x : list of 7 + n
+            State ``[q, omega, h]`` (the wheel allocation needs the momenta and rate).
+
+        Returns
+        -------
+        tuple of list
+            ``(u, tau_applied)``: motor torques per wheel [N m] (the command itself
+            without wheels) and the body torque the plant receives [N m].
+        """
         if self.wheels is None:
             return tau_cmd, tau_cmd
         u = self.wheels.allocate_components(tau_cmd, x[7:], x[4:7])
         return u, self.wheels.body_components(u, scale=-1.0)
 
     def momentum_N(self, q: NDArray, omega: NDArray, h: NDArray) -> NDArray:
+        """Total angular momentum in inertial components [N m s] along a history.
+
+        Parameters
+        ----------
+        q : ndarray (..., 4)
+            Attitude ``q_BN``.
+        omega : ndarray (..., 3)
+            Body rate [rad/s].
+        h : ndarray (..., n)
+            Wheel spin-axis momenta [N m s] (ignored without wheels).
+
+        Returns
+        -------
+        ndarray (..., 3)
+            ``q (I omega + A h) q*`` [N m s]: constant without external torque.
+        """
         h_b = omega @ self.body.inertia.T
         if self.wheels is not None:
             h_b = h_b + h @ self.wheels.distribution.T

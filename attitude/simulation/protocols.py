@@ -60,6 +60,21 @@ class Estimate:
     controller uses, ``I omega + h_body`` is then exactly the total angular
     momentum ``I_s omega + A h`` (the wheels' spin inertia is counted once).
     ``covariance`` is optional (an estimator's error covariance).
+
+    Parameters
+    ----------
+    t : float
+        Time of the estimate [s].
+    q : ndarray (4,)
+        Attitude ``q_BN``.
+    omega : ndarray (3,)
+        Body rate ``omega_BN_B`` [rad/s].
+    h_wheels : ndarray (n,), optional
+        Wheel momenta [N m s] (empty without wheels).
+    h_body : ndarray (3,), optional
+        Wheel momentum relative to the body, in body components [N m s].
+    covariance : ndarray, optional
+        The estimator's error covariance.
     """
 
     t: float
@@ -85,7 +100,20 @@ class Controller(Protocol):
     """Sample period [s], a whole multiple of the engine tick."""
 
     def torque(self, t: float, estimate: Estimate) -> NDArray[np.float64]:
-        """Commanded body torque ``(3,)`` [N m] at time ``t`` [s] from what the controller sees."""
+        """Commanded body torque at time ``t`` from what the controller sees.
+
+        Parameters
+        ----------
+        t : float
+            Sample time [s].
+        estimate : Estimate
+            Attitude, rate and wheel momenta as the controller sees them.
+
+        Returns
+        -------
+        ndarray (3,)
+            Commanded body torque [N m].
+        """
         ...
 
 
@@ -99,14 +127,41 @@ class CompiledController(Controller, Protocol):
     """
 
     def compiled_inputs(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Time-varying inputs ``(m, N)`` of the law at the sample times ``t`` [s] (references, gains)."""
+        """Time-varying inputs of the law at the sample times (references, feedforward).
+
+        Parameters
+        ----------
+        t : ndarray (N,)
+            Sample times [s].
+
+        Returns
+        -------
+        ndarray (m, N)
+            One column of inputs per sample.
+        """
         ...
 
     def torque_components(
         self, q: Sequence[Any], omega: Sequence[Any], h_body: Sequence[Any], inputs: Sequence[Any]
     ) -> list:
-        """Commanded body torque [N m] on components from the attitude, body rate [rad/s], wheel momentum
-        relative to the body [N m s] and the inputs of one sample."""
+        """Commanded body torque on components, any backend (numpy, casadi).
+
+        Parameters
+        ----------
+        q : sequence of 4
+            Attitude ``q_BN``.
+        omega : sequence of 3
+            Body rate [rad/s].
+        h_body : sequence of 3
+            Wheel momentum relative to the body, in body components [N m s].
+        inputs : sequence of m
+            One column of :meth:`compiled_inputs`.
+
+        Returns
+        -------
+        list of 3
+            Commanded body torque [N m].
+        """
         ...
 
 
@@ -118,7 +173,22 @@ class Sensor(Protocol):
     period: float
 
     def measure(self, t: float, truth: Truth, rng: np.random.Generator) -> Any:
-        """The sample at time ``t`` [s] from the true state, or None when it has none (e.g. blinded)."""
+        """The sample at time ``t`` from the true state.
+
+        Parameters
+        ----------
+        t : float
+            Sample time [s].
+        truth : Truth
+            The true state.
+        rng : numpy.random.Generator
+            The run's random stream (the only source of noise, for reproducibility).
+
+        Returns
+        -------
+        object or None
+            The sample, or None when the sensor has none (e.g. blinded).
+        """
         ...
 
 
@@ -135,7 +205,21 @@ class Estimator(Protocol):
     period: float
 
     def update(self, t: float, measurements: Mapping[str, Any]) -> Estimate:
-        """The estimate at time ``t`` [s]."""
+        """The estimate at time ``t``.
+
+        Parameters
+        ----------
+        t : float
+            Update time [s].
+        measurements : mapping
+            Newest sample per sensor name (None when it did not sample at ``t``),
+            plus ``"torque_command"`` [N m] and ``"wheel_momentum"`` [N m s].
+
+        Returns
+        -------
+        Estimate
+            What the controller will see.
+        """
         ...
 
 

@@ -45,7 +45,13 @@ EIGENAXIS_PATH_SAMPLES = 2001
 
 
 def check_not_blocked(prob: Problem) -> None:
-    """Raise :class:`InfeasibleSlewError` when the cones provably block every path (before any solve)."""
+    """Raise :class:`InfeasibleSlewError` when the cones provably block every path (before any solve).
+
+    Parameters
+    ----------
+    prob : Problem
+        The validated problem.
+    """
     if not prob.cones:
         return
     blocked = blocked_boresights(prob.cones, prob.q0, prob.qf)
@@ -62,7 +68,19 @@ def check_not_blocked(prob: Problem) -> None:
 
 
 def verify(prob: Problem, t: NDArray, torque: NDArray, tolerance: float) -> dict[str, Any]:
-    """Open-loop re-simulation of the plan (module docstring); raises if it misses a limit."""
+    """Open-loop re-simulation of the plan (module docstring); raises if it misses a limit.
+
+    Parameters
+    ----------
+    prob : Problem
+        The validated problem.
+    t : ndarray
+        Node times of the plan [s], shape (N + 1,).
+    torque : ndarray
+        Body torque held over each interval [N m], shape (N, 3).
+    tolerance : float
+        Largest accepted final attitude error [rad] (rate: ``tolerance / T_s`` [rad/s]).
+    """
     traj = propagate(prob.body, prob.q0, prob.omega0, t, torque, method="adaptive", rtol=1e-10, atol=1e-12)
     att_err = float(quat.error_angle(prob.qf, quat.normalize(traj.q[-1])))
     rate_err = float(np.linalg.norm(traj.omega[-1] - prob.omegaf))
@@ -101,7 +119,15 @@ def verify(prob: Problem, t: NDArray, torque: NDArray, tolerance: float) -> dict
 
 
 def eigenaxis_comparison(prob: Problem, torque_max: ArrayLike | ReactionWheels) -> dict[str, Any]:
-    """Eigenaxis reference time (rest to rest only) and whether its path enters a keep-out cone."""
+    """Eigenaxis reference time (rest to rest only) and whether its path enters a keep-out cone.
+
+    Parameters
+    ----------
+    prob : Problem
+        The validated problem.
+    torque_max : array_like or ReactionWheels
+        Per-axis torque bound [N m] (scalar or 3 values), or a wheel set.
+    """
     if np.any(prob.omega0) or np.any(prob.omegaf):
         return {}
     try:
@@ -130,7 +156,25 @@ def raise_failure(
     options: Mapping[str, Any],
     max_iter: int,
 ) -> None:
-    """Explain why no start converged, and raise."""
+    """Explain why no start converged, and raise.
+
+    Parameters
+    ----------
+    prob : Problem
+        The validated problem.
+    objective : str
+        ``"time"`` or ``"energy"``.
+    duration : float or None
+        Requested duration [s] of an energy-optimal slew; None for minimum time.
+    results : list of Solution
+        The answers of every start.
+    n : int
+        Number of intervals.
+    options : mapping
+        IPOPT options of the caller.
+    max_iter : int
+        IPOPT iteration limit.
+    """
     statuses = [r.status for r in results]
     details = {"statuses": statuses, "iterations": [r.iterations for r in results]}
     status = statuses[0]
@@ -191,7 +235,19 @@ def raise_failure(
 
 
 def slower_than_eigenaxis(eig: Mapping[str, Any], duration: float, nodes: int, refinement: str) -> str | None:
-    """The warning for a minimum-time plan slower than a feasible eigenaxis slew (None if it is not)."""
+    """The warning for a minimum-time plan slower than a feasible eigenaxis slew (None if it is not).
+
+    Parameters
+    ----------
+    eig : mapping
+        The result of :func:`eigenaxis_comparison` (``duration_s`` [s], ``enters_keep_out``).
+    duration : float
+        Duration of the plan [s].
+    nodes : int
+        Number of intervals of the plan.
+    refinement : str
+        What the refinement did, in words.
+    """
     if eig.get("duration_s") is None or eig.get("enters_keep_out"):
         return None
     excess = duration - eig["duration_s"]

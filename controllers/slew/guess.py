@@ -26,7 +26,17 @@ def _smooth_noise(rng: np.random.Generator, s: NDArray, dims: int, modes: int = 
 
 
 def base_guess(prob: Problem, n: int, duration_s: float | None) -> tuple[NDArray, NDArray, float]:
-    """Eigenaxis-based guess (nondimensional): states (7, n+1), torques (3, n), duration."""
+    """Eigenaxis-based guess (nondimensional): states (7, n+1), torques (3, n), duration.
+
+    Parameters
+    ----------
+    prob : Problem
+        The validated, nondimensional problem.
+    n : int
+        Number of intervals.
+    duration_s : float or None
+        Fixed duration in units of ``T_s``; None for the eigenaxis time.
+    """
     axis, angle = axis_angle(prob.q0, prob.qf)
     inertia_s = prob.body_s.inertia
     eig = None
@@ -60,7 +70,22 @@ def base_guess(prob: Problem, n: int, duration_s: float | None) -> tuple[NDArray
 def perturbed(
     prob: Problem, X: NDArray, U: NDArray, amplitude: float, rng: np.random.Generator
 ) -> tuple[NDArray, NDArray]:
-    """Perturb a guess smoothly: torque noise and an attitude bump, both vanishing at the ends."""
+    """Perturb a guess smoothly: torque noise and an attitude bump, both vanishing at the ends.
+
+    Parameters
+    ----------
+    prob : Problem
+        The validated, nondimensional problem.
+    X : ndarray
+        Guessed states (7, n + 1), nondimensional.
+    U : ndarray
+        Guessed torques (3, n), units of ``tau_s``.
+    amplitude : float
+        Size of the perturbation [-]: torque noise in units of the largest
+        torque bound, attitude bump in units of pi/4 rad.
+    rng : numpy.random.Generator
+        Source of the perturbation.
+    """
     n = U.shape[1]
     if amplitude == 0:
         return X.copy(), project(prob, U)
@@ -77,13 +102,31 @@ def perturbed(
 
 
 def project(prob: Problem, U: NDArray) -> NDArray[np.float64]:
-    """Scale each torque column into the torque set (direction kept)."""
+    """Scale each torque column into the torque set (direction kept).
+
+    Parameters
+    ----------
+    prob : Problem
+        The validated, nondimensional problem.
+    U : ndarray
+        Torques (3, n), units of ``tau_s``.
+    """
     ratio = np.max(np.abs(prob.rows_s @ U), axis=0)
     return U / np.maximum(ratio, 1.0)
 
 
 def guess_from_plan(prob: Problem, plan: SlewPlan, n: int) -> tuple[NDArray, NDArray, float]:
-    """A previous plan on ``n`` uniform intervals (nondimensional): states (7, n+1), torques (3, n), duration."""
+    """A previous plan on ``n`` uniform intervals (nondimensional): states (7, n+1), torques (3, n), duration.
+
+    Parameters
+    ----------
+    prob : Problem
+        The validated, nondimensional problem.
+    plan : SlewPlan
+        A previous plan of the same slew.
+    n : int
+        Number of intervals.
+    """
     t = np.linspace(0.0, plan.duration, n + 1)
     x = states_between(prob.body, plan.t, plan.q, plan.omega, plan.torque, t)
     mid = 0.5 * (t[1:] + t[:-1])

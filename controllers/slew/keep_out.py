@@ -2,67 +2,14 @@
 
 Part of :mod:`controllers.slew.planner` (import the public names from there).
 
-The bound between checkpoints
-    Let ``f(t) = s_N . b_N(t)`` be the cosine of the angle between the
-    inertial direction ``s_N`` to avoid and the boresight ``b_N = R(q) b_B``
-    (``R`` the rotation of ``q_BN``). The cone constraint is ``f <= cos a``.
-    With ``d/dt (R b_B) = R (omega x b_B)``,
+A boresight ``b_B`` must stay outside a cone about an inertial direction
+``s_N``; the planner imposes the cone at checkpoints with a second-order
+margin ``M eta^2 / 8`` (``M`` a bound on the boresight acceleration) that
+keeps the path between checkpoints out too, and a sphere-grid check proves
+when the cones leave no path at all.
 
-    .. math::
-
-        \\dot f = (\\omega \\times b_B) \\cdot s_B, \\qquad
-        \\ddot f = (\\dot\\omega \\times b_B + \\omega \\times (\\omega \\times b_B)) \\cdot s_B,
-
-    with ``s_B = R^T s_N``; since ``omega`` is orthogonal to
-    ``omega x b_B`` the boresight acceleration obeys
-
-    .. math::
-
-        |\\ddot f| \\le M = |\\omega|\\,|\\omega \\times b_B| + |\\dot\\omega \\times b_B|
-        \\;(\\le |\\omega|^2 + |\\dot\\omega|).
-
-    On a sub-step ``[t_a, t_b]`` of length ``eta`` a function with
-    ``|f''| <= M`` lies at most ``M (t - t_a)(t_b - t) / 2 <= M eta^2 / 8``
-    above the chord between its end values. So if both checkpoints satisfy
-    ``f <= cos a - M eta^2 / 8`` the whole sub-step satisfies ``f <= cos a``:
-    the path cannot cut the corner of the cone between checkpoints. The
-    margin is second order in the step (the first-order bound it replaces,
-    ``eta (|omega_a| + |omega_b|) / 4`` in angle, cost up to +9.6 % of slew
-    time on a 10-node grid); in angle it is about
-    ``M eta^2 / (8 sin a)``.
-
-    At a *fixed* end of the slew (the start node, and the final node whose
-    ``f`` and ``f'`` are fixed by ``qf``, ``omegaf``) no margin is imposed:
-    that point is checked at input validation, and a start close to the cone
-    is allowed as long as the path leaves it. The sub-step next to a fixed
-    end uses the Taylor bound from that end instead,
-    ``f(t_a + s) <= f_a + f'_a s + M s^2 / 2`` (``f(t_b - s) <= f_b - f'_b s + M s^2 / 2``
-    at the final node), whose largest value on the sub-step is at one of its
-    ends: ``f_a + f'_a eta + M eta^2 / 2 <= cos a`` suffices (``f_a <= cos a``
-    holds). A boresight carried away from the cone by the initial rate
-    (``f'_a < 0``) satisfies it even when ``f_a`` is arbitrarily close to
-    ``cos a``.
-
-    ``M`` is evaluated at both checkpoints (the larger is used: one
-    constraint per pair) rather than bounded over the sub-step. The
-    neglected part is third order: the cone is guaranteed up to
-    ``eta^3 max|dM/dt| / 8`` in cosine, far below the verification tolerance
-    (``verify_tolerance``, 1e-4 rad by default) that the planner's open-loop
-    re-simulation checks on the continuous path. The norms are regularised,
-    ``sqrt(x . x + eps^2)`` with ``eps = SPEED_EPS`` in nondimensional units,
-    which keeps them differentiable at rest and only enlarges ``M``.
-
-Blocked paths
-    :func:`blocked_boresights` proves, before any optimisation, that the
-    cones of one boresight split the sphere so that its initial direction
-    cannot reach its final one (every attitude path moves each boresight
-    continuously on the sphere, whatever the others do). The sphere is cut
-    into latitude-longitude cells; a cell is *blocked* when it lies entirely
-    inside one cone (centre closer than ``half_angle - cell radius``), every
-    other cell might contain free directions. If the start and final cells
-    are not connected through possibly-free cells (neighbours across edges,
-    corners, the date line and the poles), no path exists. Coarse cells only
-    make the check weaker, never wrong: it never rejects a feasible slew.
+See docs/keep_out.md for the derivation of the bound and of the blocked-path
+check.
 """
 
 from __future__ import annotations
@@ -169,7 +116,13 @@ class KeepOutCone:
         )
 
     def separation(self, q: ArrayLike) -> NDArray[np.float64]:
-        """Angle [rad] between the boresight and the avoided direction at attitudes ``q_BN`` (..., 4)."""
+        """Angle [rad] between the boresight and the avoided direction at attitudes ``q_BN`` (..., 4).
+
+        Parameters
+        ----------
+        q : array_like
+            Attitudes ``q_BN``, shape (..., 4).
+        """
         b_n = quat.rotate(quat.normalize(q), self.boresight_B)
         return np.arccos(np.clip(b_n @ self.direction_N, -1.0, 1.0))
 
@@ -232,7 +185,7 @@ class ConeRows:
 def cone_rows(
     body_s: RigidBody, points: Sequence[Any], u: Any, eta: Any, cones: Sequence[KeepOutCone], *, margin: bool = True
 ) -> ConeRows:
-    """Keep-out constraints at the checkpoints ``points`` (m + 1 states) of one interval (module docstring).
+    """Keep-out constraints at the checkpoints ``points`` (m + 1 states) of one interval (docs/keep_out.md).
 
     Parameters
     ----------
@@ -289,7 +242,7 @@ def blocked_boresights(
     qf: NDArray[np.float64],
     cell_deg: float = BLOCKED_CHECK_CELL_DEG,
 ) -> list[dict[str, Any]]:
-    """Boresights whose cones provably separate their initial and final directions (module docstring).
+    """Boresights whose cones provably separate their initial and final directions (docs/keep_out.md).
 
     Parameters
     ----------

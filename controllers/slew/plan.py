@@ -30,7 +30,13 @@ STATUS_WORDS = {"Solve_Succeeded": "converged", "Solved_To_Acceptable_Level": "c
 
 
 def cone_arrays(cones: Sequence[KeepOutCone]) -> tuple[NDArray, NDArray, NDArray]:
-    """Boresights (m, 3), directions (m, 3) and half angles (m,) [rad] of the cones, for storage."""
+    """Boresights (m, 3), directions (m, 3) and half angles (m,) [rad] of the cones, for storage.
+
+    Parameters
+    ----------
+    cones : sequence of KeepOutCone
+        The keep-out cones.
+    """
     if not cones:
         return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0)
     return (
@@ -183,6 +189,11 @@ class SlewPlan(ResultIO):
         rather than on an interpolation. ``torque`` holds the plan's torque
         at each new time; fed back as a zero-order hold on the new grid it
         differs from the plan on new intervals that straddle a plan node.
+
+        Parameters
+        ----------
+        dt : float
+            Step of the new grid [s], > 0.
         """
         dt = float(check_positive(dt, "dt"))
         t_new = np.arange(0.0, self.duration, dt)
@@ -204,7 +215,23 @@ class SlewPlan(ResultIO):
 def states_between(
     body: RigidBody, t: NDArray, q: NDArray, omega: NDArray, torque: NDArray, t_new: NDArray
 ) -> NDArray[np.float64]:
-    """States at ``t_new`` integrated from the preceding node of ``t`` under the ZOH torque (RK4, 8 sub-steps)."""
+    """States at ``t_new`` integrated from the preceding node of ``t`` under the ZOH torque (RK4, 8 sub-steps).
+
+    Parameters
+    ----------
+    body : RigidBody
+        The spacecraft.
+    t : ndarray
+        Node times of the plan [s], shape (N + 1,).
+    q : ndarray
+        Node attitudes ``q_BN``, shape (N + 1, 4).
+    omega : ndarray
+        Node body rates [rad/s], shape (N + 1, 3).
+    torque : ndarray
+        Body torque held over each interval [N m], shape (N, 3).
+    t_new : ndarray
+        Times at which to return the states [s].
+    """
     k = np.clip(np.searchsorted(t, t_new, side="right") - 1, 0, t.size - 2)
     dt = t_new - t[k]
     x0 = np.concatenate([q[k], omega[k]], axis=1)
@@ -216,7 +243,13 @@ def states_between(
 
 
 def plot_plan(plan: SlewPlan) -> matplotlib.figure.Figure:
-    """Torque, rate, attitude and keep-out panels of a plan (:meth:`SlewPlan.plot`)."""
+    """Torque, rate, attitude and keep-out panels of a plan (:meth:`SlewPlan.plot`).
+
+    Parameters
+    ----------
+    plan : SlewPlan
+        The plan.
+    """
     from matplotlib.figure import Figure
 
     from attitude.plotting import AXIS_COLORS
@@ -266,7 +299,13 @@ def plot_plan(plan: SlewPlan) -> matplotlib.figure.Figure:
 
 
 def plan_title(plan: SlewPlan) -> str:
-    """Two lines: objective, duration and solver outcome in words; grid and eigenaxis comparison."""
+    """Two lines: objective, duration and solver outcome in words; grid and eigenaxis comparison.
+
+    Parameters
+    ----------
+    plan : SlewPlan
+        The plan.
+    """
     words = STATUS_WORDS.get(plan.status, f"solver status {plan.status}")
     if plan.warnings:
         words += f", {len(plan.warnings)} warning(s) in info['warnings']"

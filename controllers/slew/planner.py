@@ -1,18 +1,9 @@
 """Optimal slew planning: minimum-time and minimum-energy reorientations (casadi + IPOPT).
 
-:func:`plan_slew` solves
-
-.. math::
-
-    \\min\\; t_f \\;\\text{(objective="time")} \\quad\\text{or}\\quad
-    \\min \\int_0^{t_f} |\\tau|^2\\,dt \\;\\text{(objective="energy", } t_f \\text{ fixed)}
-
-subject to the one definition of the rigid-body equations of motion
-(:meth:`attitude.rigid_body.RigidBody.state_derivative_components`, reached
-through :func:`attitude.integrators.casadi_rk4_step`), the boundary states
-``q(0) = q0, omega(0) = omega0, q(t_f) = +-qf, omega(t_f) = omegaf``, a torque
-set (per-axis box or the envelope of a reaction-wheel set), a body-rate limit
-``|omega| <= rate_max`` and keep-out cones.
+:func:`plan_slew` solves a minimum-time or minimum-energy reorientation by
+direct multiple shooting on the one definition of the rigid-body equations
+of motion, subject to boundary states, a torque set (per-axis box or the
+envelope of a reaction-wheel set), a body-rate limit and keep-out cones.
 
 This module is the public entry point; the work is split by job:
 
@@ -25,110 +16,9 @@ This module is the public entry point; the work is split by job:
 * :mod:`controllers.slew.plan`: :class:`SlewPlan`, its resampling and figure;
 * :mod:`controllers.slew.checks`: blocked paths, verification, eigenaxis comparison, failure causes.
 
-Transcription
-    Direct multiple shooting: ``nodes`` intervals, the state ``[q, omega]`` a
-    decision variable at every node, the torque constant over each interval
-    (zero-order hold, exactly what :func:`attitude.propagate.propagate`
-    applies to a torque array on the grid), and ``substeps`` RK4 steps per
-    interval. The RK4 step renormalises the quaternion, so continuity alone
-    keeps every node on the unit sphere: there is no extra ``|q| = 1``
-    equality (it would be redundant with the dynamics and make the constraint
-    Jacobian rank deficient, which ill-conditions IPOPT).
-
-Final attitude
-    ``vec(qf* ⊗ q(t_f)) = 0``: three equations, satisfied by ``q = qf`` and by
-    ``q = -qf`` (the same attitude), well conditioned at both.
-
-Scaling
-    The NLP is nondimensional: inertia by its largest principal moment
-    ``J_s``, torque by the largest per-axis torque ``tau_s``, time by
-    ``T_s = sqrt(J_s / tau_s)`` (the time to turn one radian from rest at full
-    torque, up to a factor) and rates by ``1 / T_s``. A 5000 kg m^2 spacecraft
-    and a unit-inertia body with the same shape and torque ratios give the
-    *same* NLP, hence the same iterations.
-
-Keep-out cones
-    A body-fixed boresight ``b_B`` must stay more than ``half_angle`` from an
-    inertial direction ``s_N``. The constraint is imposed at every RK4
-    sub-step boundary (the checkpoints), with a second-order margin that
-    keeps the continuous path out of the cone between checkpoints: with
-    ``f`` the cosine of the separation, ``|f''| <= M = |omega| |omega x b| +
-    |omega_dot x b|`` (``<= |omega|^2 + |omega_dot|``), so ``f`` rises at most
-    ``M eta^2 / 8`` above the chord of a sub-step of length ``eta``, and
-    checkpoints at ``f <= cos(half_angle) - M eta^2 / 8`` keep the sub-step
-    outside the cone (to a third-order remainder; derivation in
-    :mod:`controllers.slew.keep_out`). The fixed start and final nodes get no
-    margin (they are checked at input validation): their sub-step uses the
-    Taylor bound from the fixed end, so a start close to a cone is fine when
-    the initial rate carries the boresight away. ``keep_out_margin=False``
-    drops the margin (checkpoints only; the path may cut a cone's corner).
-    Before any optimisation, a cheap check on a sphere grid proves when the
-    cones of one boresight leave no path between its initial and final
-    directions (:class:`InfeasibleSlewError`, status ``"keep_out_blocked"``).
-
-Rate limit
-    ``|omega|^2 <= rate_max^2`` (Euclidean norm, as for the eigenaxis
-    bang-coast-bang reference) at every sub-step boundary.
-
-Guess and multi-start
-    Starting exactly on the eigenaxis solution traps IPOPT there: for a slew
-    about a symmetry axis the eigenaxis path is a KKT point, and the
-    off-axis torques that make the time-optimal answer faster have zero
-    gradient. The guess is the eigenaxis profile with a smooth random
-    perturbation (off-axis torque and an attitude bump vanishing at both
-    ends) drawn from ``rng``; ``starts > 1`` solves from several such
-    guesses (deterministic for a given seed) and keeps the best converged
-    answer, because minimum-time slews have local optima.
-
-Refinement (minimum time)
-    A uniform grid places the switches on the nodes and converges from
-    above as O(1/N). The refinement (:mod:`controllers.slew.refine`) reads
-    the arc structure off the grid answer and re-solves with free phase
-    durations: saturated torque rows held at their bound, the rest free per
-    interval. For a pure bang-bang answer (every phase a vertex of the torque
-    set) the refined time is grid-converged up to the RK4 error (O(h^4));
-    with rate-limited coasts, partly saturated or keep-out boundary arcs it
-    is the best answer on the refined grid (``info["refinement"]["kind"]``).
-    The plan reports both ``grid_duration`` and ``refined_duration``.
-
-Comparison with the eigenaxis slew
-    For rest-to-rest slews the plan carries the eigenaxis reference time
-    (:func:`eigenaxis_slew`, same torque set and rate limit) and whether
-    that slew enters a keep-out cone. If the eigenaxis slew meets every
-    constraint and the returned plan is slower, the plan says so in
-    ``info["warnings"]`` and a :class:`RuntimeWarning` (the grid is too
-    coarse for the structure of this slew: raise ``nodes``).
-
-Smoothing
-    ``smoothing`` adds ``smoothing * sum_k |u_{k+1} - u_k|^2`` (``u`` the
-    torque in units of ``tau_s``) to the nondimensional objective (the
-    duration in units of ``T_s`` or the energy in units of
-    ``tau_s^2 T_s``). It suppresses chattering on singular arcs and blurs
-    the switches. Comparing the two optima, the unsmoothed objective grows
-    by at most ``smoothing * P0``, with ``P0`` the penalty of the unsmoothed
-    answer (about 4 per switching axis for a full bang-bang switch inside an
-    interval, counted in units of the largest torque); the default 0 adds
-    nothing.
-
-Verification
-    Every returned plan is re-simulated open loop with the adaptive
-    propagator (DOP853, rtol 1e-10) under its own zero-order-hold torque;
-    the final attitude and rate errors, the smallest keep-out separation and
-    the largest rate (on 8 samples per interval) are stored on the plan. A
-    plan whose re-simulation misses the target by more than
-    ``verify_tolerance`` (or enters a cone by more than that angle, or
-    exceeds the rate limit by more than ``verify_tolerance / T_s``) raises
-    :class:`SlewPlanningError`; so does any IPOPT status other than
-    ``Solve_Succeeded`` / ``Solved_To_Acceptable_Level``.
-
-Reaction wheels
-    With a :class:`attitude.actuators.ReactionWheels` as ``torque_max`` the
-    body torque is limited to ``|(A^+ tau)_i| <= u_max,i``: the set that the
-    toolkit's direction-preserving minimum-norm allocation
-    (:meth:`ReactionWheels.allocate`) delivers without scaling, whose
-    per-axis extent is :meth:`ReactionWheels.torque_envelope`. The plant is
-    the rigid body with that torque; wheel momentum (the ``omega x A h``
-    coupling) and wheel speed limits are not part of the plan.
+See docs/slew_planning.md for the formulation (transcription, final
+attitude, scaling, keep-out margins, rate limit, guesses, refinement,
+smoothing, verification, reaction wheels).
 """
 
 from __future__ import annotations
@@ -207,7 +97,7 @@ def plan_slew(
     verify_tolerance: float = 1e-4,
     keep_out_margin: bool = True,
 ) -> SlewPlan:
-    """Plan a minimum-time or minimum-energy slew (module docstring for the method).
+    """Plan a minimum-time or minimum-energy slew (docs/slew_planning.md for the method).
 
     Parameters
     ----------
@@ -242,7 +132,7 @@ def plan_slew(
         Intervals of the refined problem (>= 4), spread over the phases in
         proportion to their durations (at least 2 each; default ``nodes``).
     smoothing : float
-        Weight of the torque-increment penalty (module docstring), >= 0.
+        Weight of the torque-increment penalty (docs/slew_planning.md), >= 0.
     starts : int
         Number of perturbed starts; the best converged solution is kept.
     perturbation : float
@@ -272,7 +162,7 @@ def plan_slew(
     Returns
     -------
     SlewPlan
-        Verified plan (module docstring).
+        Verified plan (docs/slew_planning.md).
 
     Raises
     ------

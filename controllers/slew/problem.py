@@ -45,6 +45,17 @@ INFEASIBLE = ("Infeasible_Problem_Detected", "Restoration_Failed", "Local_Infeas
 class SlewPlanningError(RuntimeError):
     """The optimiser did not return a trustworthy plan.
 
+    Parameters
+    ----------
+    message : str
+        The error message.
+    status : str, optional
+        IPOPT's return status (or ``"verification_failed"``, ``"keep_out_blocked"``).
+    cause : str, optional
+        The likely cause, in words.
+    details : dict, optional
+        Solver statistics for diagnosis.
+
     Attributes
     ----------
     status : str
@@ -69,7 +80,19 @@ class InfeasibleSlewError(SlewPlanningError, ValueError):
 
 @dataclass(frozen=True)
 class TorqueSet:
-    """Body torques with ``|rows @ tau| <= 1`` (rows in 1/(N m))."""
+    """Body torques with ``|rows @ tau| <= 1`` (rows in 1/(N m)).
+
+    Parameters
+    ----------
+    rows : ndarray
+        Rows ``R`` of the set ``|R @ tau| <= 1`` [1/(N m)], shape (m, 3).
+    envelope : ndarray
+        Largest torque per body axis [N m] (3,).
+    is_box : bool
+        True for a per-axis box (``rows`` diagonal).
+    label : str
+        Description in words (e.g. ``"4 reaction wheels"``).
+    """
 
     rows: NDArray[np.float64]
     envelope: NDArray[np.float64]
@@ -78,7 +101,13 @@ class TorqueSet:
 
     @classmethod
     def make(cls, torque_max: ArrayLike | ReactionWheels) -> TorqueSet:
-        """The set of a per-axis bound [N m] (scalar or 3) or of a wheel set's allocation."""
+        """The set of a per-axis bound [N m] (scalar or 3) or of a wheel set's allocation.
+
+        Parameters
+        ----------
+        torque_max : array_like or ReactionWheels
+            Per-axis torque bound [N m] (scalar or 3 values), or a wheel set.
+        """
         if isinstance(torque_max, ReactionWheels):
             rows = torque_max.allocation / torque_max.torque_max[:, None]
             return cls(rows, torque_max.torque_envelope(), False, f"{torque_max.n_wheels} reaction wheels")
@@ -91,12 +120,26 @@ class TorqueSet:
         return cls(np.diag(1.0 / env), env, True, "box")
 
     def ratio(self, tau: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Largest ``|rows @ tau|`` per torque (..., 3) -> (...): <= 1 inside the set."""
+        """Largest ``|rows @ tau|`` per torque (..., 3) -> (...): <= 1 inside the set.
+
+        Parameters
+        ----------
+        tau : ndarray
+            Body torques [N m], shape (..., 3).
+        """
         return np.max(np.abs(tau @ self.rows.T), axis=-1)
 
 
 def vector3(value: ArrayLike, name: str) -> NDArray[np.float64]:
-    """A rate [rad/s] given as a scalar or 3 components, as a (3,) array."""
+    """A rate [rad/s] given as a scalar or 3 components, as a (3,) array.
+
+    Parameters
+    ----------
+    value : array_like
+        A rate [rad/s]: a scalar or 3 components.
+    name : str
+        Argument name, for the error message.
+    """
     arr = as_float_array(value, name)
     if arr.shape not in ((), (3,)):
         raise ValueError(f"{name} must be a scalar or shape (3,) in rad/s, got shape {arr.shape}")
@@ -104,7 +147,17 @@ def vector3(value: ArrayLike, name: str) -> NDArray[np.float64]:
 
 
 def check_count(value: Any, name: str, low: int) -> int:
-    """An integer option ``>= low`` (bools, floats and NaN are rejected, not truncated)."""
+    """An integer option ``>= low`` (bools, floats and NaN are rejected, not truncated).
+
+    Parameters
+    ----------
+    value : int
+        The option's value.
+    name : str
+        The option's name, for the error message.
+    low : int
+        Smallest accepted value.
+    """
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
         raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
     return int(value)
@@ -112,7 +165,41 @@ def check_count(value: Any, name: str, low: int) -> int:
 
 @dataclass
 class Problem:
-    """Validated inputs in nondimensional form."""
+    """Validated inputs in nondimensional form.
+
+    Parameters
+    ----------
+    body : RigidBody
+        The spacecraft [kg m^2].
+    body_s : RigidBody
+        The spacecraft with its inertia divided by ``j_s`` (nondimensional).
+    q0 : ndarray
+        Initial attitude ``q_BN`` (4,).
+    qf : ndarray
+        Final attitude ``q_BN`` (4,).
+    omega0 : ndarray
+        Initial body rate [rad/s] (3,).
+    omegaf : ndarray
+        Final body rate [rad/s] (3,).
+    torque_set : TorqueSet
+        The admissible body torques [N m].
+    rows_s : ndarray
+        Rows of the torque set in units of ``1 / tau_s``.
+    rate_max : float or None
+        Body-rate limit [rad/s]; None for no limit.
+    cones : tuple of KeepOutCone
+        Keep-out cones.
+    substeps : int
+        RK4 steps per interval, >= 1.
+    j_s : float
+        Inertia scale: the largest principal moment [kg m^2].
+    tau_s : float
+        Torque scale: the largest per-axis torque [N m].
+    t_s : float
+        Time scale ``sqrt(j_s / tau_s)`` [s].
+    keep_out_margin : bool, optional
+        Add the second-order margin between checkpoints (docs/keep_out.md).
+    """
 
     body: RigidBody
     body_s: RigidBody
@@ -157,7 +244,31 @@ def validate(
     substeps: Any,
     keep_out_margin: Any = True,
 ) -> Problem:
-    """Check the physical inputs of :func:`controllers.slew.plan_slew` and scale them (module docstring there)."""
+    """Check the physical inputs of :func:`controllers.slew.plan_slew` and scale them (docs/slew_planning.md).
+
+    Parameters
+    ----------
+    body : RigidBody
+        The spacecraft [kg m^2].
+    q0 : array_like
+        Initial attitude ``q_BN`` (4,).
+    qf : array_like
+        Final attitude ``q_BN`` (4,).
+    omega0 : array_like
+        Initial body rate [rad/s], scalar or (3,).
+    omegaf : array_like
+        Final body rate [rad/s], scalar or (3,).
+    torque_max : array_like or ReactionWheels
+        Per-axis torque bound [N m] (scalar or 3 values), or a wheel set.
+    rate_max : float or None
+        Body-rate limit [rad/s], > 0; None for no limit.
+    keep_out : KeepOutCone or sequence of KeepOutCone
+        Keep-out cones.
+    substeps : int
+        RK4 steps per interval, >= 1.
+    keep_out_margin : bool, optional
+        Add the second-order margin between checkpoints (docs/keep_out.md).
+    """
     if not isinstance(body, RigidBody) or body.batch_shape:
         raise ValueError(f"body must be a single (unbatched) RigidBody, got {body!r}")
     q0 = quat.as_unit_quaternion(q0, "q0")
@@ -222,6 +333,15 @@ def momentum_rate_limit(body: RigidBody, wheels: ReactionWheels, axis: ArrayLike
     for any path (conservative: it takes the worst direction of every row).
     With ``axis`` (an eigenaxis slew, ``omega = w axis``) the bound is exact
     along that axis: ``min_i momentum_max_i / |(A^+ I axis)_i|``.
+
+    Parameters
+    ----------
+    body : RigidBody
+        The spacecraft [kg m^2].
+    wheels : ReactionWheels
+        The wheel set (its ``momentum_max`` [N m s] and allocation).
+    axis : array_like, optional
+        Unit eigenaxis in body components (3,) for an eigenaxis slew; None for any path.
     """
     if not isinstance(wheels, ReactionWheels):
         raise ValueError(f"wheels must be a ReactionWheels, got {type(wheels).__name__}")

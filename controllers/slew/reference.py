@@ -112,7 +112,15 @@ class EigenaxisSlew(ResultIO):
 
 
 def axis_angle(q0: NDArray, qf: NDArray) -> tuple[NDArray[np.float64], float]:
-    """Body-fixed eigenaxis and angle in [0, pi] taking q0 to qf (``qf = q0 ⊗ exp(e phi / 2)``)."""
+    """Body-fixed eigenaxis and angle in [0, pi] taking q0 to qf (``qf = q0 ⊗ exp(e phi / 2)``).
+
+    Parameters
+    ----------
+    q0 : ndarray
+        Initial attitude ``q_BN`` (4,).
+    qf : ndarray
+        Final attitude ``q_BN`` (4,).
+    """
     rel = quat.multiply(quat.conjugate(q0), qf)
     if rel[0] < 0:
         rel = -rel
@@ -125,7 +133,23 @@ def axis_angle(q0: NDArray, qf: NDArray) -> tuple[NDArray[np.float64], float]:
 def eigenaxis_profile(
     inertia: NDArray, rows: NDArray, axis: NDArray, angle: float, rate_max: float | None, n_points: int
 ) -> dict[str, Any]:
-    """Bang(-coast)-bang profile along ``axis`` with gyroscopic-aware acceleration limits."""
+    """Bang(-coast)-bang profile along ``axis`` with gyroscopic-aware acceleration limits.
+
+    Parameters
+    ----------
+    inertia : ndarray
+        Inertia tensor [kg m^2], (3, 3).
+    rows : ndarray
+        Rows of the torque set ``|rows @ tau| <= 1`` [1/(N m)].
+    axis : ndarray
+        Unit eigenaxis in body components (3,).
+    angle : float
+        Slew angle [rad].
+    rate_max : float or None
+        Body-rate limit [rad/s]; None for no limit.
+    n_points : int
+        Number of samples of the profile.
+    """
     ie = inertia @ axis
     g0 = np.cross(axis, ie)
     c = rows @ ie

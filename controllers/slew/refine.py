@@ -289,7 +289,13 @@ def _interp_states(t: NDArray, X: NDArray, t_new: NDArray) -> NDArray[np.float64
 
 
 def drop_empty(sol: Solution) -> Solution:
-    """Remove intervals of (numerically) zero length so the time grid increases strictly."""
+    """Remove intervals of (numerically) zero length so the time grid increases strictly.
+
+    Parameters
+    ----------
+    sol : Solution
+        An IPOPT answer (nondimensional).
+    """
     keep = sol.H > 1e-9 * sol.duration
     if np.all(keep):
         return sol

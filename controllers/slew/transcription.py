@@ -42,6 +42,15 @@ class IntervalFunction:
     ``first_drop`` (``last_drop``) of ``path`` are replaced by
     ``from_start`` (``from_end``), the keep-out bound next to the fixed end
     (:mod:`controllers.slew.keep_out`).
+
+    Parameters
+    ----------
+    fun : casadi.Function
+        ``fun(x, u, h, x_next) -> (defect, path, from_start, from_end)``.
+    first_drop : tuple of int
+        Rows of ``path`` replaced by ``from_start`` on the first interval.
+    last_drop : tuple of int
+        Rows of ``path`` replaced by ``from_end`` on the last interval.
     """
 
     fun: ca.Function
@@ -56,6 +65,11 @@ def interval_function(prob: Problem) -> IntervalFunction:
     dynamics are the one definition in :mod:`attitude.rigid_body`. The
     path constraints are imposed at every RK4 sub-step boundary (the
     checkpoints).
+
+    Parameters
+    ----------
+    prob : Problem
+        The validated, nondimensional problem.
     """
     m = prob.substeps
     step = casadi_rk4_step(prob.body_s, substeps=1)
@@ -89,7 +103,25 @@ def interval_function(prob: Problem) -> IntervalFunction:
 
 @dataclass
 class Solution:
-    """One IPOPT answer: states ``X`` (7, n+1), torques ``U`` (3, n), interval lengths ``H`` (n), nondimensional."""
+    """One IPOPT answer: states ``X`` (7, n+1), torques ``U`` (3, n), interval lengths ``H`` (n), nondimensional.
+
+    Parameters
+    ----------
+    status : str
+        IPOPT's return status.
+    iterations : int
+        IPOPT iterations.
+    solve_time : float
+        Wall-clock time of the solve [s].
+    X : ndarray
+        Node states ``[q, omega T_s]`` (7, n + 1), nondimensional.
+    U : ndarray
+        Interval torques in units of ``tau_s`` (3, n).
+    H : ndarray
+        Interval lengths in units of ``T_s`` (n,).
+    objective : float
+        Value of the nondimensional objective.
+    """
 
     status: str
     iterations: int
@@ -111,7 +143,17 @@ class Solution:
 
 
 class Transcription:
-    """An Opti problem over ``n`` intervals with given interval-length and torque expressions."""
+    """An Opti problem over ``n`` intervals with given interval-length and torque expressions.
+
+    Parameters
+    ----------
+    prob : Problem
+        The validated, nondimensional problem.
+    n : int
+        Number of intervals.
+    options : mapping
+        IPOPT options of the caller (override :data:`IPOPT_DEFAULTS`).
+    """
 
     def __init__(self, prob: Problem, n: int, options: Mapping[str, Any]) -> None:
         self.prob = prob
@@ -121,7 +163,15 @@ class Transcription:
         self.options = options
 
     def constrain(self, U: Any, H: Any) -> None:
-        """Dynamics, boundary conditions and path constraints for torques ``U`` and lengths ``H``."""
+        """Dynamics, boundary conditions and path constraints for torques ``U`` and lengths ``H``.
+
+        Parameters
+        ----------
+        U : casadi.MX
+            Torque expressions (3, n), units of ``tau_s``.
+        H : casadi.MX
+            Interval-length expressions (1, n), units of ``T_s``.
+        """
         prob, opti, X = self.prob, self.opti, self.X
         n = self.n
         f = interval_function(prob)
@@ -147,7 +197,13 @@ class Transcription:
         opti.subject_to(ca.vertcat(*err[1:]) == 0)
 
     def torque_set(self, U: Any) -> None:
-        """Keep the torque variables ``U`` (3 x k) in the torque set."""
+        """Keep the torque variables ``U`` (3 x k) in the torque set.
+
+        Parameters
+        ----------
+        U : casadi.MX
+            Torque variables (3, k), units of ``tau_s``.
+        """
         prob = self.prob
         if prob.torque_set.is_box:
             lim = prob.u_bounds()
@@ -159,7 +215,15 @@ class Transcription:
     def solve(
         self, initial: list[tuple[Any, Any]], values: dict[str, Any]
     ) -> tuple[str, int, float, dict[str, NDArray[np.float64]]]:
-        """Solve from ``initial`` (variable, value) pairs; returns status, iterations, time, values."""
+        """Solve from ``initial`` (variable, value) pairs; returns status, iterations, time, values.
+
+        Parameters
+        ----------
+        initial : list of (variable, value)
+            Initial guesses of the Opti variables.
+        values : dict of str to casadi.MX
+            Expressions to evaluate at the answer, by name.
+        """
         opti = self.opti
         for var, val in initial:
             opti.set_initial(var, val)
@@ -192,7 +256,27 @@ def solve_grid(
     max_iter: int,
     options: Mapping[str, Any],
 ) -> tuple[Solution | None, list[Solution]]:
-    """Solve the uniform-grid problem from each guess ``(X0, U0, T0)``; the best converged answer and all answers."""
+    """Solve the uniform-grid problem from each guess ``(X0, U0, T0)``; the best converged answer and all answers.
+
+    Parameters
+    ----------
+    prob : Problem
+        The validated, nondimensional problem.
+    n : int
+        Number of intervals of the uniform grid.
+    objective : str
+        ``"time"`` or ``"energy"``.
+    duration_s : float or None
+        Fixed duration in units of ``T_s`` (energy objective); None for minimum time.
+    smoothing : float
+        Weight of the torque-increment penalty, >= 0 (docs/slew_planning.md).
+    guesses : list of (X0, U0, T0)
+        Initial guesses: states (7, n + 1), torques (3, n) and duration, nondimensional.
+    max_iter : int
+        IPOPT iteration limit.
+    options : mapping
+        IPOPT options of the caller (override :data:`IPOPT_DEFAULTS`).
+    """
     tr = Transcription(prob, n, options)
     opti = tr.opti
     U = opti.variable(3, n)

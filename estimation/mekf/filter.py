@@ -2,131 +2,14 @@
 
 The filter of Markley and Crassidis (*Fundamentals of Spacecraft Attitude
 Determination and Control*, 2014, ch. 6) and Crassidis and Junkins
-(*Optimal Estimation of Dynamic Systems*, 2nd ed., sec. 7.2): a reference
-quaternion ``q_hat`` (the attitude ``q_BN``, kept unit norm) and a gyro bias
-estimate ``b_hat`` [rad/s] are carried outside the Kalman state; the Kalman
-state is the six-component error
+(*Optimal Estimation of Dynamic Systems*, 2nd ed., sec. 7.2): the reference
+quaternion ``q_hat`` (``q_BN``) and gyro bias ``b_hat`` [rad/s] live outside
+the Kalman state, whose six components are the error ``[delta_theta [rad],
+delta_b [rad/s]]``; gyro samples propagate it, star-tracker samples update
+it behind an innovation gate, and each update is followed by a reset.
 
-.. math::
-
-    x = [\\delta\\theta, \\delta b], \\qquad
-    q_{BN} = \\hat q \\otimes \\exp(\\delta\\theta / 2), \\qquad
-    b = \\hat b + \\delta b,
-
-(``delta_theta`` [rad] a rotation vector in body axes, the convention of
-:attr:`attitude.sensors.StarTracker.covariance_B` and
-:meth:`attitude.sensors.Gyro.process_noise`) with its covariance ``P``
-(6 x 6, [rad^2], [rad^2/s], [rad^2/s^2]). ``x`` is zero between updates: each
-update estimates it, moves it into ``q_hat`` and ``b_hat`` (the *reset*) and
-zeroes it again.
-
-Propagation (gyro)
-------------------
-A gyro sample ``omega_meas[k]`` at ``t[k]`` is taken as the *mean* rate over
-``(t[k-1], t[k]]`` (the angle increment divided by the interval, what
-:class:`attitude.sensors.Gyro` delivers with ``sampling="mean"``), held constant over the interval
-(zeroth order: no coning correction). With ``w = omega_meas - b_hat``:
-
-- ``q_hat <- q_hat ⊗ exp(w dt / 2)`` (:func:`attitude.quaternion.from_rotation_vector`
-  of ``w dt``), the exact quaternion step for a constant rate, then normalised;
-- ``P <- Phi P Phi^T + Q`` with ``Phi = expm([[-[w x], -I], [0, 0]] dt)`` in
-  closed form (Crassidis and Junkins, sec. 7.2; Markley and Crassidis, ch. 6):
-  ``Phi11 = I - [w x] sin(a)/|w| + [w x]^2 (1 - cos a)/|w|^2``,
-  ``Phi12 = -I dt + [w x] (1 - cos a)/|w|^2 - [w x]^2 (a - sin a)/|w|^3``,
-  ``a = |w| dt``;
-- ``Q`` the discrete noise of the Farrenkopf gyro model,
-  :meth:`attitude.sensors.Gyro.process_noise`
-  (``[[(sv^2 dt + su^2 dt^3/3) I, -su^2 dt^2/2 I], [-su^2 dt^2/2 I, su^2 dt I]]``),
-  exact for the sampled model at zero rate and to first order in
-  ``|w| dt`` otherwise (its isotropic angle-random-walk part is exact at any rate).
-
-Update (star tracker)
----------------------
-A tracker quaternion ``q_meas = q_BN ⊗ exp(v/2)`` (noise ``v`` with covariance
-``R`` in body axes) gives the residual ``z = rotvec(q_hat* ⊗ q_meas)``
-(:func:`attitude.quaternion.to_rotation_vector`, shortest way, so ``q_meas``
-and ``-q_meas`` are the same measurement) ``= delta_theta + v`` to first
-order: ``H = [I 0]``. The Kalman update uses the Joseph form. Reset:
-``q_hat <- normalise(q_hat ⊗ exp(delta_theta_hat / 2))``,
-``b_hat <- b_hat + delta_b_hat``, ``x <- 0``. The error after the reset is
-``delta_theta' = log(exp(-delta_theta_hat) ⊗ exp(delta_theta))
-= delta_theta - delta_theta_hat - [delta_theta_hat x] delta_theta / 2 + ...``,
-so the covariance reset Jacobian is the identity to first order (the
-classical MEKF, ``covariance_reset="first_order"``, the default) and
-``G = blockdiag(I - [delta_theta_hat x] / 2, I)``, ``P <- G P G^T`` to
-second order (``covariance_reset="second_order"``; Mueller, Hehn and
-D'Andrea, "Covariance correction step for Kalman filtering with an attitude",
-J. Guidance, Control, and Dynamics 40(9), 2017; the exact Jacobian, the
-right Jacobian of SO(3) at ``delta_theta_hat``, differs from ``G`` by
-``|delta_theta_hat|^2 / 6``). With an arcsecond tracker the two options
-differ by a relative ``|delta_theta_hat| / 2`` ~ 1e-5.
-
-Outliers: the innovation gate
------------------------------
-Before a tracker sample is applied, its NIS ``z^T S^-1 z`` (``S = P_att +
-R``) is compared with the gate ``chi2.ppf(gate_probability, 3)`` (default
-``gate_probability = 1 - 1e-9``: NIS 44.8, one good sample in 10^9
-rejected). Above it the sample is *rejected*: not applied (the step is the
-same as without a tracker sample), counted (``tracker_gated``), and its NIS
-is still recorded (:attr:`MEKF.nis_history`, ``MEKFResult.nis`` with
-``updated`` False, :attr:`MEKFResult.gated`) so the NIS health check sees
-it. A tracker quaternion 180 deg off (a sign or frame error in the sensor
-software) has a NIS of order ``pi**2 / sigma**2``, 1e8 and more, and would otherwise
-be pulled in through the linearised update (its residual is at the edge of
-the shortest-way rotation vector). ``gate_probability=None`` disables the
-gate. A filter that has truly lost track (a far too small ``P0``, a tracker
-misalignment of many sigmas) rejects every sample from then on; the NIS
-history shows it.
-
-A gyro sample with a component larger than ``max_gyro_rate`` (default
-``pi / period``: half a turn per sample, beyond which the attitude increment
-is ambiguous) cannot be a rate the filter can integrate: it is rejected
-like a NaN sample (the last valid sample is held) and counted
-(``gyro_rejected``). (Without this check a 1e200 rad/s sample crashed the
-propagation with "math domain error".)
-
-Gyro sampling: the propagation takes each gyro sample as the interval-mean
-rate, so :meth:`MEKF.from_sensors` checks that the
-:class:`attitude.sensors.Gyro` has ``sampling="mean"``: by default a
-:class:`attitude.sensors.GyroSamplingWarning`, with ``sampling_check="raise"``
-a ValueError, with ``"ignore"`` nothing. A point-sampled rate lags the
-interval mean by about ``dt/2`` times the angular acceleration, which the
-filter does not model.
-
-filterpy
---------
-:class:`filterpy.kalman.KalmanFilter` carries the error state of one filter
-(:class:`MEKF`): ``predict()`` with ``F = Phi`` and ``Q`` set before each
-call (filterpy uses ``self.F`` and ``self.Q`` as they stand), ``update(z)``
-with ``x`` held at zero, ``H = [I 0]``, ``R``: its Joseph-form update is the
-MEKF's, and its ``y``, ``S`` and ``SI`` give the NIS. ``x`` and ``z`` are 1-D
-arrays (filterpy keeps ``x``'s shape and reshapes ``z`` to match). What falls
-outside filterpy's model is done here: the reference quaternion and bias
-bookkeeping, the reset after each update (filterpy would leave ``x`` non-zero
-and propagate it linearly), the covariance reset Jacobian, the residual
-computed on the quaternion manifold, missing and NaN samples and time
-checks. filterpy's ``ExtendedKalmanFilter`` is not used: its update adds
-``K y`` to ``x`` in a vector space and has no reset. The Monte Carlo batch
-path does not use filterpy either: filterpy runs one filter at a time in
-Python, and a campaign gets fast by doing each step for all runs in one
-numpy operation. :class:`MEKFBatch` holds N filters along a leading runs
-axis and is stepped from outside, one time at a time (what a vectorised
-closed loop does); :func:`run_mekf` with ``vectorized=True`` runs recorded
-histories through the same step. It repeats the equations of
-:class:`MEKF` over the runs axis; tests prove the two agree (to rounding)
-and that :func:`run_mekf` and a hand-stepped :class:`MEKFBatch` agree bit for bit.
-
-Steady state
-------------
-:func:`steady_state_covariance` and :func:`steady_state_attitude_sigma` give
-the closed-form steady state of the single-axis filter (gyro with ARW
-``sigma_v`` and RRW ``sigma_u``, attitude sensor with noise ``sigma_n``
-every ``dt``): the quantity analysed by Farrenkopf (1978) and by Markley and
-Reynolds ("Analytic steady-state accuracy of a spacecraft attitude
-estimator", J. Guidance, Control, and Dynamics 23, 2000; Markley and
-Crassidis 2014, ch. 6). The formula used is derived here from the
-discrete algebraic Riccati equation (see :func:`steady_state_covariance`);
-a test checks it against :func:`scipy.linalg.solve_discrete_are`.
+See docs/mekf.md for the derivation (propagation, update, gate, gyro
+sampling, batches, the steady-state formula and its references).
 """
 
 from __future__ import annotations
@@ -255,7 +138,7 @@ def transition_matrix(omega: ArrayLike, dt: ArrayLike) -> NDArray[np.float64]:
     ndarray (..., 6, 6)
         ``[[Phi11, Phi12], [0, I]]`` with ``Phi11 = exp(-[w x] dt)`` (the
         transpose of the rotation over the step) and ``Phi12 = -int_0^dt
-        exp(-[w x] s) ds`` (module docstring).
+        exp(-[w x] s) ds`` (docs/mekf.md).
     """
     w = as_float_array(omega, "omega")
     if w.ndim == 0 or w.shape[-1] != 3:
@@ -317,6 +200,15 @@ def process_noise(sigma_v: float, sigma_u: float, dt: float) -> NDArray[np.float
     Junkins, sec. 7.2.1) for ``sigma_v`` [rad/s^0.5] and ``sigma_u``
     [rad/s^1.5]: ``[[(sv^2 dt + su^2 dt^3/3) I, -(su^2 dt^2/2) I],
     [-(su^2 dt^2/2) I, su^2 dt I]]``.
+
+    Parameters
+    ----------
+    sigma_v : float
+        Angle random walk [rad/s^0.5].
+    sigma_u : float
+        Rate random walk [rad/s^1.5].
+    dt : float
+        Propagation interval [s].
     """
     sv = float(check_positive(sigma_v, "sigma_v", allow_zero=True))
     su = float(check_positive(sigma_u, "sigma_u", allow_zero=True))
@@ -360,7 +252,7 @@ def _check_name(value: Any, name: str) -> str:
 class MEKF:
     """Multiplicative EKF: attitude ``q_BN`` and gyro bias from a gyro and a star tracker.
 
-    See the module docstring for the equations. The object is also an
+    See docs/mekf.md for the equations. The object is also an
     estimator for :func:`attitude.simulation.engine.simulate`: :attr:`period` (the
     gyro period) and :meth:`update` ``(t, measurements) -> Estimate``; the
     controller then sees ``q_hat`` and ``omega_hat = omega_meas - b_hat``.
@@ -374,7 +266,7 @@ class MEKF:
       ``tracker_nan``; it never reaches the state;
     - a tracker sample whose NIS exceeds the innovation gate: rejected (no
       update), counted as ``tracker_gated``, its NIS kept in the history
-      (module docstring);
+      (docs/mekf.md);
     - a missing (None) or NaN gyro sample: the last valid gyro sample is held
       over the interval (zero rate before the first one); NaN samples are
       counted as ``gyro_nan``, samples with a component above
@@ -413,12 +305,12 @@ class MEKF:
         Time [s] of ``q0`` and ``P0``; default: the first :meth:`update`'s time
         (no propagation on that call).
     covariance_reset : {"first_order", "second_order"}
-        Covariance reset Jacobian after each update (module docstring).
+        Covariance reset Jacobian after each update (docs/mekf.md).
     gyro_name, tracker_name : str
         Keys of the gyro and tracker samples in the measurements (the
         sensors' ``name``).
     gate_probability : float or None
-        Probability of the innovation gate, in (0, 1) (module docstring);
+        Probability of the innovation gate, in (0, 1) (docs/mekf.md);
         default ``1 - 1e-9``; None disables the gate.
     max_gyro_rate : float, optional
         Largest plausible gyro component [rad/s] (> 0); default
@@ -535,6 +427,23 @@ class MEKF:
         this gyro's own, e.g. interval-mean rates generated separately).
         Another object with ``sigma_v``, ``sigma_u``, ``period`` and ``name``
         is accepted unchecked, as before.
+
+        Parameters
+        ----------
+        gyro : Gyro
+            The gyro (``sampling="mean"``, ``sigma_u > 0``).
+        tracker : StarTracker
+            The star tracker.
+        q0 : array_like (4,)
+            Initial attitude estimate ``q_BN`` (unit norm).
+        P0 : array_like (6, 6)
+            Initial error covariance [rad^2, rad^2/s, rad^2/s^2].
+        bias0 : array_like (3,) or float, optional
+            Initial gyro bias estimate [rad/s].
+        sampling_check : {"warn", "raise", "ignore"}, optional
+            What a gyro that does not sample interval means does.
+        **kwargs
+            Other keywords of the constructor.
         """
         if isinstance(gyro, Gyro):
             gyro.check_sampling("mean", consumer="MEKF.from_sensors", action=sampling_check)
@@ -776,6 +685,13 @@ class MEKF:
         """Moving-window NIS check of the tracker samples so far, gated ones included (3 dof).
 
         See :func:`estimation.consistency.nis_health`.
+
+        Parameters
+        ----------
+        window : int, optional
+            Number of samples per window.
+        confidence : float, optional
+            Two-sided confidence of each window's chi-square band, in (0, 1).
         """
         t, values = self.nis_history
         return nis_health(values, 3, window, confidence, t=t)
@@ -1178,11 +1094,29 @@ class MEKFResult(ResultIO):
         return np.concatenate([dtheta, np.broadcast_to(bt, self.bias.shape) - self.bias], axis=-1)
 
     def nees(self, q_true: ArrayLike, bias_true: ArrayLike) -> NDArray[np.float64]:
-        """NEES (..., n) of the 6-component error (chi-square, 6 dof, for a consistent filter)."""
+        """NEES (..., n) of the 6-component error (chi-square, 6 dof, for a consistent filter).
+
+        Parameters
+        ----------
+        q_true : array_like (..., n, 4)
+            True attitudes ``q_BN`` (broadcast against the runs axis).
+        bias_true : array_like (..., n, 3)
+            True gyro biases at the step times [rad/s].
+        """
         return nees(self.errors(q_true, bias_true), self.P)
 
     def nis_health(self, window: int = 50, confidence: float = 0.999, run: int = 0) -> NisHealth:
-        """Moving-window NIS check (:func:`estimation.consistency.nis_health`) of one run."""
+        """Moving-window NIS check (:func:`estimation.consistency.nis_health`) of one run.
+
+        Parameters
+        ----------
+        window : int, optional
+            Number of samples per window.
+        confidence : float, optional
+            Two-sided confidence of each window's chi-square band, in (0, 1).
+        run : int, optional
+            The run of a batch to check.
+        """
         values = self.nis if self.nis.ndim == 1 else self.nis[run]
         return nis_health(values, 3, window, confidence, t=self.t)
 
@@ -1191,6 +1125,15 @@ class MEKFResult(ResultIO):
 
         Attitude in arcsec, bias in deg/h. With the truth, every run of a
         batch is drawn; without it, the residuals of run ``run``.
+
+        Parameters
+        ----------
+        q_true : array_like (..., n, 4), optional
+            True attitudes ``q_BN``.
+        bias_true : array_like (..., n, 3), optional
+            True gyro biases [rad/s].
+        run : int, optional
+            The run of a batch whose residuals are drawn (without the truth).
         """
         if (q_true is None) != (bias_true is None):
             raise ValueError("q_true and bias_true must be given together (or neither)")

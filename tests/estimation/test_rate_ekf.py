@@ -575,7 +575,7 @@ class TestHealth:
         clean = run_rate_ekf(ekf, t, z, omega_true=w, bias_true=b)
         # False alarms with the defaults: 1 % of steps exceed; a run of 3 has probability 1e-6 per step
         # (~0.2 % per 1500 steps) and the sliding 50-sample window at 0.99999 flags < 0.3 % of clean
-        # 1500-sample runs (measured on white chi-square sequences, module docstring).
+        # 1500-sample runs (measured on white chi-square sequences, docs/rate_ekf.md).
         assert clean.healthy and clean.info["healthy"], clean.info["nis_intervals"]
         assert 0 < clean.info["n_nis_exceeds"] < 40  # ~15 expected (1 % of 1500)
         # A 40 deg/h step on the x gyro from 100 s to 110 s (3 raw sigmas): out of the NIS band.

@@ -180,7 +180,15 @@ def body_analysis(config: SpacecraftConfig, spin_rate_deg_per_s: float = DEFAULT
 
 
 def body_figures(config: SpacecraftConfig, body: dict[str, Any]) -> dict[str, Figure]:
-    """The polhode figure of section 1 (none for an axisymmetric body)."""
+    """The polhode figure of section 1 (none for an axisymmetric body).
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file.
+    body : dict
+        The section-1 results (``results["body"]``).
+    """
     if body["axisymmetric"]:
         return {}
     rate = math.radians(body["spin_rate_deg_per_s"])

@@ -81,6 +81,11 @@ def gyro_bias_sigma_deg_per_h(config: SpacecraftConfig) -> float:
     At least the largest constant bias of the file, so the truth lies inside
     the filter's initial uncertainty; :data:`BIAS_SIGMA0_DEFAULT_DEG_PER_H`
     when the gyro gives neither.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file.
     """
     g = config.gyro_config
     figure = g.bias_instability_deg_per_h
@@ -113,6 +118,19 @@ def estimation_study(
     """Section 5: errors with 3-sigma bounds and the average NEES of both filters (module docstring).
 
     Returns None and no figures when there is no flight to use as the truth.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file.
+    flight : SimulationResult or None
+        The closed-loop flight of section 4 (the truth); None when there is none.
+    mekf_runs : int
+        Number of MEKF Monte Carlo runs.
+    rate_ekf_runs : int
+        Number of rate-EKF Monte Carlo runs.
+    seed : int, numpy.random.SeedSequence or None
+        Root of the runs' random streams.
     """
     if flight is None:
         return None, {}

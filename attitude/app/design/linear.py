@@ -63,7 +63,13 @@ def _margin_row(controller: str, loop_name: str, axis: str, loop: Any) -> dict[s
 
 
 def linear_design(config: SpacecraftConfig) -> tuple[dict[str, Any], dict[str, Figure]]:
-    """Section 2: PD and LQR gains, closed-loop poles, margins per axis, Bode and step figures."""
+    """Section 2: PD and LQR gains, closed-loop poles, margins per axis, Bode and step figures.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file.
+    """
     body = config.body()
     c = config.control
     period = c.period_s

@@ -203,6 +203,13 @@ def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> d
     a figure that could not be computed (``None``) fails. Returns
     ``{"requirements": [...], "checks": [...], "verdict": {...}}``; the
     ``checks`` are advisory design guidelines that do not change the verdict.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file (its requirements).
+    results : dict
+        The JSON-ready results of sections 1 to 5.
     """
     req = config.requirements
     slews = results["slews"]
@@ -301,6 +308,13 @@ def plan_verdicts(config: SpacecraftConfig, slews: dict[str, Any]) -> dict[str, 
 
     ``slews`` is :attr:`attitude.app.design.slew.SlewStudy.summary`. Returns
     ``{"requirements": [...], "verdict": {...}}``.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file (its requirements).
+    slews : dict
+        The slew study's summary.
     """
     plan = slews["plan"]
     duration = None if plan is None else plan["duration_s"]

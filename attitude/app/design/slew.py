@@ -87,6 +87,9 @@ class SlewStudy:
         JSON-ready figures of both.
     error : str or None
         Why the optimal plan is missing.
+    hopeless : bool
+        The eigenaxis slew takes more than :data:`HOPELESS_FACTOR` times the
+        required time: planning and flight were skipped.
     """
 
     plan: Any
@@ -272,7 +275,13 @@ def plan_slews(
 
 
 def slew_figures(study: SlewStudy) -> dict[str, Figure]:
-    """The figures of section 3: the optimal plan and the side-by-side comparison."""
+    """The figures of section 3: the optimal plan and the side-by-side comparison.
+
+    Parameters
+    ----------
+    study : SlewStudy
+        The planned slew of section 3.
+    """
     figures: dict[str, Figure] = {}
     if study.plan is not None:
         figures["slew_plan"] = study.plan.plot()
@@ -318,6 +327,11 @@ def slew_figures(study: SlewStudy) -> dict[str, Figure]:
 def check_periods(config: SpacecraftConfig) -> float:
     """The engine tick [s]; every period must be a whole multiple of the shortest one.
 
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file (sensor, filter and controller periods [s]).
+
     Raises
     ------
     ConfigError
@@ -348,6 +362,15 @@ def fly_slew(
 
     Returns the figures dict (None when there is nothing to fly), the
     figures and the :class:`SimulationResult` (the truth of section 5).
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file.
+    study : SlewStudy
+        The planned slew of section 3.
+    seed : int, numpy.random.SeedSequence or None
+        Seed of the sensor noise.
     """
     ref = study.reference
     if ref is None:

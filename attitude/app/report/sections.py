@@ -26,7 +26,17 @@ SECTIONS = (
 
 @dataclass(frozen=True)
 class Heading:
-    """A heading of ``level`` 1-3 with an anchor."""
+    """A heading of ``level`` 1-3 with an anchor.
+
+    Parameters
+    ----------
+    level : int
+        Heading level, 1 to 3 (1 for the title).
+    text : str
+        Heading text.
+    anchor : str, optional
+        HTML anchor (``id``) of the heading; empty for none.
+    """
 
     level: int
     text: str
@@ -35,14 +45,30 @@ class Heading:
 
 @dataclass(frozen=True)
 class Paragraph:
-    """A paragraph of plain text."""
+    """A paragraph of plain text.
+
+    Parameters
+    ----------
+    text : str
+        The paragraph (Markdown inline markup allowed).
+    """
 
     text: str
 
 
 @dataclass(frozen=True)
 class Table:
-    """A table: header cells, rows of cells (strings), first column left-aligned, the others right."""
+    """A table: header cells, rows of cells (strings), first column left-aligned, the others right.
+
+    Parameters
+    ----------
+    header : tuple of str
+        Column titles.
+    rows : tuple of tuple of str
+        Cells, row by row.
+    caption : str, optional
+        Caption above the table.
+    """
 
     header: tuple[str, ...]
     rows: tuple[tuple[str, ...], ...]
@@ -51,7 +77,15 @@ class Table:
 
 @dataclass(frozen=True)
 class Figure:
-    """A figure of the report: file stem (``figures/<name>.png``) and caption."""
+    """A figure of the report: file stem (``figures/<name>.png``) and caption.
+
+    Parameters
+    ----------
+    name : str
+        File name without extension (``figures/<name>.png``).
+    caption : str
+        Caption under the figure.
+    """
 
     name: str
     caption: str
@@ -65,6 +99,13 @@ def fmt(value: Any, digits: int = 4) -> str:
 
     The one number format of the report (tests use it to find values of
     ``results.json`` in ``report.md``).
+
+    Parameters
+    ----------
+    value : number or None
+        The value to format.
+    digits : int, optional
+        Significant digits.
     """
     if value is None:
         return "n/a"
@@ -508,7 +549,13 @@ def _estimation(results: dict[str, Any]) -> list[Block]:
 
 
 def requirement_rows(rows: list[dict[str, Any]]) -> list[list[str]]:
-    """Table rows (requirement, key, required, achieved, verdict) shared by the report and the terminal."""
+    """Table rows (requirement, key, required, achieved, verdict) shared by the report and the terminal.
+
+    Parameters
+    ----------
+    rows : list of dict
+        The requirement rows of the results (``results["requirements"]``).
+    """
     out = []
     for r in rows:
         unit = f" {r['unit']}" if r["unit"] else ""
@@ -553,7 +600,13 @@ def _requirements(results: dict[str, Any]) -> list[Block]:
 
 
 def build_blocks(results: dict[str, Any]) -> list[Block]:
-    """The whole report as blocks: title, summary, the six sections and the notes."""
+    """The whole report as blocks: title, summary, the six sections and the notes.
+
+    Parameters
+    ----------
+    results : dict
+        The JSON-ready results of the design (``results.json``).
+    """
     sc = results["spacecraft"]
     verdict = results["verdict"]
     out: list[Block] = [Heading(1, f"Attitude-control design report: {sc['name']}", "top")]

@@ -52,7 +52,13 @@ FIGURE_DPI = 100
 
 
 def to_jsonable(obj: Any) -> Any:
-    """``obj`` as plain JSON types: numpy scalars and arrays to numbers and lists, non-finite floats to strings."""
+    """``obj`` as plain JSON types: numpy scalars and arrays to numbers and lists, non-finite floats to strings.
+
+    Parameters
+    ----------
+    obj : object
+        Results made of dicts, lists, numbers, strings and numpy values.
+    """
     if isinstance(obj, Mapping):
         return {str(k): to_jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
@@ -76,7 +82,13 @@ def to_jsonable(obj: Any) -> Any:
 
 
 def dumps_json(obj: Any) -> str:
-    """Strict JSON text of ``obj`` (see :func:`to_jsonable`), indented."""
+    """Strict JSON text of ``obj`` (see :func:`to_jsonable`), indented.
+
+    Parameters
+    ----------
+    obj : object
+        Results made of dicts, lists, numbers, strings and numpy values.
+    """
     return json.dumps(to_jsonable(obj), indent=2, allow_nan=False, ensure_ascii=False) + "\n"
 
 
@@ -85,7 +97,13 @@ def dumps_json(obj: Any) -> str:
 
 
 def requirements_text(results: Mapping[str, Any]) -> str:
-    """The requirements table for the terminal, with the overall verdict."""
+    """The requirements table for the terminal, with the overall verdict.
+
+    Parameters
+    ----------
+    results : mapping
+        The JSON-ready results of the design.
+    """
     header = ["requirement", "required", "achieved", "verdict"]
     rows = [[r[0], r[2], r[3], r[4]] for r in requirement_rows(list(results["requirements"]))]
     widths = [max(len(x) for x in col) for col in zip(header, *rows)]
@@ -115,7 +133,13 @@ _NUMERIC = re.compile(r"^(<=|>=)?\s*([-+]?(\d|\.\d)|[-+]?inf\b|nan\b|n/a\b|\[[-+
 
 
 def is_numeric(text: str) -> bool:
-    """A cell that reads as a number (right-aligned): "12.5", "-inf", "n/a", "<= 0.05 deg", "[1, 0, 0]"."""
+    """A cell that reads as a number (right-aligned): "12.5", "-inf", "n/a", "<= 0.05 deg", "[1, 0, 0]".
+
+    Parameters
+    ----------
+    text : str
+        A table cell.
+    """
     return bool(_NUMERIC.match(text.strip()))
 
 
@@ -124,7 +148,13 @@ def _md_cell(text: str) -> str:
 
 
 def render_markdown(blocks: list[Block]) -> str:
-    """GitHub-flavoured markdown; figures link to ``figures/<name>.png``."""
+    """GitHub-flavoured markdown; figures link to ``figures/<name>.png``.
+
+    Parameters
+    ----------
+    blocks : list of Block
+        The report's blocks (:func:`attitude.app.report.sections.build_blocks`).
+    """
     out: list[str] = []
     for b in blocks:
         if isinstance(b, Heading):
@@ -235,6 +265,13 @@ def render_html(blocks: list[Block], images: Mapping[str, bytes], *, title: str,
 
 def write_report(result: DesignResult, out_dir: str | Path) -> dict[str, Path]:
     """Write every artefact of the design into ``out_dir`` (created if needed).
+
+    Parameters
+    ----------
+    result : DesignResult
+        The design (:func:`attitude.app.design.run_design`).
+    out_dir : str or Path
+        Output directory.
 
     Returns
     -------

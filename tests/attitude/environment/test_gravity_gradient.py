@@ -328,7 +328,7 @@ class TestLinearisation:
     @pytest.mark.parametrize("moments", BODIES)
     def test_a_and_b_equal_the_classical_equations(self, moments):
         # Entry by entry against Wie's roll / pitch / yaw equations re-derived for these axes
-        # (see the module docstring). Jacobians are exact; only rounding, entries of size n or n^2.
+        # (see docs/gravity_gradient.md). Jacobians are exact; only rounding, entries of size n or n^2.
         a, b = linearize_gravity_gradient(RigidBody(moments), LEO)
         a_ref, b_ref = wie_matrices(moments, LEO.mean_motion)
         np.testing.assert_allclose(a, a_ref, rtol=1e-12, atol=1e-14 * LEO.mean_motion)

@@ -95,7 +95,7 @@ EKF's slew uses ``sampling="instantaneous"``. ``RateEKF.from_gyro`` and
 the script builds each filter from the gyro it models and says
 ``sampling_check="ignore"`` only for the deliberate mismatch.
 
-Run ``python examples/test_estimator.py --out DIR`` (``--quick`` for the
+Run ``python examples/estimator_consistency.py --out DIR`` (``--quick`` for the
 short run of the test suite, about 13 s; the full run takes under a minute).
 """
 
@@ -216,7 +216,9 @@ def rate_ekf_runs(body, gyro, t, gyro_samples, mc):
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=Path("figures/test_estimator"), help="folder for the figures")
+    parser.add_argument(
+        "--out", type=Path, default=Path("figures/estimator_consistency"), help="folder for the figures"
+    )
     parser.add_argument("--quick", action="store_true", help="fewer runs, shorter runs (for the test suite)")
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
