@@ -32,21 +32,14 @@ from scipy.linalg import expm, solve_discrete_are
 
 from attitude import quaternion as quat
 from attitude.propagate import propagate
-from attitude.rigid_body import RigidBody
+from attitude.rigid_body import RigidBody, skew
 from attitude.sensors import ARCSEC, Gyro, GyroSamplingWarning, StarTracker
 from attitude.simulation.engine import Estimate, simulate
 from estimation.consistency import chi2_band, fraction_inside_band
 from estimation.mekf import filter as mk
-from estimation.mekf.filter import (
-    MEKF,
-    MEKFResult,
-    initial_covariance,
-    process_noise,
-    run_mekf,
-    steady_state_attitude_sigma,
-    steady_state_covariance,
-    transition_matrix,
-)
+from estimation.mekf.filter import MEKF, initial_covariance, process_noise, transition_matrix
+from estimation.mekf.runner import MEKFResult, run_mekf
+from estimation.mekf.steady_state import steady_state_attitude_sigma, steady_state_covariance
 
 DT = 0.1  # gyro period [s]
 DEG_PER_H = np.pi / 180.0 / 3600.0
@@ -151,7 +144,7 @@ class TestHelpers:
         dt = float(rng.uniform(0.01, 2.0))
         w = axis / np.linalg.norm(axis) * angle / dt
         a = np.zeros((6, 6))
-        a[:3, :3] = -mk._skew(w)
+        a[:3, :3] = -skew(w)
         a[:3, 3:] = -np.eye(3)
         reference = expm(a * dt)
         # expm (Pade) and the closed form agree to rounding: entries are O(1) and O(dt).
@@ -359,7 +352,7 @@ class TestMechanics:
         jac = np.column_stack(
             [(reset_map(dtheta_hat + h * e) - reset_map(dtheta_hat - h * e)) / (2 * h) for e in np.eye(3)]
         )
-        k = mk._skew(dtheta_hat)
+        k = skew(dtheta_hat)
         g = np.eye(3) - 0.5 * k
         # The exact Jacobian is the right Jacobian of SO(3),
         # I - (1 - cos a)/a^2 [a x] + (a - sin a)/a^3 [a x]^2 = I - [a x]/2 + [a x]^2/6 + O(a^3);
@@ -380,7 +373,7 @@ class TestMechanics:
             f.step(0.0, np.zeros(3), q_meas)
         dth = quat.to_rotation_vector(quat.multiply(quat.conjugate(quat.identity()), first.q))
         gm = np.eye(6)
-        gm[:3, :3] -= 0.5 * mk._skew(dth)
+        gm[:3, :3] -= 0.5 * skew(dth)
         np.testing.assert_allclose(second.P, gm @ first.P @ gm.T, rtol=1e-12, atol=1e-30)
         np.testing.assert_array_equal(second.q, first.q)
 
