@@ -30,9 +30,8 @@ from attitude.rigid_body import Components, RigidBody, split_components
 
 __all__ = [
     "casadi_rk4_step",
-    "exp_rotation_vector_components",
     "normalize_quaternion_components",
-    "quaternion_multiply_components",
+    "quaternion_multiply_components",  # re-export kept until attitude/propagate.py imports from attitude.quaternion
     "rk4_step",
     "rkmk4_step",
 ]

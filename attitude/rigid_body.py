@@ -36,7 +36,10 @@ __all__ = [
     "ParametricBody",
     "PrincipalAxes",
     "RigidBody",
+    # re-export kept until attitude/environment/gravity_gradient.py imports from attitude.backend
     "cross",
+    # re-export kept until attitude/environment/gravity_gradient.py and attitude/actuators.py import
+    # from attitude.quaternion (derivative_components)
     "quaternion_rate",
     "skew",
     "symmetric_entries",
