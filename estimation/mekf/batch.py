@@ -29,12 +29,39 @@ from estimation.mekf.filter import (
     error_transition,
 )
 
-__all__ = ["MEKFBatch"]
+__all__ = ["MEKFBatch", "initial_states", "non_unit_rows"]
 
 _EYE6 = np.eye(6)
 #: Accepted deviation of a tracker quaternion's norm from 1 (that of attitude.quaternion).
 _UNIT_TOL = quat.UNIT_NORM_TOLERANCE
 _BATCH_COUNT_KEYS = ("steps", "updates", "tracker_nan", "tracker_gated", "gyro_nan", "gyro_rejected")
+
+
+def initial_states(
+    mekf: MEKF, runs: int, q0: ArrayLike | None, bias0: ArrayLike | None
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Checked initial attitudes (runs, 4) and biases (runs, 3): ``q0``/``bias0``, else the filter's (broadcast views).
+
+    Raises
+    ------
+    ValueError
+        If ``q0`` is not (4,) or (runs, 4) unit quaternions, or ``bias0`` not a
+        scalar, (3,) or (runs, 3).
+    """
+    if q0 is not None and np.shape(q0) not in ((4,), (runs, 4)):
+        raise ValueError(f"q0 must have shape (4,) or ({runs}, 4), got {np.shape(q0)}")
+    if bias0 is not None and np.shape(bias0) not in ((), (3,), (runs, 3)):
+        raise ValueError(f"bias0 must be a scalar or have shape (3,) or ({runs}, 3), got {np.shape(bias0)}")
+    qs = np.broadcast_to(mekf.q if q0 is None else quat.as_unit_quaternion(q0, "q0"), (runs, 4))
+    bs = np.broadcast_to(mekf.bias if bias0 is None else as_float_array(bias0, "bias0"), (runs, 3))
+    return qs, bs
+
+
+def non_unit_rows(y: NDArray[np.float64], mask: NDArray[np.bool_]) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
+    """Sampled (``mask``) finite tracker rows of ``y`` (..., 4) with a norm off 1 by more than 1e-6; the norms."""
+    finite_rows = np.all(np.isfinite(y), axis=-1)
+    norms = np.sqrt(np.sum(np.where(finite_rows[..., None], y, 0.0) ** 2, axis=-1))
+    return mask & finite_rows & (np.abs(norms - 1.0) > _UNIT_TOL), norms
 
 
 class MEKFBatch:
@@ -94,14 +121,7 @@ class MEKFBatch:
             raise ValueError(f"mekf must be an MEKF, got {type(mekf).__name__}")
         if not isinstance(n_runs, (int, np.integer)) or isinstance(n_runs, bool) or n_runs < 1:
             raise ValueError(f"n_runs must be a positive integer, got {n_runs!r}")
-        runs = int(n_runs)
-        if q0 is not None and np.shape(q0) not in ((4,), (runs, 4)):
-            raise ValueError(f"q0 must have shape (4,) or ({runs}, 4), got {np.shape(q0)}")
-        if bias0 is not None and np.shape(bias0) not in ((), (3,), (runs, 3)):
-            raise ValueError(f"bias0 must be a scalar or have shape (3,) or ({runs}, 3), got {np.shape(bias0)}")
-        qs = mekf.q if q0 is None else quat.as_unit_quaternion(q0, "q0")
-        bs = mekf.bias if bias0 is None else as_float_array(bias0, "bias0")
-        self._init(mekf, np.broadcast_to(qs, (runs, 4)), np.broadcast_to(bs, (runs, 3)))
+        self._init(mekf, *initial_states(mekf, int(n_runs), q0, bias0))
 
     @classmethod
     def _unchecked(cls, mekf: MEKF, qs: NDArray[np.float64], bs: NDArray[np.float64]) -> MEKFBatch:
@@ -241,9 +261,7 @@ class MEKFBatch:
                     raise ValueError(
                         f"mask must be a boolean array of shape ({n},), got dtype {m.dtype} and shape {m.shape}"
                     )
-            finite_rows = np.all(np.isfinite(y), axis=-1)
-            norms = np.sqrt(np.sum(np.where(finite_rows[:, None], y, 0.0) ** 2, axis=-1))
-            bad = m & finite_rows & (np.abs(norms - 1.0) > _UNIT_TOL)
+            bad, norms = non_unit_rows(y, m)
             if np.any(bad):
                 r = int(np.argmax(bad))
                 raise ValueError(

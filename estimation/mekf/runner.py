@@ -21,7 +21,7 @@ from attitude.results import ResultIO
 from attitude.sensors import ARCSEC
 from attitude.validation import as_float_array
 from estimation.consistency import NisHealth, nees, nis_health, plot_errors_with_bounds
-from estimation.mekf.batch import MEKFBatch
+from estimation.mekf.batch import MEKFBatch, initial_states, non_unit_rows
 from estimation.mekf.filter import MEKF, attitude_residual
 
 __all__ = ["MEKFResult", "run_mekf"]
@@ -246,9 +246,7 @@ def run_mekf(
                 f"got dtype {mask.dtype} and shape {mask.shape}"
             )
         mask = np.broadcast_to(mask, y.shape[:-1])
-    finite_rows = np.all(np.isfinite(y), axis=-1)
-    norms = np.sqrt(np.sum(np.where(finite_rows[..., None], y, 0.0) ** 2, axis=-1))
-    bad = mask & finite_rows & (np.abs(norms - 1.0) > _UNIT_TOL)
+    bad, norms = non_unit_rows(y, mask)
     if np.any(bad):
         idx = tuple(int(i) for i in np.argwhere(bad)[0])
         raise ValueError(
@@ -257,12 +255,7 @@ def run_mekf(
         )
 
     runs = g.shape[0] if batch else 1
-    if q0 is not None and np.shape(q0) not in ((4,), (runs, 4)):
-        raise ValueError(f"q0 must have shape (4,) or ({runs}, 4), got {np.shape(q0)}")
-    if bias0 is not None and np.shape(bias0) not in ((), (3,), (runs, 3)):
-        raise ValueError(f"bias0 must be a scalar or have shape (3,) or ({runs}, 3), got {np.shape(bias0)}")
-    qs = np.broadcast_to(mekf.q if q0 is None else quat.as_unit_quaternion(q0, "q0"), (runs, 4))
-    bs = np.broadcast_to(mekf.bias if bias0 is None else as_float_array(bias0, "bias0"), (runs, 3))
+    qs, bs = initial_states(mekf, runs, q0, bias0)
     g3 = g if batch else g[None]
     y3 = y if batch else y[None]
     m3 = mask if batch else mask[None]
