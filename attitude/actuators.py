@@ -341,7 +341,7 @@ class ReactionWheels:
             ``[q_dot (4) [1/s], omega_dot (3) [rad/s^2], h_dot (n) [N m]]``,
             same backend as ``x``.
         """
-        from attitude.rigid_body import quaternion_rate
+        from attitude.quaternion import derivative_components
 
         q, omega, h = x[:4], x[4:7], x[7:]
         speed = self.wheel_speed_components(h, omega)
@@ -350,7 +350,7 @@ class ReactionWheels:
         reaction = self.body_components(h_dot, scale=-1.0)
         tau = reaction if external_torque is None else [e + r for e, r in zip(external_torque, reaction)]
         internal = self.body_components(h, scale=1.0)
-        return quaternion_rate(q, omega) + body.omega_dot_components(omega, tau, internal) + h_dot
+        return derivative_components(q, omega) + body.omega_dot_components(omega, tau, internal) + h_dot
 
     def body_components(self, per_wheel: Components, scale: float) -> Components:
         """Map per-wheel quantities to body components: ``scale * A @ per_wheel``.

@@ -30,9 +30,7 @@ from attitude.rigid_body import Components, RigidBody, split_components
 
 __all__ = [
     "casadi_rk4_step",
-    "exp_rotation_vector_components",
     "normalize_quaternion_components",
-    "quaternion_multiply_components",
     "rk4_step",
     "rkmk4_step",
 ]

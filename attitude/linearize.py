@@ -22,8 +22,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from attitude import backend as bk
-from attitude.integrators import quaternion_multiply_components
-from attitude.rigid_body import Components, RigidBody, quaternion_rate
+from attitude.quaternion import derivative_components, multiply_components
+from attitude.rigid_body import Components, RigidBody
 from attitude.validation import check_vector, describe
 
 __all__ = [
@@ -148,11 +148,11 @@ def error_state_derivative_components(
     w = list(x[3:6])
     q0 = bk.sqrt(1.0 - (qv[0] * qv[0] + qv[1] * qv[1] + qv[2] * qv[2]))
     q_e = [q0, *qv]
-    q_dot = quaternion_rate(q_e, w)
+    q_dot = derivative_components(q_e, w)
     if omega_ref is not None:
         w_r = [float(v) for v in np.asarray(omega_ref, dtype=float).reshape(3)]
         if any(v != 0.0 for v in w_r):
-            left = quaternion_multiply_components([0.0, *w_r], q_e)
+            left = multiply_components([0.0, *w_r], q_e)
             q_dot = [a - 0.5 * b for a, b in zip(q_dot, left)]
     return q_dot[1:] + body.omega_dot_components(w, torque)
 

@@ -41,7 +41,6 @@ from attitude import quaternion as quat
 from attitude.integrators import (
     casadi_rk4_step,
     normalize_quaternion_components,
-    quaternion_multiply_components,
     rk4_step,
     rkmk4_step,
 )
@@ -678,7 +677,7 @@ def _run_fixed(
         q_pb, c_pb = output_frame
         conj = [q_pb[..., 0], -q_pb[..., 1], -q_pb[..., 2], -q_pb[..., 3]]
         c = [[np.ascontiguousarray(c_pb[..., i, j]) for j in range(3)] for i in range(3)]
-        row0 = quaternion_multiply_components([q_soa[0, i] for i in range(4)], conj)
+        row0 = quat.multiply_components([q_soa[0, i] for i in range(4)], conj)
         for i in range(4):
             q_soa[0, i] = row0[i]
         w0_b = [c[0][j] * w_soa[0, 0] + c[1][j] * w_soa[0, 1] + c[2][j] * w_soa[0, 2] for j in range(3)]
@@ -724,7 +723,7 @@ def _run_fixed(
             steps += 1
         q_store, w_store = qc, wc
         if output_frame is not None:
-            q_store = quaternion_multiply_components(qc, conj)
+            q_store = quat.multiply_components(qc, conj)
             w_store = [c[0][j] * wc[0] + c[1][j] * wc[1] + c[2][j] * wc[2] for j in range(3)]
         for i in range(4):
             q_soa[k + 1, i] = q_store[i]

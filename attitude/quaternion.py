@@ -57,6 +57,7 @@ __all__ = [
     "to_dcm",
     "to_mrp",
     "to_rotation_vector",
+    "unit_vector_angle",
 ]
 
 #: Largest accepted deviation of ``|q|`` from 1 for an attitude quaternion.
@@ -751,6 +752,28 @@ def from_dcm(dcm: ArrayLike) -> NDArray[np.float64]:
     )
     q = np.take_along_axis(cand, choice[..., None, None], axis=-2)[..., 0, :]
     return shortest(q / _norm(q, keepdims=True))
+
+
+def unit_vector_angle(u: ArrayLike, v: ArrayLike) -> NDArray[np.float64]:
+    """Angle [rad] in ``[0, pi]`` between unit vectors ``u`` (..., 3) and one unit vector ``v`` (3,).
+
+    ``arccos(clip(u . v, -1, 1))``, e.g. the separation of a boresight (rotated
+    into the frame of ``v``) from an avoided direction. No checks (both are
+    taken as unit vectors).
+
+    Parameters
+    ----------
+    u : array_like (..., 3)
+        Unit vectors.
+    v : array_like (3,)
+        One unit vector, in the same frame as ``u``.
+
+    Returns
+    -------
+    ndarray (...)
+        The angles [rad].
+    """
+    return np.arccos(np.clip(np.asarray(u) @ np.asarray(v), -1.0, 1.0))
 
 
 def to_rotation_vector(q: ArrayLike) -> NDArray[np.float64]:

@@ -36,8 +36,7 @@ __all__ = [
     "ParametricBody",
     "PrincipalAxes",
     "RigidBody",
-    "cross",
-    "quaternion_rate",
+    "skew",
     "symmetric_entries",
 ]
 
@@ -523,6 +522,26 @@ class ParametricBody(_EulerEquations):
     def __init__(self, inertia_entries: Sequence[Any], inverse_entries: Sequence[Any]) -> None:
         self._I = _symmetric_entries(inertia_entries)
         self._I_inv = _symmetric_entries(inverse_entries)
+
+
+def skew(v: ArrayLike) -> NDArray[np.float64]:
+    """Cross-product matrix ``[v x]`` of vectors (..., 3) -> (..., 3, 3), so that ``skew(a) @ b = a x b``.
+
+    Parameters
+    ----------
+    v : array_like (..., 3)
+        Vectors (any units; leading batch dimensions broadcast through).
+
+    Returns
+    -------
+    ndarray (..., 3, 3)
+        ``[[0, -v3, v2], [v3, 0, -v1], [-v2, v1, 0]]`` per vector (no checks:
+        a hot-path helper of the filters and sensor models).
+    """
+    v = np.asarray(v, dtype=np.float64)
+    z = np.zeros(v.shape[:-1])
+    x, y, w = v[..., 0], v[..., 1], v[..., 2]
+    return np.stack([np.stack([z, -w, y], -1), np.stack([w, z, -x], -1), np.stack([-y, x, z], -1)], -2)
 
 
 def symmetric_entries(matrix: ArrayLike) -> NDArray[np.float64]:

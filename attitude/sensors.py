@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
+from attitude.rigid_body import skew
 from attitude.rng import NormalStreams, as_generator
 from attitude.validation import as_float_array, check_positive, check_vector, describe, positive_scalar, scalar_time
 
@@ -180,14 +181,10 @@ def _unit_vector(value: ArrayLike, name: str) -> NDArray[np.float64]:
     return arr / n
 
 
-def _skew(v: NDArray[np.float64]) -> NDArray[np.float64]:
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-
-
 def _misalignment_matrix(value: ArrayLike) -> NDArray[np.float64]:
     arr = as_float_array(value, "misalignment")
     if arr.shape == (3,):
-        return -_skew(arr)
+        return -skew(arr)
     if arr.shape == (3, 3):
         if np.any(np.diag(arr) != 0.0):
             raise ValueError(

@@ -17,7 +17,7 @@ import numpy as np
 
 from attitude import quaternion as quat
 from attitude.sensors import Gyro, StarTracker
-from estimation.mekf.filter import MEKF, initial_covariance, run_mekf
+from estimation.mekf import MEKF, initial_covariance, run_mekf
 
 try:
     from benchmarks._timing import cpu_time_median

@@ -66,6 +66,7 @@ import scipy.optimize
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
 
+from attitude.linearize import linearize
 from attitude.results import ResultIO
 from attitude.rigid_body import RigidBody
 from attitude.validation import as_float_array, check_positive
@@ -135,14 +136,21 @@ def rigid_body_at_rest(body: RigidBody) -> control.StateSpace:
     ----------
     body : RigidBody
         Inertia ``J`` [kg m^2] (the full tensor is kept).
+
+    Notes
+    -----
+    The matrices are those of :func:`attitude.linearize.linearize` at rest
+    (states ``[q_ev, omega]``) in the coordinates ``theta = 2 q_ev``: the
+    similarity transform ``T = diag(2 I, I)``, ``A = T A_q T^-1``,
+    ``B = T B_q``, ``C = T^-1`` (exact: powers of two).
     """
-    inertia = _single_body(body).inertia
-    j_inv = np.linalg.inv(inertia)
-    z, eye = np.zeros((3, 3)), np.eye(3)
+    plant = linearize(_single_body(body))
+    t = np.diag([2.0, 2.0, 2.0, 1.0, 1.0, 1.0])
+    t_inv = np.diag([0.5, 0.5, 0.5, 1.0, 1.0, 1.0])
     return control.ss(
-        np.block([[z, eye], [z, z]]),
-        np.vstack([z, j_inv]),
-        np.block([[0.5 * eye, z], [z, eye]]),
+        t @ plant.A @ t_inv,
+        t @ plant.B,
+        t_inv,
         np.zeros((6, 3)),
         inputs=[f"tau_{a}" for a in _AXES],
         outputs=[f"qv_{a}" for a in _AXES] + [f"omega_{a}" for a in _AXES],
@@ -280,14 +288,14 @@ def attitude_closed_loop(body: RigidBody, controller: Any) -> control.StateSpace
     controller : object with ``K`` [N m] and ``C`` [N m s] (3, 3)
         E.g. :class:`~controllers.pd.QuaternionPD`.
     """
-    inertia = _single_body(body).inertia
+    plant = rigid_body_at_rest(body)
     if not (hasattr(controller, "K") and hasattr(controller, "C")):
         raise ValueError(f"controller must have gain matrices K and C (3, 3), got {controller!r}")
     K = np.asarray(controller.K, dtype=float)
     C = np.asarray(controller.C, dtype=float)
     if K.shape != (3, 3) or C.shape != (3, 3):
         raise ValueError(f"controller.K and controller.C must be 3x3, got {K.shape} and {C.shape}")
-    j_inv = np.linalg.inv(inertia)
+    j_inv = plant.B[3:]  # J^-1
     z, eye = np.zeros((3, 3)), np.eye(3)
     stiffness = 0.5 * j_inv @ K
     return control.ss(

@@ -36,8 +36,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from attitude import backend as bk
 from attitude import quaternion as quat
-from attitude.integrators import quaternion_multiply_components
-from attitude.rigid_body import Components, RigidBody, cross
+from attitude.backend import cross
+from attitude.rigid_body import Components, RigidBody
 from attitude.validation import as_float_array, check_positive, positive_scalar
 
 __all__ = ["QuaternionPD", "RateLimitedPD", "quaternion_error_components"]
@@ -62,7 +62,7 @@ def quaternion_error_components(q_ref: Components, q: Components) -> tuple[Compo
         Components ``[w, x, y, z]`` of the attitude quaternion, same backend.
     """
     conj = [q_ref[0], -q_ref[1], -q_ref[2], -q_ref[3]]
-    e = quaternion_multiply_components(conj, q)
+    e = quat.multiply_components(conj, q)
     sign = bk.if_else(e[0] < 0, -1.0, 1.0)
     return [sign * c for c in e], e
 

@@ -30,7 +30,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
-from attitude.rigid_body import Components, RigidBody, cross
+from attitude.backend import cross
+from attitude.rigid_body import Components, RigidBody
 from attitude.validation import as_float_array, check_time_grid, check_vector
 from controllers.pd import QuaternionPD
 

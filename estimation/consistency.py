@@ -41,6 +41,8 @@ from scipy import stats
 from attitude.validation import as_float_array, describe
 
 __all__ = [
+    "GATE_PROBABILITY",
+    "NIS_CAP",
     "NisHealth",
     "average_nees",
     "average_nis",
@@ -52,6 +54,12 @@ __all__ = [
     "plot_errors_with_bounds",
     "plot_nees",
 ]
+
+#: Default probability of the filters' innovation gate: chi-square(3) gate at NIS 44.8
+#: (one good sample in 10^9 rejected).
+GATE_PROBABILITY = 1.0 - 1e-9
+#: NIS recorded for a gated sample whose NIS is not finite in float64 (keeps window sums finite).
+NIS_CAP = 1e300
 
 
 def _check_confidence(confidence: float) -> float:

@@ -40,16 +40,12 @@ from attitude.validation import (
     positive_scalar,
     scalar_time,
 )
-from estimation.consistency import nees, nis_health, plot_errors_with_bounds
+from estimation.consistency import GATE_PROBABILITY, NIS_CAP, nees, nis_health, plot_errors_with_bounds
 
-__all__ = ["GATE_PROBABILITY", "NOISE_MODELS", "RateEKF", "RateEKFResult", "StepReport", "run_rate_ekf"]
+__all__ = ["NOISE_MODELS", "RateEKF", "RateEKFResult", "StepReport", "run_rate_ekf"]
 
 #: Gyro measurement-noise treatments (see the module docstring).
 NOISE_MODELS = ("farrenkopf", "uncorrelated")
-#: Default probability of the innovation gate (module docstring): chi-square(3) gate at NIS 44.8.
-GATE_PROBABILITY = 1.0 - 1e-9
-#: NIS recorded for a rejected sample whose NIS is not finite in float64 (keeps window sums finite).
-_NIS_CAP = 1e300
 
 _DIM_Z = 3
 
@@ -617,7 +613,7 @@ class RateEKF:
         if nis_gate < 0:
             raise _Breakdown(f"the innovation covariance is not positive definite (NIS {nis_gate:.3g})")
         if not nis_gate <= self.gate_threshold:  # also rejects an infinite or NaN NIS
-            return (nis_gate if nis_gate <= _NIS_CAP else _NIS_CAP), nu, s, False
+            return (nis_gate if nis_gate <= NIS_CAP else NIS_CAP), nu, s, False
         kf.update(z, HJacobian=lambda _x: h_eff, Hx=self._hx, R=r)
         kf.P = 0.5 * (kf.P + kf.P.T)
         if not (np.all(np.isfinite(kf.x)) and np.all(np.isfinite(kf.P))):

@@ -116,7 +116,7 @@ from attitude.sensors import ARCSEC, Gyro, StarTracker, arw_from_sigma_v
 from attitude.simulation.engine import simulate
 from controllers.pd import QuaternionPD
 from estimation.consistency import chi2_band, fraction_inside_band, nees, plot_errors_with_bounds, plot_nees
-from estimation.mekf.filter import MEKF, run_mekf, steady_state_attitude_sigma
+from estimation.mekf import MEKF, run_mekf, steady_state_attitude_sigma
 from estimation.rate_ekf import RateEKF, run_rate_ekf
 
 #: Small satellite, body axes, wheels included [kg m^2] (illustrative; principal moments ~6, 9, 11).

@@ -67,7 +67,7 @@ from controllers.pd import QuaternionPD, RateLimitedPD
 from controllers.slew.planner import SlewPlanningError
 from controllers.tracking import ReferenceTrajectory, TrackingController
 from estimation.consistency import nees
-from estimation.mekf.filter import MEKF, MEKFBatch, initial_covariance
+from estimation.mekf import MEKF, MEKFBatch, initial_covariance
 
 __all__ = [
     "GUIDANCES",

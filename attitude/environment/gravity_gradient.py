@@ -22,8 +22,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
+from attitude.backend import cross
 from attitude.environment.orbit import MU_EARTH, CircularOrbit, check_mu
-from attitude.rigid_body import Components, RigidBody, cross, quaternion_rate
+from attitude.rigid_body import Components, RigidBody
 from attitude.validation import as_float_array, check_positive, check_vector, describe, scalar_angle
 
 __all__ = [
@@ -210,7 +211,7 @@ def lvlh_relative_dynamics(body: RigidBody, orbit: CircularOrbit) -> ca.Function
     omega_BN_dot = body.omega_dot_components(omega_BN_B, tau)
     transport = cross(w, omega_LN_B)
     w_dot = [a + b for a, b in zip(omega_BN_dot, transport)]
-    e_dot = quaternion_rate(q_BL, w)[1:]
+    e_dot = quat.derivative_components(q_BL, w)[1:]
     return ca.Function("lvlh_relative_dynamics", [x, u], [ca.vertcat(*e_dot, *w_dot)], ["x", "u"], ["x_dot"])
 
 

@@ -25,10 +25,11 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
 from attitude import quaternion as quat
-from attitude.rigid_body import RigidBody, cross
+from attitude.backend import cross
+from attitude.rigid_body import RigidBody
 from attitude.validation import as_float_array, describe
 
-__all__ = ["SPEED_EPS", "KeepOutCone", "blocked_boresights", "cone_rows", "rotate_components"]
+__all__ = ["SPEED_EPS", "KeepOutCone", "blocked_boresights", "cone_rows"]
 
 #: Regularisation of the norms in the bound ``M`` (``sqrt(x . x + eps^2)``,
 #: nondimensional units of 1/T_s and 1/T_s^2): keeps them differentiable at
@@ -123,26 +124,7 @@ class KeepOutCone:
         q : array_like
             Attitudes ``q_BN``, shape (..., 4).
         """
-        b_n = quat.rotate(quat.normalize(q), self.boresight_B)
-        return np.arccos(np.clip(b_n @ self.direction_N, -1.0, 1.0))
-
-
-def rotate_components(q: Sequence[Any], v: Sequence[float] | NDArray[np.float64]) -> list[Any]:
-    """``q ⊗ v ⊗ q*`` for a unit quaternion on components (numpy or casadi) and a constant vector.
-
-    Parameters
-    ----------
-    q : sequence of 4
-        Unit quaternion components ``[w, x, y, z]`` (numbers or casadi scalars).
-    v : array_like (3,)
-        Constant vector (numbers).
-
-    Returns
-    -------
-    list of 3
-        Components of the rotated vector, same backend as ``q``.
-    """
-    return quat.rotate_components(list(q), [float(x) for x in v])
+        return quat.unit_vector_angle(quat.rotate(quat.normalize(q), self.boresight_B), self.direction_N)
 
 
 def _norm(v: Sequence[Any]) -> Any:
@@ -155,7 +137,7 @@ def _checkpoint(body_s: RigidBody, x: Any, u: Any, cone: KeepOutCone) -> tuple[A
     q = [x[i] for i in range(4)]
     w = [x[i] for i in range(4, 7)]
     b = [float(c) for c in cone.boresight_B]
-    s_b = rotate_components([q[0], -q[1], -q[2], -q[3]], cone.direction_N)  # R^T s_N
+    s_b = quat.rotate_inverse_components(q, [float(c) for c in cone.direction_N])  # R^T s_N
     w_x_b = cross(w, b)
     w_dot = body_s.omega_dot_components(w, [u[i] for i in range(3)])
     f = sum(bi * si for bi, si in zip(b, s_b))
@@ -287,7 +269,7 @@ def _reachable(start: NDArray, end: NDArray, cones: Sequence[KeepOutCone], cell_
     radius = d
     blocked = np.zeros((n_t, n_p), dtype=bool)
     for cone in cones:
-        dist = np.arccos(np.clip(centres @ cone.direction_N, -1.0, 1.0))
+        dist = quat.unit_vector_angle(centres, cone.direction_N)
         blocked |= dist + radius < cone.half_angle
     labels, count = ndimage.label(~blocked, structure=np.ones((3, 3), dtype=int))
     parent = list(range(count + 1))

@@ -14,7 +14,8 @@ import casadi as ca
 import numpy as np
 from numpy.typing import NDArray
 
-from attitude.integrators import casadi_rk4_step, quaternion_multiply_components
+from attitude.integrators import casadi_rk4_step
+from attitude.quaternion import multiply_components
 from controllers.slew.keep_out import cone_rows
 from controllers.slew.problem import CONVERGED, Problem
 
@@ -193,7 +194,7 @@ class Transcription:
         opti.subject_to(X[:, 0] == prob.x0)
         opti.subject_to(X[4:, -1] == prob.omegaf * prob.t_s)
         w, x, y, z = prob.qf
-        err = quaternion_multiply_components([w, -x, -y, -z], [X[i, -1] for i in range(4)])
+        err = multiply_components([w, -x, -y, -z], [X[i, -1] for i in range(4)])
         opti.subject_to(ca.vertcat(*err[1:]) == 0)
 
     def torque_set(self, U: Any) -> None:

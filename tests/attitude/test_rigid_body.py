@@ -9,6 +9,7 @@ from scipy.spatial.transform import Rotation
 
 from attitude import RigidBody
 from attitude import quaternion as quat
+from attitude.rigid_body import skew
 
 # A realistic small-satellite tensor with products of inertia [kg m^2].
 FULL_TENSOR = np.array([[10.0, 1.2, -0.5], [1.2, 12.0, 0.3], [-0.5, 0.3, 8.0]])
@@ -214,3 +215,15 @@ class TestInvariants:
 def test_inertia_beyond_float_range_is_rejected(inertia, match):
     with pytest.raises(ValueError, match=match):
         RigidBody(inertia)
+
+
+@given(st.integers(0, 2**32 - 1))
+def test_skew_is_the_cross_product_matrix(seed):
+    rng = np.random.default_rng(seed)
+    a = rng.normal(size=(4, 5, 3))
+    b = rng.normal(size=(4, 5, 3))
+    m = skew(a)
+    assert m.shape == (4, 5, 3, 3)
+    np.testing.assert_allclose((m @ b[..., None])[..., 0], np.cross(a, b), rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(m, -np.swapaxes(m, -1, -2))
+    np.testing.assert_allclose(skew(a[0, 0]) @ b[0, 0], np.cross(a[0, 0], b[0, 0]), rtol=0, atol=1e-15)

@@ -39,7 +39,7 @@ from attitude.config.model import SpacecraftConfig
 from attitude.sensors import ARCSEC, GYRO_PRESETS
 from attitude.simulation.engine import SimulationResult
 from estimation.consistency import chi2_band, fraction_inside_band, plot_errors_with_bounds, plot_nees
-from estimation.mekf.filter import MEKF, initial_covariance, run_mekf
+from estimation.mekf import MEKF, initial_covariance, run_mekf
 from estimation.rate_ekf import RateEKF, run_rate_ekf
 
 __all__ = [

@@ -15,7 +15,7 @@ from attitude.sensors import GyroBatch
 from attitude.simulation.batch_estimated import simulate_batch_estimated
 from attitude.simulation.engine import simulate
 from controllers.pd import QuaternionPD
-from estimation.mekf.filter import MEKF, MEKFBatch, initial_covariance
+from estimation.mekf import MEKF, MEKFBatch, initial_covariance
 
 CONFIG = default_config()
 BODY = CONFIG.body()

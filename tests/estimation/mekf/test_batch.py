@@ -19,7 +19,9 @@ import pytest
 
 from attitude import quaternion as quat
 from attitude.sensors import Gyro, StarTracker
-from estimation.mekf.filter import MEKF, MEKFBatch, initial_covariance, run_mekf
+from estimation.mekf.batch import MEKFBatch
+from estimation.mekf.filter import MEKF, initial_covariance
+from estimation.mekf.runner import run_mekf
 
 DT = 0.1  # gyro period [s]
 N_RUNS = 4

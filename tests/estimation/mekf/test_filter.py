@@ -28,25 +28,18 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from matplotlib.figure import Figure
-from scipy.linalg import expm, solve_discrete_are
+from scipy.linalg import expm
 
 from attitude import quaternion as quat
 from attitude.propagate import propagate
-from attitude.rigid_body import RigidBody
+from attitude.rigid_body import RigidBody, skew
 from attitude.sensors import ARCSEC, Gyro, GyroSamplingWarning, StarTracker
 from attitude.simulation.engine import Estimate, simulate
 from estimation.consistency import chi2_band, fraction_inside_band
 from estimation.mekf import filter as mk
-from estimation.mekf.filter import (
-    MEKF,
-    MEKFResult,
-    initial_covariance,
-    process_noise,
-    run_mekf,
-    steady_state_attitude_sigma,
-    steady_state_covariance,
-    transition_matrix,
-)
+from estimation.mekf.filter import MEKF, initial_covariance, process_noise, transition_matrix
+from estimation.mekf.runner import MEKFResult, run_mekf
+from estimation.mekf.steady_state import steady_state_attitude_sigma
 
 DT = 0.1  # gyro period [s]
 DEG_PER_H = np.pi / 180.0 / 3600.0
@@ -151,7 +144,7 @@ class TestHelpers:
         dt = float(rng.uniform(0.01, 2.0))
         w = axis / np.linalg.norm(axis) * angle / dt
         a = np.zeros((6, 6))
-        a[:3, :3] = -mk._skew(w)
+        a[:3, :3] = -skew(w)
         a[:3, 3:] = -np.eye(3)
         reference = expm(a * dt)
         # expm (Pade) and the closed form agree to rounding: entries are O(1) and O(dt).
@@ -182,88 +175,6 @@ class TestHelpers:
 
     def test_initial_covariance(self):
         np.testing.assert_array_equal(np.diag(initial_covariance(2.0, 3.0)), [4.0] * 3 + [9.0] * 3)
-
-
-# ---------------------------------------------------------------------------
-# Closed-form steady state
-
-
-def riccati_pre(sigma_v, sigma_u, sigma_n, dt):
-    phi = np.array([[1.0, -dt], [0.0, 1.0]])
-    q = process_noise(sigma_v, sigma_u, dt)[[0, 3]][:, [0, 3]]
-    return phi, q, np.array([[sigma_n**2]])
-
-
-class TestSteadyState:
-    @given(
-        st.floats(-9.0, -3.0),  # log10 sigma_v [rad/s^0.5]
-        st.floats(-12.0, -4.0),  # log10 sigma_u [rad/s^1.5]
-        st.floats(-6.0, -2.0),  # log10 sigma_n [rad]
-        st.floats(-2.0, 1.0),  # log10 dt [s]
-    )
-    def test_closed_form_solves_the_discrete_riccati_equation(self, lv, lu, ln, ldt):
-        sv, su, sn, dt = 10.0**lv, 10.0**lu, 10.0**ln, 10.0**ldt
-        pre, post = steady_state_covariance(sv, su, sn, dt)
-        phi, q, r = riccati_pre(sv, su, sn, dt)
-        h = np.array([[1.0, 0.0]])
-        s = h @ pre @ h.T + r
-        post_check = pre - pre @ h.T @ np.linalg.solve(s, h @ pre)
-        # The covariance measurement update and the propagation close the cycle: a fixed point.
-        np.testing.assert_allclose(post, post_check, rtol=1e-9, atol=0)
-        np.testing.assert_allclose(phi @ post @ phi.T + q, pre, rtol=1e-9, atol=0)
-        # (The ranges span S_v, S_u from 1e-14 to 1e+6: real and complex roots u_i. Relative
-        # residuals are rounding (~1e-13) times the conditioning of the entries that cancel.)
-
-    @pytest.mark.parametrize(
-        ("sv", "su", "sn", "dt"),
-        [
-            (2.036e-5, 3.22e-7, 6 * ARCSEC, 1.0),  # tactical gyro, 6 arcsec tracker at 1 Hz
-            (5.8e-7, 1e-10, 6 * ARCSEC, 1.0),  # navigation gyro
-            (1e-6, 1e-4, 1e-5, 1.0),  # complex roots u_i (S_u >> S_v^2)
-            (np.sqrt(10) * 1e-7, np.sqrt(10) * 1e-10, 17e-6, 1.0),  # Crassidis and Junkins' example figures
-        ],
-    )
-    def test_matches_scipy_solve_discrete_are(self, sv, su, sn, dt):
-        phi, q, r = riccati_pre(sv, su, sn, dt)
-        reference = solve_discrete_are(phi.T, np.array([[1.0], [0.0]]), q, r)
-        pre, _ = steady_state_covariance(sv, su, sn, dt)
-        # solve_discrete_are's own accuracy on these scales (entries spanning ~12 decades) is ~1e-9.
-        np.testing.assert_allclose(pre, reference, rtol=1e-7)
-        assert steady_state_attitude_sigma(sv, su, sn, dt, when="pre") == pytest.approx(np.sqrt(reference[0, 0]))
-
-    def test_random_walk_limit(self):
-        # sigma_u -> 0: the bias becomes known and the attitude is a random walk observed in noise,
-        # whose steady prior variance is a = q/2 + sqrt(q^2/4 + q r) (scalar Riccati equation).
-        sv, sn, dt = 2e-5, 3e-5, 0.5
-        qv, r = sv**2 * dt, sn**2
-        a = qv / 2 + np.sqrt(qv**2 / 4 + qv * r)
-        sigma_post = steady_state_attitude_sigma(sv, 1e-16, sn, dt)
-        # The S_u = 4e-23 remainder changes sqrt(l1 l2) by ~sqrt(S_u) = 7e-12.
-        assert sigma_post**2 == pytest.approx(a * r / (a + r), rel=1e-9)
-
-    def test_continuous_farrenkopf_limit(self):
-        # dt -> 0 with the measurement density r dt fixed: Farrenkopf's continuous-time solution
-        # p11 = sqrt(R_c) sqrt(sigma_v^2 + 2 sigma_u sqrt(R_c)) (the continuous Riccati equation).
-        sv, su, rc = 2e-5, 3e-7, (6 * ARCSEC) ** 2 * 1.0
-        continuous = np.sqrt(np.sqrt(rc) * np.sqrt(sv**2 + 2 * su * np.sqrt(rc)))
-        gaps = []
-        for dt in (1e-2, 1e-4, 1e-6):
-            sigma = steady_state_attitude_sigma(sv, su, np.sqrt(rc / dt), dt)
-            gaps.append(abs(sigma / continuous - 1))
-        # The discrete solution differs by O(sqrt(dt)) relative; it shrinks ~10x per 100x in dt.
-        assert gaps[0] < 0.1
-        assert gaps[1] < gaps[0] / 5 and gaps[2] < gaps[1] / 5
-        assert gaps[2] < 1e-3
-
-    @pytest.mark.parametrize("bad", [0.0, -1.0, np.nan, np.inf])
-    def test_rejects_bad_figures(self, bad):
-        for i, name in enumerate(("sigma_v", "sigma_u", "sigma_n", "dt")):
-            args = [2e-5, 3e-7, 3e-5, 1.0]
-            args[i] = bad
-            with pytest.raises(ValueError, match=name):
-                steady_state_covariance(*args)
-        with pytest.raises(ValueError, match="when"):
-            steady_state_attitude_sigma(2e-5, 3e-7, 3e-5, 1.0, when="prior")
 
 
 @pytest.mark.slow
@@ -359,7 +270,7 @@ class TestMechanics:
         jac = np.column_stack(
             [(reset_map(dtheta_hat + h * e) - reset_map(dtheta_hat - h * e)) / (2 * h) for e in np.eye(3)]
         )
-        k = mk._skew(dtheta_hat)
+        k = skew(dtheta_hat)
         g = np.eye(3) - 0.5 * k
         # The exact Jacobian is the right Jacobian of SO(3),
         # I - (1 - cos a)/a^2 [a x] + (a - sin a)/a^3 [a x]^2 = I - [a x]/2 + [a x]^2/6 + O(a^3);
@@ -380,7 +291,7 @@ class TestMechanics:
             f.step(0.0, np.zeros(3), q_meas)
         dth = quat.to_rotation_vector(quat.multiply(quat.conjugate(quat.identity()), first.q))
         gm = np.eye(6)
-        gm[:3, :3] -= 0.5 * mk._skew(dth)
+        gm[:3, :3] -= 0.5 * skew(dth)
         np.testing.assert_allclose(second.P, gm @ first.P @ gm.T, rtol=1e-12, atol=1e-30)
         np.testing.assert_array_equal(second.q, first.q)
 

@@ -1,0 +1,389 @@
+"""N MEKFs stepped together along a leading runs axis (:class:`MEKFBatch`).
+
+The Monte Carlo batch path does not use filterpy: filterpy runs one filter
+at a time in Python, and a campaign gets fast by doing each step for all
+runs in one numpy operation. :class:`MEKFBatch` holds N filters along a
+leading runs axis and is stepped from outside, one time at a time (what a
+vectorised closed loop does); :func:`estimation.mekf.runner.run_mekf` with
+``vectorized=True`` runs recorded histories through the same step. It
+repeats the equations of :class:`estimation.mekf.filter.MEKF` over the runs
+axis; tests prove the two agree (to rounding) and that ``run_mekf`` and a
+hand-stepped :class:`MEKFBatch` agree bit for bit.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from attitude import quaternion as quat
+from attitude.rigid_body import skew
+from attitude.sensors import farrenkopf_process_noise
+from attitude.validation import as_float_array, scalar_time
+from estimation.consistency import NIS_CAP
+from estimation.mekf.filter import (
+    MEASUREMENT_MATRIX,
+    MEKF,
+    attitude_residual,
+    compose_rotation_vector,
+    error_transition,
+)
+
+__all__ = ["MEKFBatch", "initial_states", "non_unit_rows"]
+
+_EYE6 = np.eye(6)
+#: Accepted deviation of a tracker quaternion's norm from 1 (that of attitude.quaternion).
+_UNIT_TOL = quat.UNIT_NORM_TOLERANCE
+_BATCH_COUNT_KEYS = ("steps", "updates", "tracker_nan", "tracker_gated", "gyro_nan", "gyro_rejected")
+
+
+def initial_states(
+    mekf: MEKF, runs: int, q0: ArrayLike | None, bias0: ArrayLike | None
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Checked initial attitudes (runs, 4) and biases (runs, 3): ``q0``/``bias0``, else the filter's (broadcast views).
+
+    Parameters
+    ----------
+    mekf : MEKF
+        The filter whose state is the default.
+    runs : int
+        Number of runs N.
+    q0 : array_like (4,) or (N, 4), optional
+        Initial attitude estimates ``q_BN`` (unit norm); None: the filter's.
+    bias0 : float or array_like (3,) or (N, 3), optional
+        Initial gyro bias estimates [rad/s]; None: the filter's.
+
+    Returns
+    -------
+    tuple of ndarray
+        ``(q (N, 4), bias (N, 3))``.
+
+    Raises
+    ------
+    ValueError
+        If ``q0`` is not (4,) or (runs, 4) unit quaternions, or ``bias0`` not a
+        scalar, (3,) or (runs, 3).
+    """
+    if q0 is not None and np.shape(q0) not in ((4,), (runs, 4)):
+        raise ValueError(f"q0 must have shape (4,) or ({runs}, 4), got {np.shape(q0)}")
+    if bias0 is not None and np.shape(bias0) not in ((), (3,), (runs, 3)):
+        raise ValueError(f"bias0 must be a scalar or have shape (3,) or ({runs}, 3), got {np.shape(bias0)}")
+    qs = np.broadcast_to(mekf.q if q0 is None else quat.as_unit_quaternion(q0, "q0"), (runs, 4))
+    bs = np.broadcast_to(mekf.bias if bias0 is None else as_float_array(bias0, "bias0"), (runs, 3))
+    return qs, bs
+
+
+def non_unit_rows(y: NDArray[np.float64], mask: NDArray[np.bool_]) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
+    """Sampled (``mask``) finite tracker rows of ``y`` (..., 4) with a norm off 1 by more than 1e-6; the norms.
+
+    Parameters
+    ----------
+    y : ndarray (..., 4)
+        Tracker quaternion samples (NaN rows: no sample).
+    mask : ndarray of bool (...)
+        True where the tracker sampled.
+
+    Returns
+    -------
+    tuple of ndarray
+        ``(bad, norms)``: the rows that are not unit quaternions, and every row's norm.
+    """
+    finite_rows = np.all(np.isfinite(y), axis=-1)
+    norms = np.sqrt(np.sum(np.where(finite_rows[..., None], y, 0.0) ** 2, axis=-1))
+    return mask & finite_rows & (np.abs(norms - 1.0) > _UNIT_TOL), norms
+
+
+class MEKFBatch:
+    """N MEKFs advancing together, one step at a time: the batched state of a vectorised Monte Carlo loop.
+
+    The filter of :class:`MEKF` (same equations, innovation gate,
+    covariance reset option, handling of NaN and implausible gyro samples
+    with the last valid rate held, NaN tracker samples skipped) for ``N``
+    runs stacked along a leading axis, each step one numpy operation for all
+    runs. Stepped from outside (a closed loop calls :meth:`step` each
+    estimator tick with the runs' gyro and tracker samples);
+    :func:`run_mekf` (``vectorized=True``) runs its recorded histories
+    through the same :meth:`step` code, so there is one definition of the
+    batch equations. No filterpy: it runs one filter at a time.
+
+    The filter passed in is not modified: the batch starts from its state
+    and settings (time, covariance, held gyro rate, attitude and bias unless
+    ``q0``/``bias0`` replace them), like :func:`run_mekf`.
+
+    Parameters
+    ----------
+    mekf : MEKF
+        Settings (noise figures, tracker covariance, gate, reset option,
+        ``max_gyro_rate``) and initial state.
+    n_runs : int
+        Number of runs N (>= 1).
+    q0 : array_like (4,) or (N, 4), optional
+        Initial attitude estimates ``q_BN`` (unit norm) replacing the filter's.
+    bias0 : float or array_like (3,) or (N, 3), optional
+        Initial gyro bias estimates [rad/s] replacing the filter's.
+
+    Attributes
+    ----------
+    n_runs : int
+        N.
+    innovation : ndarray (N, 3)
+        Tracker residuals [rad] of the last step (NaN where no sample was tested).
+    innovation_covariance : ndarray (N, 3, 3)
+        Their covariances ``S`` [rad^2] (NaN where no sample was tested).
+    nis : ndarray (N,)
+        NIS of the last step's tracker samples, applied or gated (NaN without one).
+    updated, gated : ndarray (N,) of bool
+        The last step applied a tracker sample / the gate rejected one.
+    tracker_nan, gyro_nan, gyro_rejected : ndarray (N,) of bool
+        The last step skipped a NaN tracker sample / a NaN gyro sample /
+        rejected a gyro sample above ``max_gyro_rate``.
+
+    Raises
+    ------
+    ValueError
+        If ``mekf`` is not an :class:`MEKF`, ``n_runs`` is not a positive
+        integer, or ``q0``/``bias0`` have a wrong shape or value.
+    """
+
+    def __init__(self, mekf: MEKF, n_runs: int, q0: ArrayLike | None = None, bias0: ArrayLike | None = None) -> None:
+        if not isinstance(mekf, MEKF):
+            raise ValueError(f"mekf must be an MEKF, got {type(mekf).__name__}")
+        if not isinstance(n_runs, (int, np.integer)) or isinstance(n_runs, bool) or n_runs < 1:
+            raise ValueError(f"n_runs must be a positive integer, got {n_runs!r}")
+        self._init(mekf, *initial_states(mekf, int(n_runs), q0, bias0))
+
+    @classmethod
+    def _unchecked(cls, mekf: MEKF, qs: NDArray[np.float64], bs: NDArray[np.float64]) -> MEKFBatch:
+        """A batch from validated (N, 4) attitudes and (N, 3) biases, used as given (no renormalisation)."""
+        self = cls.__new__(cls)
+        self._init(mekf, qs, bs)
+        return self
+
+    def _init(self, mekf: MEKF, qs: NDArray[np.float64], bs: NDArray[np.float64]) -> None:
+        runs = int(qs.shape[0])
+        self.n_runs = runs
+        self._q = np.array(qs, dtype=np.float64)
+        self._b = np.array(bs, dtype=np.float64)
+        self._P = np.broadcast_to(mekf._kf.P, (runs, 6, 6)).copy()
+        self._R = mekf.tracker_covariance
+        held = mekf._last_gyro
+        self._last = np.zeros((runs, 3)) if held is None else np.broadcast_to(held, (runs, 3)).copy()
+        self._t: float | None = mekf.t
+        self._sv2 = mekf.sigma_v**2
+        self._su2 = mekf.sigma_u**2
+        self._gate = mekf.gate_threshold
+        self._second = mekf.covariance_reset == "second_order"
+        #: Settings copied from the filter.
+        self.covariance_reset = mekf.covariance_reset
+        self.gate_threshold = mekf.gate_threshold
+        self.max_gyro_rate = mekf.max_gyro_rate
+        #: Step period [s] (the filter's; what a closed loop steps it at).
+        self.period = mekf.period
+        self._counts = {k: np.zeros(runs, dtype=np.int64) for k in _BATCH_COUNT_KEYS}
+        self._clear_step_outputs()
+
+    def __repr__(self) -> str:
+        return f"MEKFBatch(n_runs={self.n_runs}, t={self._t!r}, covariance_reset={self.covariance_reset!r})"
+
+    # -- state ----------------------------------------------------------------------
+
+    @property
+    def q(self) -> NDArray[np.float64]:
+        """Attitude estimates ``q_BN`` (N, 4) (a copy)."""
+        return self._q.copy()
+
+    @property
+    def bias(self) -> NDArray[np.float64]:
+        """Gyro bias estimates (N, 3) [rad/s] (a copy)."""
+        return self._b.copy()
+
+    @property
+    def P(self) -> NDArray[np.float64]:
+        """Error covariances (N, 6, 6) of ``[delta_theta, delta_b]`` (a copy)."""
+        return self._P.copy()
+
+    @property
+    def t(self) -> float | None:
+        """Time [s] of the estimates (None before the first step if the filter had no time)."""
+        return self._t
+
+    @property
+    def omega(self) -> NDArray[np.float64]:
+        """Rate estimates ``omega_meas - b_hat`` (N, 3) [rad/s] from the held gyro rate (zeros before one)."""
+        return self._last - self._b
+
+    @property
+    def counts(self) -> dict[str, NDArray[np.int64]]:
+        """Per-run counts (N,) so far: steps, updates, tracker_nan, tracker_gated, gyro_nan, gyro_rejected."""
+        return {k: v.copy() for k, v in self._counts.items()}
+
+    # -- the filter -------------------------------------------------------------------
+
+    def step(
+        self,
+        t: float,
+        gyro: ArrayLike | None,
+        tracker: ArrayLike | None = None,
+        mask: ArrayLike | None = None,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Propagate every run to ``t`` with its gyro sample, then update with its tracker sample.
+
+        Run ``r`` follows :meth:`MEKF.step` of ``(t, gyro[r], tracker[r]
+        if mask[r] else None)``.
+
+        Parameters
+        ----------
+        t : float
+            Time [s] of the samples (shared); not before the previous step
+            (a repeated time propagates nothing and may still update).
+        gyro : array_like (N, 3) or None
+            Gyro samples [rad/s], the mean rate since the previous step. A
+            row with a non-finite entry (NaN) or a component above
+            ``max_gyro_rate`` is skipped and counted (``gyro_nan``,
+            ``gyro_rejected``) and the run's last valid rate is held (zero
+            before one); None: no sample in any run (held rates).
+        tracker : array_like (N, 4), optional
+            Tracker quaternions ``q_BN``; rows outside ``mask`` are ignored.
+            A masked row with a non-finite entry is skipped and counted
+            (``tracker_nan``); finite masked rows must have unit norm (to
+            1e-6, as :meth:`MEKF.step`). Samples above the innovation gate are
+            rejected and counted (``gated``).
+        mask : array_like (N,) of bool, optional
+            Runs whose tracker sampled (default: the rows of ``tracker``
+            that are not all NaN).
+
+        Returns
+        -------
+        q : ndarray (N, 4)
+            Attitude estimates ``q_BN`` after the step.
+        omega : ndarray (N, 3)
+            Rate estimates ``omega_meas - b_hat`` [rad/s].
+
+        Raises
+        ------
+        ValueError
+            If ``t`` is not a finite scalar or goes backwards, an array has
+            the wrong shape (or dtype for ``mask``), ``mask`` comes without
+            ``tracker``, or a sampled finite tracker row is not unit norm.
+            Every check runs before the state changes.
+        """
+        n = self.n_runs
+        tk = scalar_time(t)
+        if self._t is not None and tk < self._t:
+            raise ValueError(f"t must not go backwards: t = {tk!r} s < previous time {self._t!r} s")
+        g = None
+        if gyro is not None:
+            g = as_float_array(gyro, "gyro", allow_nonfinite=True)
+            if g.shape != (n, 3):
+                raise ValueError(f"gyro must have shape ({n}, 3) (one rate sample per run), got shape {g.shape}")
+        y = None
+        m = None
+        if tracker is not None:
+            y = as_float_array(tracker, "tracker", allow_nonfinite=True)
+            if y.shape != (n, 4):
+                raise ValueError(f"tracker must have shape ({n}, 4) (one quaternion per run), got shape {y.shape}")
+            if mask is None:
+                m = ~np.all(np.isnan(y), axis=-1)
+            else:
+                m = np.asarray(mask)
+                if m.dtype != np.bool_ or m.shape != (n,):
+                    raise ValueError(
+                        f"mask must be a boolean array of shape ({n},), got dtype {m.dtype} and shape {m.shape}"
+                    )
+            bad, norms = non_unit_rows(y, m)
+            if np.any(bad):
+                r = int(np.argmax(bad))
+                raise ValueError(
+                    f"tracker must hold unit quaternions (| |q| - 1 | <= {_UNIT_TOL:g}) in sampled rows; found "
+                    f"|q| = {norms[r]!r} in row {r}"
+                )
+        elif mask is not None:
+            raise ValueError("mask was given without tracker samples (pass tracker (N, 4) with it)")
+        self._step(tk, g, y, m)
+        return self._q.copy(), self._last - self._b
+
+    def _clear_step_outputs(self) -> None:
+        n = self.n_runs
+        self.innovation = np.full((n, 3), np.nan)
+        self.innovation_covariance = np.full((n, 3, 3), np.nan)
+        self.nis = np.full(n, np.nan)
+        self.updated = np.zeros(n, dtype=bool)
+        self.gated = np.zeros(n, dtype=bool)
+        self.tracker_nan = np.zeros(n, dtype=bool)
+        self.gyro_nan = np.zeros(n, dtype=bool)
+        self.gyro_rejected = np.zeros(n, dtype=bool)
+
+    def _step(
+        self,
+        tk: float,
+        g: NDArray[np.float64] | None,
+        y: NDArray[np.float64] | None,
+        mask: NDArray[np.bool_] | None,
+    ) -> None:
+        """The batch equations for one step (no checks: :meth:`step` and :func:`run_mekf` validate)."""
+        self._clear_step_outputs()
+        q, b, P, R = self._q, self._b, self._P, self._R
+        # Gyro: NaN rows and rows above max_gyro_rate are skipped, the last valid rate is held.
+        if g is None:
+            rate = self._last
+        else:
+            finite = np.all(np.isfinite(g), axis=-1)
+            largest = np.max(np.abs(np.where(finite[:, None], g, 0.0)), axis=-1)
+            rejected = finite & (largest > self.max_gyro_rate)
+            self.gyro_nan = ~finite
+            self.gyro_rejected = rejected
+            rate = np.where((finite & ~rejected)[:, None], g, self._last)
+        t_prev = self._t
+        if t_prev is not None and tk > t_prev:
+            dt = tk - t_prev
+            w = rate - b
+            q = compose_rotation_vector(q, w * dt)
+            phi = error_transition(w, dt)
+            P = phi @ P @ np.swapaxes(phi, -1, -2) + farrenkopf_process_noise(self._sv2, self._su2, dt)
+        self._t = tk
+        self._last = rate
+        # Tracker: NaN samples are skipped; the others are gated on their NIS, then applied.
+        if y is not None:
+            y_ok = np.all(np.isfinite(y), axis=-1)
+            self.tracker_nan = mask & ~y_ok
+            tested = np.nonzero(mask & y_ok)[0]
+        else:
+            tested = np.zeros(0, dtype=np.intp)
+        if tested.size:
+            qm = y[tested] / np.sqrt(np.sum(y[tested] ** 2, axis=-1, keepdims=True))
+            z_all = attitude_residual(q[tested], qm)
+            S_all = P[tested, :3, :3] + R
+            SI_all = np.linalg.inv(S_all)
+            nis_all = np.einsum("ri,rij,rj->r", z_all, SI_all, z_all)
+            self.innovation[tested] = z_all
+            self.innovation_covariance[tested] = S_all
+            self.nis[tested] = np.where(nis_all <= NIS_CAP, nis_all, NIS_CAP)
+            accept = nis_all <= self._gate  # the innovation gate (NaN is rejected too)
+            self.gated[tested[~accept]] = True
+            sel, z, SI = tested[accept], z_all[accept], SI_all[accept]
+        else:
+            sel = tested
+        if sel.size:
+            Ps = P[sel]
+            pht = Ps[:, :, :3]
+            K = pht @ SI
+            x = (K @ z[..., None])[..., 0]
+            ikh = _EYE6 - K @ MEASUREMENT_MATRIX
+            Pn = ikh @ Ps @ np.swapaxes(ikh, -1, -2) + K @ R @ np.swapaxes(K, -1, -2)
+            dtheta = x[:, :3]
+            q[sel] = compose_rotation_vector(q[sel], dtheta)
+            b[sel] = b[sel] + x[:, 3:]
+            if self._second:
+                gm = np.broadcast_to(_EYE6, Pn.shape).copy()
+                gm[:, :3, :3] -= 0.5 * skew(dtheta)
+                Pn = gm @ Pn @ np.swapaxes(gm, -1, -2)
+            P[sel] = 0.5 * (Pn + np.swapaxes(Pn, -1, -2))
+            self.updated[sel] = True
+        self._q, self._b, self._P = q, b, P
+        c = self._counts
+        c["steps"] += 1
+        c["updates"] += self.updated
+        c["tracker_nan"] += self.tracker_nan
+        c["tracker_gated"] += self.gated
+        c["gyro_nan"] += self.gyro_nan
+        c["gyro_rejected"] += self.gyro_rejected
