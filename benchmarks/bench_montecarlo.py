@@ -37,8 +37,9 @@ from typing import Any
 
 import numpy as np
 
+from attitude.app import assembly
 from attitude.app.scenarios import ClosedLoopScenario, PDWheelsScenario
-from attitude.config.model import default_config
+from attitude.config import default_config
 from attitude.montecarlo.campaign import Campaign, run_campaign
 from attitude.montecarlo.dispersions import dispersions_from_config
 from attitude.rigid_body import RigidBody
@@ -46,7 +47,9 @@ from attitude.simulation import batch as mb
 from attitude.simulation import codegen
 
 CONFIG = default_config()
-DISPERSIONS = dispersions_from_config(CONFIG.montecarlo, CONFIG.body().inertia, CONFIG.requirements.slew.q_start())
+DISPERSIONS = dispersions_from_config(
+    CONFIG.montecarlo, assembly.rigid_body(CONFIG).inertia, CONFIG.requirements.slew.q_start()
+)
 DURATION_S = 600.0
 PEER_SIM_S_PER_CPU_S = 9_000
 TARGET_FACTOR = 30

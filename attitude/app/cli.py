@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from attitude import __version__
-from attitude.config.model import (
+from attitude.config import (
     ConfigError,
     SpacecraftConfig,
     config_from_dict,

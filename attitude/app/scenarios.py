@@ -53,8 +53,9 @@ from typing import Any
 import numpy as np
 
 from attitude import quaternion as quat
+from attitude.app import assembly
 from attitude.app.design.slew import SlewStudy, plan_slews
-from attitude.config.model import SpacecraftConfig, load_config
+from attitude.config import SpacecraftConfig, load_config
 from attitude.montecarlo.campaign import Campaign, CampaignResult, Requirement, RunOutput, run_campaign, usable_cpus
 from attitude.montecarlo.dispersions import dispersions_from_config
 from attitude.rigid_body import RigidBody
@@ -63,11 +64,10 @@ from attitude.sensors import Gyro, GyroBatch
 from attitude.simulation.batch import closed_loop_metrics, simulate_batch
 from attitude.simulation.batch_estimated import simulate_batch_estimated
 from attitude.simulation.engine import Truth, settling_time_after, simulate
-from controllers.pd import QuaternionPD, RateLimitedPD
 from controllers.slew.planner import SlewPlanningError
 from controllers.tracking import ReferenceTrajectory, TrackingController
 from estimation.consistency import nees
-from estimation.mekf import MEKF, MEKFBatch, initial_covariance
+from estimation.mekf import MEKF, MEKFBatch
 
 __all__ = [
     "GUIDANCES",
@@ -79,10 +79,6 @@ __all__ = [
     "run_campaign_from_config",
 ]
 
-#: Initial gyro-bias uncertainty of the MEKF [rad/s] (10 deg/h, above the MEMS preset's 8 deg/h in-run stability).
-BIAS_SIGMA = math.radians(10.0) / 3600.0
-#: Initial attitude uncertainty of the MEKF when the attitude is not dispersed [rad].
-ATTITUDE_SIGMA = math.radians(1.0)
 #: What :class:`ClosedLoopScenario` can fly: the planned slew (default) or the eigenaxis rate-limited PD.
 GUIDANCES = ("plan", "eigenaxis")
 #: Planner intervals of ``guidance="plan"``: the design report's (``attitude design``; 30 with ``--quick``).
@@ -96,6 +92,8 @@ class ScenarioError(ValueError):
 
 def requirements_from_config(config: SpacecraftConfig, *, keep_out: bool = True) -> tuple[Requirement, ...]:
     """The file's ``[requirements]`` as Monte Carlo pass/fail rules on the metrics (module docstring).
+
+    Built by :func:`attitude.app.assembly.monte_carlo_requirements`.
 
     ``pointing``: final pointing error to the target <= pointing accuracy;
     ``settling``: settling time (arrival at the target within the pointing
@@ -115,17 +113,7 @@ def requirements_from_config(config: SpacecraftConfig, *, keep_out: bool = True)
     keep_out : bool, optional
         Include a rule per keep-out cone.
     """
-    req = config.requirements
-    out = [
-        Requirement("final_pointing_error", max=req.pointing_accuracy_rad, name="pointing"),
-        Requirement("settling_time", max=req.slew.max_time_s + req.settling_time_s, name="settling"),
-    ]
-    if req.slew.rate_max_rad_per_s is not None:
-        out.append(Requirement("peak_rate", max=req.slew.rate_max_rad_per_s, name="rate"))
-    if keep_out:
-        for cone in req.keep_out:
-            out.append(Requirement(f"keep_out_margin.{cone.name}", min=0.0, name=f"keep_out.{cone.name}"))
-    return tuple(out)
+    return assembly.monte_carlo_requirements(config, keep_out=keep_out)
 
 
 def _history(result: Any, stride: int | None, extra: Mapping[str, np.ndarray] | None = None) -> dict | None:
@@ -209,14 +197,6 @@ class _TabulatedTracking:
         q, omega = list(np.asarray(estimate.q, float)), list(np.asarray(estimate.omega, float))
         out = self.inner.torque_components(q, omega, h_body, list(self._inputs[k]))
         return np.array([float(v) for v in out])
-
-
-def _variance(entry: Any) -> float:
-    """Per-axis variance [SI^2] of a ``[montecarlo]`` dispersion (0 when absent)."""
-    if entry is None or not entry.scale_si:
-        return 0.0
-    s = float(entry.scale_si)
-    return s * s if entry.distribution == "normal" else s * s / 3.0  # U(-h, h): h^2 / 3
 
 
 class ClosedLoopScenario:
@@ -357,35 +337,24 @@ class ClosedLoopScenario:
         self.history_stride = history_stride
         self.nodes = int(nodes)
         self.consider_misalignment = bool(consider_misalignment)
-        self._nominal = config.body()
-        self._wheels = config.wheels()
-        self._tracker = config.star_tracker()
+        self._nominal = assembly.rigid_body(config)
+        self._wheels = assembly.reaction_wheels(config)
+        self._tracker = assembly.star_tracker(config)
         req = config.requirements
         slew = req.slew
         self._q_start = slew.q_start()
         self._q_target = slew.q_target()
         mc = config.montecarlo
-        spread = None if mc is None or mc.initial_attitude is None else mc.initial_attitude.scale_si
-        self._attitude_sigma = spread if spread else ATTITUDE_SIGMA
-        if mc is not None and mc.initial_attitude is not None and mc.initial_attitude.distribution == "uniform_so3":
-            if guidance == "plan":
-                raise ScenarioError(
-                    "guidance='plan' flies a slew planned from the file's start attitude, which an initial attitude "
-                    "uniform on SO(3) ([montecarlo] initial_attitude) does not start from; disperse the initial "
-                    "attitude about the start (normal or uniform), or fly guidance='eigenaxis'"
-                )
-            self._attitude_sigma = math.pi  # unknown attitude: the tracker's first update must decide it
-        if mc is not None and mc.initial_attitude is not None and mc.initial_attitude.distribution == "uniform":
-            self._attitude_sigma = spread / math.sqrt(3.0)  # standard deviation of U(-h, h)
-        # The filter starts from zero bias: its uncertainty covers the file's constant bias and a dispersed
-        # turn-on bias.
-        g = config.gyro_config
-        constant = 0.0 if g.bias_deg_per_h is None else float(np.max(np.abs(np.atleast_1d(g.bias_deg_per_h))))
-        dispersed = math.sqrt(_variance(None if mc is None else mc.gyro_bias))
-        self._bias_sigma = max(BIAS_SIGMA, math.radians(constant) / 3600.0, dispersed)
-        self._tracker_covariance = np.array(self._tracker.covariance_B, dtype=float)
-        if self.consider_misalignment and mc is not None:
-            self._tracker_covariance += _variance(mc.star_tracker_misalignment) * np.eye(3)
+        dispersion = None if mc is None else mc.initial_attitude
+        if dispersion is not None and dispersion.distribution == "uniform_so3" and guidance == "plan":
+            raise ScenarioError(
+                "guidance='plan' flies a slew planned from the file's start attitude, which an initial attitude "
+                "uniform on SO(3) ([montecarlo] initial_attitude) does not start from; disperse the initial "
+                "attitude about the start (normal or uniform), or fly guidance='eigenaxis'"
+            )
+        self._attitude_sigma = assembly.attitude_sigma0(dispersion)
+        self._bias_sigma = assembly.scenario_bias_sigma0(config)
+        self._tracker_covariance = assembly.mekf_tracker_covariance(config, self._tracker, self.consider_misalignment)
         self._reference: ReferenceTrajectory | None = None
         self._feedforward: ReferenceTrajectory | None = None
         self.slew_end: float | None = None
@@ -434,29 +403,9 @@ class ClosedLoopScenario:
 
     def controller(self) -> Any:
         """The control law, designed on the nominal inertia (a new one per run)."""
-        c = self.config.control
         if self._reference is not None:
-            return TrackingController(
-                self._reference,
-                self._nominal,
-                c.bandwidth_rad_per_s,
-                c.damping,
-                c.period_s,
-                feedforward=self._feedforward,
-            )
-        rate_max = self.config.requirements.slew.rate_max_rad_per_s
-        if rate_max is not None:
-            return RateLimitedPD.from_bandwidth(
-                self._nominal,
-                c.bandwidth_rad_per_s,
-                c.damping,
-                self.rate_margin * rate_max,
-                c.period_s,
-                q_ref=self._q_target,
-            )
-        return QuaternionPD.from_bandwidth(
-            self._nominal, c.bandwidth_rad_per_s, c.damping, c.period_s, q_ref=self._q_target, gyroscopic=True
-        )
+            return assembly.tracking_controller(self.config, self._reference, self._nominal, self._feedforward)
+        return assembly.eigenaxis_controller(self.config, self._nominal, self._q_target, self.rate_margin)
 
     def gyro(self, misalignment: np.ndarray | None, bias: np.ndarray | None = None) -> Gyro:
         """The file's gyro with an extra misalignment rotation vector [rad] and turn-on bias [rad/s].
@@ -468,18 +417,8 @@ class ClosedLoopScenario:
         bias : ndarray (3,), optional
             Extra turn-on bias [rad/s], added to the file's constant bias; None for none.
         """
-        g = self.config.gyro_config
-        figures = g.figures()
-        if misalignment is not None:
-            figures["misalignment_rad"] = np.asarray(figures.get("misalignment_rad", np.zeros(3))) + misalignment
-        if bias is not None:
-            base = np.broadcast_to(np.asarray(figures.get("bias_deg_per_h", 0.0), dtype=float), (3,))
-            figures["bias_deg_per_h"] = base + np.degrees(np.asarray(bias, dtype=float)) * 3600.0
         # Interval-mean samples (an integrating gyro): what the MEKF models.
-        if g.preset is not None:
-            return Gyro.preset(g.preset, period=g.period_s, sampling="mean", **figures)
-        arw = figures.pop("arw_deg_per_sqrt_h")
-        return Gyro.from_datasheet(arw, period=g.period_s, sampling="mean", **figures)
+        return assembly.gyro(self.config, "mean", misalignment_rad=misalignment, bias_rad_per_s=bias)
 
     def estimator(self, gyro: Gyro) -> MEKF:
         """The MEKF matched to the (nominal) sensors, started at the nominal start attitude.
@@ -489,15 +428,12 @@ class ClosedLoopScenario:
         gyro : Gyro
             The run's gyro (its noise figures set the filter).
         """
-        return MEKF(
-            gyro.sigma_v,
-            gyro.sigma_u,
-            self._tracker_covariance,
-            period=gyro.period,
+        return assembly.mekf(
+            gyro,
+            self._tracker,
             q0=self._q_start,
-            P0=initial_covariance(self._attitude_sigma, self._bias_sigma),
-            gyro_name=gyro.name,
-            tracker_name=self._tracker.name,
+            P0=assembly.mekf_initial_covariance(self._attitude_sigma, self._bias_sigma),
+            tracker_covariance=self._tracker_covariance,
         )
 
     def __call__(self, params: Mapping[str, Any], rng: np.random.Generator) -> RunOutput:
@@ -719,8 +655,8 @@ class PDWheelsScenario:
         self.duration = float(duration)
         self.pointing_threshold = float(pointing_threshold)
         self.history_stride = history_stride
-        self.controller = QuaternionPD.from_bandwidth(
-            self.nominal, self.bandwidth, self.damping, self.period, q_ref=self.q_target, gyroscopic=True
+        self.controller = assembly.pd_from_bandwidth(
+            self.nominal, self.bandwidth, self.damping, self.period, q_ref=self.q_target
         )
 
     @classmethod
@@ -737,8 +673,8 @@ class PDWheelsScenario:
         c = config.control
         kwargs.setdefault("pointing_threshold", config.requirements.pointing_accuracy_rad)
         return cls(
-            config.body(),
-            config.wheels(),
+            assembly.rigid_body(config),
+            assembly.reaction_wheels(config),
             config.requirements.slew.q_start(),
             config.requirements.slew.q_target(),
             bandwidth=c.bandwidth_rad_per_s,
@@ -774,7 +710,6 @@ class PDWheelsScenario:
         rngs : sequence of numpy.random.Generator
             The generator of each run.
         """
-        initial = [self._initial(p) for p in params_list]
         result = simulate_batch(
             RigidBody(np.stack([np.asarray(i[0], dtype=float) for i in initial])),
             np.stack([np.asarray(i[1], dtype=float) for i in initial]),
@@ -868,7 +803,8 @@ def run_campaign_from_config(
     mc = config.montecarlo
     dispersions = {}
     if mc is not None:
-        dispersions = dispersions_from_config(mc, config.body().inertia, config.requirements.slew.q_start())
+        nominal = assembly.rigid_body(config).inertia
+        dispersions = dispersions_from_config(mc, nominal, config.requirements.slew.q_start())
     n = runs if runs is not None else (mc.runs if mc is not None else None)
     if n is None:
         raise ValueError("runs must be given when the spacecraft file has no [montecarlo] table")

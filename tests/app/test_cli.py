@@ -27,10 +27,11 @@ import pytest
 
 from attitude import quaternion as quat
 from attitude.analytic import flip_period, intermediate_axis_growth_rate
+from attitude.app import assembly
 from attitude.app.cli import main
 from attitude.app.design.run import DesignOptions
 from attitude.app.report.sections import SECTIONS, fmt
-from attitude.config.model import default_config, default_config_text, load_config
+from attitude.config import default_config, default_config_text, load_config
 
 ROOT = Path(__file__).resolve().parents[2]
 SECOND = ROOT / "tests" / "data" / "second_spacecraft.toml"
@@ -288,7 +289,7 @@ def test_missing_file_and_no_command(tmp_path, capsys):
 def test_physics_json_matches_the_closed_forms(capsys):
     assert main(["physics", "--json"]) == 0
     b = json.loads(capsys.readouterr().out)["body"]
-    body = default_config().body()
+    body = assembly.rigid_body(default_config())
     moments = body.principal_axes().moments
     np.testing.assert_allclose(b["principal_moments_kg_m2"], moments, rtol=1e-15)
     kinds = [(a["name"], a["torque_free"], a["with_energy_dissipation"]) for a in b["axes"]]

@@ -41,7 +41,7 @@ from attitude.app.report.writer import (
     to_jsonable,
     write_report,
 )
-from attitude.config.model import default_config
+from attitude.config import default_config
 
 CHROMIUM = shutil.which("chromium")
 CHROMIUM_FLAGS = [

@@ -10,7 +10,7 @@ import pickle
 import numpy as np
 import pytest
 
-from attitude.app import scenarios
+from attitude.app import assembly, scenarios
 from attitude.app.cli import main
 from attitude.app.design.slew import SlewStudy, plan_slews
 from attitude.app.scenarios import (
@@ -19,7 +19,7 @@ from attitude.app.scenarios import (
     ScenarioError,
     requirements_from_config,
 )
-from attitude.config.model import default_config
+from attitude.config import default_config
 from attitude.montecarlo.campaign import RunOutput
 from controllers.slew.planner import SlewPlanningError
 
@@ -162,19 +162,19 @@ def test_a_slew_that_cannot_be_planned_is_an_error_not_a_fallback():
 def test_consider_misalignment_inflates_the_tracker_covariance_by_its_dispersion(study):
     sc = ClosedLoopScenario(CONFIG, study=study, consider_misalignment=True)
     gyro = sc.gyro(None)
-    added = sc.estimator(gyro).tracker_covariance - CONFIG.star_tracker().covariance_B
+    added = sc.estimator(gyro).tracker_covariance - assembly.star_tracker(CONFIG).covariance_B
     sigma = CONFIG.montecarlo.star_tracker_misalignment.scale_si  # the file says 10 arcsec, normal
     assert sigma == pytest.approx(10.0 * ARCSEC)
     np.testing.assert_allclose(added, sigma**2 * np.eye(3), rtol=1e-12, atol=1e-30)
     plain = ClosedLoopScenario(CONFIG, study=study)
-    np.testing.assert_array_equal(plain.estimator(gyro).tracker_covariance, CONFIG.star_tracker().covariance_B)
+    np.testing.assert_array_equal(plain.estimator(gyro).tracker_covariance, assembly.star_tracker(CONFIG).covariance_B)
 
 
 def test_vectorised_runs_are_the_per_run_runs(scenario):
     from attitude.montecarlo.campaign import Campaign, run_campaign
     from attitude.montecarlo.dispersions import Normal, dispersions_from_config
 
-    dispersions = dispersions_from_config(CONFIG.montecarlo, CONFIG.body().inertia, REQ.slew.q_start())
+    dispersions = dispersions_from_config(CONFIG.montecarlo, assembly.rigid_body(CONFIG).inertia, REQ.slew.q_start())
     dispersions["gyro_bias"] = Normal(np.zeros(3), math.radians(20.0) / 3600.0)  # turn-on bias, 20 deg/h
     campaign = Campaign(scenario, dispersions, runs=4, seed=SEED, requirements=requirements_from_config(CONFIG))
     per_run = run_campaign(campaign, workers=1)
@@ -231,7 +231,7 @@ def test_the_cli_refuses_bad_campaign_arguments_with_exit_code_2(tmp_path, capsy
         assert exc.value.code == 2
         assert flag in capsys.readouterr().err
     # A file without a [montecarlo] table needs --runs; a planned slew cannot start anywhere on SO(3).
-    from attitude.config.model import default_config_text
+    from attitude.config import default_config_text
 
     text = default_config_text()
     bare = tmp_path / "bare.toml"
@@ -260,7 +260,7 @@ def test_the_cli_refuses_bad_campaign_arguments_with_exit_code_2(tmp_path, capsy
 def test_a_dispersed_gyro_bias_is_added_to_the_files_and_widens_the_filter_prior(study):
     import dataclasses
 
-    from attitude.config.model import Dispersion
+    from attitude.config import Dispersion
 
     bias = np.radians([10.0, -20.0, 5.0]) / 3600.0
     sc = ClosedLoopScenario(CONFIG, study=study)
@@ -270,4 +270,4 @@ def test_a_dispersed_gyro_bias_is_added_to_the_files_and_widens_the_filter_prior
     sc_wide = ClosedLoopScenario(dataclasses.replace(CONFIG, montecarlo=wide), study=study)
     sigma_b = math.sqrt(sc_wide.estimator(sc_wide.gyro(None)).P[3, 3])
     assert sigma_b == pytest.approx(math.radians(30.0) / 3600.0)  # above the 10 deg/h default prior
-    assert math.sqrt(sc.estimator(sc.gyro(None)).P[3, 3]) == pytest.approx(scenarios.BIAS_SIGMA)
+    assert math.sqrt(sc.estimator(sc.gyro(None)).P[3, 3]) == pytest.approx(assembly.SCENARIO_BIAS_SIGMA0_FLOOR)

@@ -28,7 +28,8 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from attitude.analytic import flip_period, torque_free_motion
-from attitude.config.model import SpacecraftConfig
+from attitude.app import assembly
+from attitude.config import SpacecraftConfig
 from attitude.environment.gravity_gradient import gravity_gradient_stability
 from attitude.plain import plain_float as _f
 from attitude.plain import plain_matrix as _mat
@@ -98,7 +99,7 @@ def body_analysis(config: SpacecraftConfig, spin_rate_deg_per_s: float = DEFAULT
     """
     if not (math.isfinite(spin_rate_deg_per_s) and spin_rate_deg_per_s > 0):
         raise ValueError(f"spin_rate_deg_per_s must be a positive number, got {spin_rate_deg_per_s!r}")
-    body = config.body()
+    body = assembly.rigid_body(config)
     pa = body.principal_axes()
     m = pa.moments
     # A principal axis is a line: show each with its largest component positive (q_PB keeps the frame).
@@ -160,7 +161,7 @@ def body_analysis(config: SpacecraftConfig, spin_rate_deg_per_s: float = DEFAULT
         off_axis = (axes_B[:, 0] + axes_B[:, 2]) / math.sqrt(2.0)
         tilt = axes_B[:, 1] + PERTURBATION * off_axis
         out["flip_period_s"] = _f(flip_period(body, spin * tilt / np.linalg.norm(tilt)))
-    orbit = config.orbit()
+    orbit = assembly.orbit(config)
     if orbit is not None:
         n = orbit.mean_motion
         mounted = _mounted_moments(axes_B, m)
@@ -193,4 +194,4 @@ def body_figures(config: SpacecraftConfig, body: dict[str, Any]) -> dict[str, Fi
         return {}
     rate = math.radians(body["spin_rate_deg_per_s"])
     title = f"Torque-free polhodes at the energy of a {body['spin_rate_deg_per_s']:g} deg/s middle-axis spin"
-    return {"body_polhodes": plot_polhodes(config.body(), rate, rate_unit="deg/s", title=title)}
+    return {"body_polhodes": plot_polhodes(assembly.rigid_body(config), rate, rate_unit="deg/s", title=title)}

@@ -35,12 +35,20 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from attitude import quaternion as quat
-from attitude.config.model import SpacecraftConfig
-from attitude.sensors import ARCSEC, GYRO_PRESETS
+from attitude.app import assembly
+from attitude.app.assembly import (
+    ATTITUDE_SIGMA0_DEG,
+    BIAS_SIGMA0_DEFAULT_DEG_PER_H,
+    RATE_EKF_TORQUE_NOISE,
+    RATE_SIGMA0_DEG_PER_S,
+    gyro_bias_sigma_deg_per_h,
+)
+from attitude.config import SpacecraftConfig
+from attitude.sensors import ARCSEC
 from attitude.simulation.engine import SimulationResult
 from estimation.consistency import chi2_band, fraction_inside_band, plot_errors_with_bounds, plot_nees
-from estimation.mekf import MEKF, initial_covariance, run_mekf
-from estimation.rate_ekf import RateEKF, run_rate_ekf
+from estimation.mekf import run_mekf
+from estimation.rate_ekf import run_rate_ekf
 
 __all__ = [
     "ATTITUDE_SIGMA0_DEG",
@@ -59,40 +67,8 @@ CONFIDENCE = 0.95
 #: strongly correlated, so even a consistent filter leaves the band for stretches; the MEKF tests use
 #: 0.80 for 64 runs (tests/estimation/mekf/test_filter.py, where it sits below the 5th percentile of 100 campaigns).
 MIN_FRACTION_INSIDE = 0.80
-#: Torque-uncertainty density of the rate EKF [N m / sqrt(Hz)]. The simulated truth has no disturbance
-#: torque and the filter rebuilds the wheel torque exactly from the tachometers, so this is only a floor
-#: that keeps the rate covariance from collapsing. Measured on the default spacecraft (3 seeds x 20
-#: runs): average NEES 5.9-7.0 with 1e-7, but 4.1-4.6 (pessimistic, below the band) with 1e-5: the NEES
-#: check sees a torque allowance 100 times too large. A flight filter takes its disturbance budget here.
-RATE_EKF_TORQUE_NOISE = 1e-7
-#: Initial rate uncertainty of the rate EKF, 1 sigma per axis [deg/s].
-RATE_SIGMA0_DEG_PER_S = 0.05
-#: Initial attitude knowledge error of the MEKF, 1 sigma per axis [deg] (also in the closed loop).
-ATTITUDE_SIGMA0_DEG = 0.1
-#: Initial gyro-bias uncertainty [deg/h] when the gyro gives no bias-instability figure.
-BIAS_SIGMA0_DEFAULT_DEG_PER_H = 10.0
 
 _DEG_PER_H = math.pi / 180.0 / 3600.0  # [rad/s] in one deg/h
-
-
-def gyro_bias_sigma_deg_per_h(config: SpacecraftConfig) -> float:
-    """Initial bias uncertainty of the filters [deg/h]: the gyro's bias instability (file or preset).
-
-    At least the largest constant bias of the file, so the truth lies inside
-    the filter's initial uncertainty; :data:`BIAS_SIGMA0_DEFAULT_DEG_PER_H`
-    when the gyro gives neither.
-
-    Parameters
-    ----------
-    config : SpacecraftConfig
-        The spacecraft file.
-    """
-    g = config.gyro_config
-    figure = g.bias_instability_deg_per_h
-    if figure is None and g.preset is not None and g.rrw_deg_per_h_per_sqrt_h is None:
-        figure = GYRO_PRESETS[g.preset]["figures"].get("bias_instability_deg_per_h")
-    bias = 0.0 if g.bias_deg_per_h is None else float(np.max(np.abs(np.atleast_1d(g.bias_deg_per_h))))
-    return max(BIAS_SIGMA0_DEFAULT_DEG_PER_H if figure is None else float(figure), bias)
 
 
 def _consistency(label: str, nees_runs: np.ndarray, runs: int) -> dict[str, Any]:
@@ -134,7 +110,7 @@ def estimation_study(
     """
     if flight is None:
         return None, {}
-    gyro, tracker = config.gyro(), config.star_tracker()
+    gyro, tracker = assembly.gyro(config), assembly.star_tracker(config)
     tick = float(flight.info["dt"])
     every = max(1, round(gyro.period / tick))
     t = flight.t[::every]
@@ -146,8 +122,8 @@ def estimation_study(
     mask = np.zeros(n, dtype=bool)
     mask[::tracker_every] = True
     mask &= ~blind
-    sig_a0 = math.radians(ATTITUDE_SIGMA0_DEG)
-    sig_b0 = gyro_bias_sigma_deg_per_h(config) * _DEG_PER_H
+    sig_a0 = assembly.attitude_sigma0()
+    sig_b0 = assembly.gyro_bias_sigma0(config)
     sig_w0 = math.radians(RATE_SIGMA0_DEG_PER_S)
     root = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
     seed_mekf, seed_rate = root.spawn(2)
@@ -168,7 +144,8 @@ def estimation_study(
         y[r, mask] = tracker.add_noise(q_true[mask], rng)
         q0[r] = quat.multiply(q_true[0], quat.from_rotation_vector(rng.standard_normal(3) * sig_a0))
     # The samples above are interval means (angle increments): the MEKF's gyro model.
-    mekf = MEKF.from_sensors(config.gyro(sampling="mean"), tracker, q0=q_true[0], P0=initial_covariance(sig_a0, sig_b0))
+    p0 = assembly.mekf_initial_covariance(sig_a0, sig_b0)
+    mekf = assembly.mekf(assembly.gyro(config, sampling="mean"), tracker, q0=q_true[0], P0=p0)
     res = run_mekf(mekf, t, g, y, tracker_mask=np.broadcast_to(mask, (runs, n)), q0=q0)
     mekf_nees = res.nees(q_true, bias)
     mekf_out, mekf_avg = _consistency("MEKF (attitude and gyro bias)", mekf_nees, runs)
@@ -187,16 +164,13 @@ def estimation_study(
     # Rate EKF, one filter per run.
     runs_r = rate_ekf_runs
     omega, h = flight.omega[::every], flight.h_wheels[::every]
-    wheels = config.wheels()
-    p0 = np.diag([sig_w0**2] * 3 + [sig_b0**2] * 3)
+    wheels, body = assembly.reaction_wheels(config), assembly.rigid_body(config)
     nees_r, results_r = [], []
     for child in seed_rate.spawn(runs_r):
         rng = np.random.default_rng(child)
         errors, biases = gyro.sample_errors(n, rng, bias0=rng.standard_normal(3) * sig_b0)
         x0 = np.concatenate([omega[0] + rng.standard_normal(3) * sig_w0, biases[1] + rng.standard_normal(3) * sig_b0])
-        ekf = RateEKF.from_gyro(
-            config.body(), gyro, torque_noise=RATE_EKF_TORQUE_NOISE, P0=p0, x0=x0, wheels=wheels, t0=float(t[0])
-        )
+        ekf = assembly.rate_ekf(config, gyro, x0=x0, t0=float(t[0]), wheels=wheels, body=body)
         rr = run_rate_ekf(ekf, t, omega + errors, wheel_momentum=h, omega_true=omega, bias_true=biases[1:])
         nees_r.append(rr.nees())
         results_r.append(rr)

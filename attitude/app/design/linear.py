@@ -20,14 +20,12 @@ from typing import Any
 import numpy as np
 from matplotlib.figure import Figure
 
-from attitude.config.model import SpacecraftConfig
-from attitude.linearize import linearize
+from attitude.app import assembly
+from attitude.config import SpacecraftConfig
 from attitude.plain import plain_float as _f
 from attitude.plain import plain_matrix as _mat
 from attitude.plain import plain_vector as _vec
 from controllers.analysis import attitude_closed_loop, loop_gain, margins, plot_bode, plot_step, sampled_loop
-from controllers.lqr import bryson_weights, design_lqr
-from controllers.pd import QuaternionPD
 
 __all__ = ["linear_design"]
 
@@ -70,10 +68,10 @@ def linear_design(config: SpacecraftConfig) -> tuple[dict[str, Any], dict[str, F
     config : SpacecraftConfig
         The spacecraft file.
     """
-    body = config.body()
+    body = assembly.rigid_body(config)
     c = config.control
     period = c.period_s
-    pd = QuaternionPD.from_bandwidth(body, c.bandwidth_rad_per_s, c.damping, period, gyroscopic=True)
+    pd = assembly.quaternion_pd(config, body)
     closed = attitude_closed_loop(body, pd)
     loops = loop_gain(body, pd)
     sampled = [sampled_loop(loop, period) for loop in loops]
@@ -99,10 +97,9 @@ def linear_design(config: SpacecraftConfig) -> tuple[dict[str, Any], dict[str, F
         "pd_bode": plot_bode(loops, labels=[f"PD, {a} axis, continuous" for a in _AXES]),
         "pd_bode_sampled": plot_bode(sampled, labels=[f"PD, {a} axis, {1.0 / period:g} Hz ZOH" for a in _AXES]),
     }
-    if c.lqr is not None:
-        q_w, r_w = bryson_weights(c.lqr.max_angle_rad, c.lqr.max_rate_rad_per_s, c.lqr.max_torque)
-        plant = linearize(body)
-        lqr = design_lqr(plant, q_w, r_w, period=period)
+    designed = assembly.lqr(config, body)
+    if designed is not None:
+        plant, lqr = designed
         lqr_loops = loop_gain(plant, lqr.K)
         lqr_sampled = [sampled_loop(loop, period) for loop in lqr_loops]
         rows += [_margin_row("LQR", "continuous", a, loop) for a, loop in zip(_AXES, lqr_loops)]

@@ -42,7 +42,7 @@ from attitude.app.design.body import DEFAULT_SPIN_RATE_DEG_PER_S, body_analysis,
 from attitude.app.design.estimation import MIN_FRACTION_INSIDE, estimation_study
 from attitude.app.design.linear import linear_design
 from attitude.app.design.slew import check_periods, fly_slew, plan_slews, slew_figures
-from attitude.config.model import SpacecraftConfig
+from attitude.config import SpacecraftConfig
 
 __all__ = [
     "GAIN_MARGIN_GUIDELINE_DB",

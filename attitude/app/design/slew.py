@@ -24,7 +24,6 @@ flown slew, not on the plan.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -33,15 +32,13 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from attitude import quaternion as quat
-from attitude.app.design.estimation import ATTITUDE_SIGMA0_DEG, gyro_bias_sigma_deg_per_h
-from attitude.config.model import ConfigError, SpacecraftConfig
+from attitude.app import assembly
+from attitude.config import ConfigError, SpacecraftConfig
 from attitude.plain import plain_float as _f
 from attitude.plain import plain_vector as _vec
 from attitude.simulation.engine import SimulationResult, simulate
-from controllers.slew.planner import KeepOutCone, SlewPlanningError, eigenaxis_slew, momentum_rate_limit, plan_slew
+from controllers.slew.planner import SlewPlanningError, eigenaxis_slew, momentum_rate_limit, plan_slew
 from controllers.slew.reference import axis_angle
-from controllers.tracking import TrackingController
-from estimation.mekf.filter import MEKF, initial_covariance
 
 __all__ = [
     "KEEP_OUT_MARGIN_DEG",
@@ -113,13 +110,6 @@ class SlewStudy:
 HOPELESS_FACTOR = 10.0
 
 
-def _scaled_wheels(config: SpacecraftConfig, fraction: float) -> Any:
-    w = config.wheels_config
-    torque = w.torque_max_Nm
-    scaled = tuple(fraction * v for v in torque) if isinstance(torque, tuple) else fraction * torque
-    return dataclasses.replace(w, torque_max_Nm=scaled).build()
-
-
 def _trajectory_summary(name: str, t: Any, q: Any, omega: Any, torque: Any, cones: list[Any]) -> dict[str, Any]:
     sep = {c.name: _f(np.degrees(np.min(c.separation(q)))) for c in cones}
     return {
@@ -151,16 +141,16 @@ def plan_slews(
     duration_s : float, optional
         Slew time for "energy" [s] (default ``requirements.slew.max_time_s``).
     """
-    body = config.body()
+    body = assembly.rigid_body(config)
     req = config.requirements
     slew = req.slew
     q0, qf = slew.q_start(), slew.q_target()
-    plan_wheels = _scaled_wheels(config, PLAN_TORQUE_FRACTION)
+    plan_wheels = assembly.reaction_wheels(config, PLAN_TORQUE_FRACTION)
     rate_max = None if slew.rate_max_rad_per_s is None else PLAN_RATE_FRACTION * slew.rate_max_rad_per_s
     # Wheel momentum envelope: a rate limit that keeps the minimum-norm wheel momenta -A^+ I omega
     # inside PLAN_MOMENTUM_FRACTION of momentum_max on any path (the optimal plan), and the exact
     # momentum-limited rate along the eigenaxis for the eigenaxis slew.
-    wheels = config.wheels()
+    wheels = assembly.reaction_wheels(config)
     rate_h = PLAN_MOMENTUM_FRACTION * momentum_rate_limit(body, wheels)
     rate_h_axis = PLAN_MOMENTUM_FRACTION * momentum_rate_limit(body, wheels, axis_angle(q0, qf)[0])
     rate_plan = rate_h if rate_max is None else min(rate_max, rate_h)
@@ -170,7 +160,7 @@ def plan_slews(
     for c in cones:
         clearance = min(float(np.degrees(c.separation(q))) for q in (q0, qf)) - c.half_angle_deg
         margin = min(KEEP_OUT_MARGIN_DEG, max(0.0, 0.5 * clearance))
-        planned.append(KeepOutCone.from_degrees(c.boresight_B, c.direction_N, c.half_angle_deg + margin, c.name))
+        planned.append(assembly.keep_out_cone(c, margin))
     summary: dict[str, Any] = {
         "angle_deg": _f(math.degrees(slew.angle_rad)),
         "q_start_BN": _vec(q0),
@@ -377,7 +367,7 @@ def fly_slew(
         return None, {}, None
     tick = check_periods(config)
     req = config.requirements
-    body = config.body()
+    body = assembly.rigid_body(config)
     c = config.control
     root = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
     rng_init, rng_sim = (np.random.default_rng(s) for s in root.spawn(2))
@@ -385,15 +375,15 @@ def fly_slew(
     hold = max(30.0, req.settling_time_s)
     duration = math.ceil((slew_end + req.settling_time_s + hold) / tick) * tick
     reference = ref.resample(c.period_s) if hasattr(ref, "resample") else ref
-    controller = TrackingController(reference, body, c.bandwidth_rad_per_s, c.damping, c.period_s, feedforward=ref)
+    controller = assembly.tracking_controller(config, reference, body, feedforward=ref)
     # An integrating gyro (interval-mean samples): what the MEKF's propagation models.
-    gyro, tracker = config.gyro(sampling="mean"), config.star_tracker()
+    gyro, tracker = assembly.gyro(config, sampling="mean"), assembly.star_tracker(config)
     q0 = req.slew.q_start()
-    sig_a0 = math.radians(ATTITUDE_SIGMA0_DEG)
-    sig_b0 = math.radians(gyro_bias_sigma_deg_per_h(config) / 3600.0)
+    sig_a0 = assembly.attitude_sigma0()
+    sig_b0 = math.radians(assembly.gyro_bias_sigma_deg_per_h(config) / 3600.0)
     q_hat0 = quat.multiply(q0, quat.from_rotation_vector(rng_init.standard_normal(3) * sig_a0))
-    mekf = MEKF.from_sensors(gyro, tracker, q0=q_hat0, P0=initial_covariance(sig_a0, sig_b0))
-    wheels = config.wheels()
+    mekf = assembly.mekf(gyro, tracker, q0=q_hat0, P0=assembly.mekf_initial_covariance(sig_a0, sig_b0))
+    wheels = assembly.reaction_wheels(config)
     r = simulate(
         body,
         q0,

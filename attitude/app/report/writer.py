@@ -13,7 +13,7 @@ markdown, the HTML and ``results.json`` show the same numbers.
   are written as the strings ``"inf"``, ``"-inf"`` and ``"nan"``
   (:func:`to_jsonable`); ``float(value)`` reads them back.
 * ``spacecraft.toml`` is the resolved spacecraft file
-  (:func:`attitude.config.model.config_to_toml`): every default filled in, so the
+  (:func:`attitude.config.writer.config_to_toml`): every default filled in, so the
   design can be reproduced from the report folder alone.
 """
 
@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from attitude.app.report.sections import Block, Figure, Heading, Paragraph, Table, build_blocks, requirement_rows
-from attitude.config.model import config_to_toml
+from attitude.config import config_to_toml
 
 if TYPE_CHECKING:
     from attitude.app.design.run import DesignResult

@@ -18,7 +18,8 @@ from hypothesis import strategies as st
 import attitude
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
-from attitude.config.model import (
+from attitude.app import assembly
+from attitude.config import (
     CONFIG_KEYS,
     ConfigError,
     SpacecraftConfig,
@@ -29,7 +30,7 @@ from attitude.config.model import (
     load_config,
     parse_config,
 )
-from attitude.environment.gravity_gradient import CircularOrbit
+from attitude.environment.orbit import CircularOrbit
 from attitude.rigid_body import RigidBody
 from attitude.sensors import ARCSEC, Gyro, StarTracker
 
@@ -46,11 +47,11 @@ def test_default_loads_and_builds_every_object():
     config = default_config()
     assert isinstance(config, SpacecraftConfig)
     body, wheels, gyro, tracker, orbit = (
-        config.body(),
-        config.wheels(),
-        config.gyro(),
-        config.star_tracker(),
-        config.orbit(),
+        assembly.rigid_body(config),
+        assembly.reaction_wheels(config),
+        assembly.gyro(config),
+        assembly.star_tracker(config),
+        assembly.orbit(config),
     )
     assert isinstance(body, RigidBody)
     np.testing.assert_allclose(body.inertia, np.array(config.inertia.tensor_kg_m2))
@@ -61,7 +62,7 @@ def test_default_loads_and_builds_every_object():
     assert tracker.sun_exclusion == pytest.approx(math.radians(35.0), rel=1e-15)
     assert isinstance(orbit, CircularOrbit)
     assert orbit.altitude_m == pytest.approx(500e3, rel=1e-12)
-    assert isinstance(config.hub_body(), RigidBody)
+    assert isinstance(assembly.hub_body(config), RigidBody)
     assert config.control.lqr is not None and config.montecarlo is not None
     assert config.montecarlo.inertia.scale_si == pytest.approx(0.05)
     assert config.montecarlo.gyro_misalignment.scale_si == pytest.approx(100.0 * ARCSEC)
@@ -70,7 +71,7 @@ def test_default_loads_and_builds_every_object():
 def test_default_slew_is_feasible_as_its_comments_say():
     """The arithmetic left in the default file's [wheels] comment, from the built objects."""
     config = default_config()
-    wheels, inertia = config.wheels(), config.inertia.tensor
+    wheels, inertia = assembly.reaction_wheels(config), config.inertia.tensor
     slew = config.requirements.slew
     theta = slew.angle_rad
     assert theta == pytest.approx(math.radians(60.0), rel=1e-12)
@@ -100,7 +101,7 @@ def test_default_sun_keep_out_matters_for_the_slew():
     assert separation[0] == pytest.approx(38.3, abs=0.05) and separation[-1] == pytest.approx(38.3, abs=0.05)
     assert separation.min() < cone.half_angle_deg < min(separation[0], separation[-1])
     # The tracker sees stars at both ends (same Sun and exclusion as the cone).
-    tracker = config.star_tracker()
+    tracker = assembly.star_tracker(config)
     assert not tracker.sun_blinded(0.0, slew.q_start())
     assert not tracker.sun_blinded(0.0, slew.q_target())
     assert tracker.sun_blinded(0.0, path[100])
@@ -223,10 +224,10 @@ initial_rate = { distribution = "uniform", half_width_deg_per_s = 0.2 }
 
 def test_variant_round_trips_and_builds():
     config = parse_config(VARIANT, "variant.toml")
-    assert config.orbit() is None and config.environment.sun_direction_N is None
-    assert config.wheels().n_wheels == 4
-    assert config.star_tracker().sun_exclusion is None  # no Sun in the scene
-    assert np.isinf(config.gyro().saturation)
+    assert assembly.orbit(config) is None and config.environment.sun_direction_N is None
+    assert assembly.reaction_wheels(config).n_wheels == 4
+    assert assembly.star_tracker(config).sun_exclusion is None  # no Sun in the scene
+    assert np.isinf(assembly.gyro(config).saturation)
     assert config.requirements.keep_out[0].name == "keep_out_0"
     assert config.requirements.slew.angle_rad == pytest.approx(math.pi / 2, abs=1e-4)
     assert config.montecarlo.initial_attitude.scale_si is None
@@ -644,7 +645,14 @@ def test_garbage_values_raise_only_config_errors(edits):
         assert _top_table(err.key) in allowed, (err.key, touched)
         return
     # Whatever loads builds every object and round-trips.
-    config.body(), config.wheels(), config.hub_body(), config.gyro(), config.star_tracker(), config.orbit()
+    (
+        assembly.rigid_body(config),
+        assembly.reaction_wheels(config),
+        assembly.hub_body(config),
+        assembly.gyro(config),
+        assembly.star_tracker(config),
+        assembly.orbit(config),
+    )
     assert parse_config(config_to_toml(config), "again.toml") == config
 
 
@@ -679,7 +687,7 @@ def test_montecarlo_disperses_principal_axes_and_gyro_bias():
     assert mc.inertia.axis_sigma_deg == 1.5
     assert mc.gyro_bias.scale_si == pytest.approx(math.radians(20.0) / 3600.0)
     assert parse_config(config_to_toml(config), "again.toml") == config
-    dispersions = dispersions_from_config(mc, config.body().inertia, config.requirements.slew.q_start())
+    dispersions = dispersions_from_config(mc, assembly.rigid_body(config).inertia, config.requirements.slew.q_start())
     assert isinstance(dispersions["inertia"], InertiaDispersion)
     assert dispersions["inertia"].axis_sigma == pytest.approx(math.radians(1.5))
     assert isinstance(dispersions["gyro_bias"], Normal)

@@ -18,13 +18,14 @@ from scipy.optimize import brentq
 from attitude import RigidBody
 from attitude import quaternion as quat
 from attitude.analytic import flip_period
+from attitude.app import assembly
 from attitude.app.scenarios import (
     ClosedLoopScenario,
     PDWheelsScenario,
     requirements_from_config,
     run_campaign_from_config,
 )
-from attitude.config.model import default_config
+from attitude.config import default_config
 from attitude.montecarlo.campaign import Campaign, CampaignResult, Requirement, RunOutput, run_campaign
 from attitude.montecarlo.dispersions import (
     AttitudeDispersion,
@@ -49,7 +50,7 @@ from attitude.montecarlo.statistics import (
 from attitude.propagate import propagate
 
 CONFIG = default_config()
-NOMINAL = CONFIG.body().inertia
+NOMINAL = assembly.rigid_body(CONFIG).inertia
 DISPERSIONS = dispersions_from_config(CONFIG.montecarlo, NOMINAL, CONFIG.requirements.slew.q_start())
 
 

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from attitude import quaternion as quat
-from attitude.config.model import default_config
+from attitude.app import assembly
+from attitude.config import default_config
 from attitude.rigid_body import ParametricBody, RigidBody, symmetric_entries
 from attitude.simulation import batch as mb
 from attitude.simulation import codegen
@@ -17,8 +18,8 @@ from attitude.simulation.engine import simulate
 from controllers.pd import QuaternionPD
 
 CONFIG = default_config()
-BODY = CONFIG.body()
-WHEELS = CONFIG.wheels()
+BODY = assembly.rigid_body(CONFIG)
+WHEELS = assembly.reaction_wheels(CONFIG)
 Q_START = CONFIG.requirements.slew.q_start()
 Q_TARGET = CONFIG.requirements.slew.q_target()
 THRESHOLD = CONFIG.requirements.pointing_accuracy_rad

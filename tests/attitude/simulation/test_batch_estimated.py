@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from attitude import quaternion as quat
-from attitude.config.model import default_config
+from attitude.app import assembly
+from attitude.config import default_config
 from attitude.rigid_body import RigidBody
 from attitude.rng import NormalStreams
 from attitude.sensors import GyroBatch
@@ -18,8 +19,8 @@ from controllers.pd import QuaternionPD
 from estimation.mekf import MEKF, MEKFBatch, initial_covariance
 
 CONFIG = default_config()
-BODY = CONFIG.body()
-WHEELS = CONFIG.wheels()
+BODY = assembly.rigid_body(CONFIG)
+WHEELS = assembly.reaction_wheels(CONFIG)
 Q_START = CONFIG.requirements.slew.q_start()
 CONTROLLER = QuaternionPD.from_bandwidth(
     BODY, 0.3, 0.8, 0.1, q_ref=quat.multiply(Q_START, quat.from_rotation_vector([0.0, 0.0, 0.2])), gyroscopic=True
@@ -43,8 +44,8 @@ def _setup(seed: int = 11):
 
 def _run_batch(inertia, q0, omega0, seeds, duration, **kwargs):
     """The batch with fresh sensors, filter and streams (gyros and filters are stateful)."""
-    tracker = CONFIG.star_tracker()
-    gyros = [CONFIG.gyro(sampling="mean") for _ in range(len(seeds))]
+    tracker = assembly.star_tracker(CONFIG)
+    gyros = [assembly.gyro(CONFIG, sampling="mean") for _ in range(len(seeds))]
     mekf = MEKF.from_sensors(gyros[0], tracker, q0=Q_START, P0=P0)
     return simulate_batch_estimated(
         RigidBody(inertia),
@@ -76,7 +77,7 @@ class _Mounted:
 @pytest.fixture(scope="module")
 def batch_and_singles():
     inertia, q0, omega0, mounting, seeds = _setup()
-    tracker = CONFIG.star_tracker()
+    tracker = assembly.star_tracker(CONFIG)
     seen = {"q_hat": [], "updated": 0}
 
     def observer(k, t, x, q_hat, w_hat, updated):
@@ -86,7 +87,7 @@ def batch_and_singles():
     out = _run_batch(inertia, q0, omega0, seeds, DURATION, tracker_mounting=mounting, observer=observer)
     singles = []
     for r in range(N_RUNS):
-        gyro = CONFIG.gyro(sampling="mean")
+        gyro = assembly.gyro(CONFIG, sampling="mean")
         singles.append(
             simulate(
                 RigidBody(inertia[r]),

@@ -1,0 +1,743 @@
+"""Reading a spacecraft file: TOML in, a validated :class:`~attitude.config.model.SpacecraftConfig` out.
+
+:func:`load_config` reads a file, :func:`parse_config` its text and
+:func:`config_from_dict` what :func:`tomllib.loads` returns;
+:func:`default_config` is the built-in 12U CubeSat and
+:func:`default_config_text` its commented file. Every problem raises
+:class:`~attitude.config.schema.ConfigError` naming the file and the key
+(module docstring of :mod:`attitude.config`). Every object is built once
+(:mod:`attitude.config.build`) during validation, so a file that loads
+always builds.
+"""
+
+from __future__ import annotations
+
+import datetime
+import difflib
+import math
+import re
+import tomllib
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from attitude.config import build
+from attitude.config.model import (
+    PYRAMID_ELEVATION_DEG,
+    WHEEL_LAYOUTS,
+    ControlConfig,
+    Dispersion,
+    EnvironmentConfig,
+    GyroConfig,
+    InertiaConfig,
+    KeepOutConfig,
+    LQRBounds,
+    MonteCarloConfig,
+    OrbitConfig,
+    PerWheel,
+    RequirementsConfig,
+    SlewRequirement,
+    SpacecraftConfig,
+    StarTrackerConfig,
+    Vector,
+    WheelsConfig,
+)
+from attitude.config.schema import (
+    DISPERSIONS,
+    DISTRIBUTIONS,
+    ConfigError,
+    children,
+    meaning_of,
+    normalise_unit,
+    unit_of,
+)
+from attitude.sensors import GYRO_PRESETS, STAR_TRACKER_PRESETS
+
+__all__ = [
+    "DEFAULT_CONFIG_FILE",
+    "QUATERNION_NORM_TOLERANCE",
+    "config_from_dict",
+    "default_config",
+    "default_config_text",
+    "load_config",
+    "parse_config",
+]
+
+#: Name of the built-in spacecraft file inside the package (``attitude/data/``).
+DEFAULT_CONFIG_FILE = "default_spacecraft.toml"
+
+#: Label used as the file name in messages about the built-in default.
+_DEFAULT_LABEL = "attitude/data/" + DEFAULT_CONFIG_FILE
+
+
+# ---------------------------------------------------------------------------
+# Reading values with messages that name the key
+
+_NUMBER_WITH_TEXT = re.compile(r"^\s*([-+]?(?:\d[\d_]*(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*?)\s*$")
+
+
+def _describe(value: Any) -> str:
+    """A short description of a TOML value for messages: its type and the value."""
+    if isinstance(value, bool):
+        return f"the boolean {str(value).lower()}"
+    if isinstance(value, int):
+        return f"the integer {value}"
+    if isinstance(value, float):
+        return f"the number {value!r}"
+    if isinstance(value, str):
+        return f"the string {value!r}"
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, list):
+        return f"a list of {len(value)} item{'s' if len(value) != 1 else ''}"
+    if isinstance(value, (datetime.date, datetime.time)):
+        return f"the date/time {value.isoformat()}"
+    if value is None:
+        return "nothing (None)"
+    return f"{type(value).__name__} {value!r}"
+
+
+class _Reader:
+    """Reads one file's values, raising :class:`ConfigError` naming the key and the file."""
+
+    def __init__(self, file: str) -> None:
+        self.file = file
+
+    def error(self, key: str | None, problem: str) -> ConfigError:
+        return ConfigError(problem, key=key, file=self.file)
+
+    # -- scalars ---------------------------------------------------------------
+
+    def number(self, value: Any, key: str, *, allow_inf: bool = False) -> float:
+        """A finite float (ints accepted); strings with units get their own message."""
+        if isinstance(value, bool):
+            raise self.error(key, f"expected a number, got {_describe(value)}")
+        if isinstance(value, int):
+            try:
+                out = float(value)
+            except OverflowError:
+                raise self.error(key, f"the integer {value} is too large for a float") from None
+        elif isinstance(value, float):
+            out = value
+        elif isinstance(value, str):
+            raise self.error(key, self._string_for_number(value, key))
+        else:
+            raise self.error(key, f"expected a number, got {_describe(value)}")
+        if math.isnan(out):
+            raise self.error(key, "must be a number, got nan")
+        if math.isinf(out) and not allow_inf:
+            raise self.error(key, f"must be finite, got {out!r}")
+        return out
+
+    def _string_for_number(self, text: str, key: str) -> str:
+        unit = unit_of(key)
+        match = _NUMBER_WITH_TEXT.match(text)
+        if match is None:
+            return f"expected a number, got {_describe(text)}"
+        number, written = match.group(1), match.group(2)
+        if not written:
+            return f"expected a number, got {_describe(text)}: write {number} without quotes"
+        if not unit:
+            return f"units given where a number is expected: got {text!r}; write {number} (this key takes no unit)"
+        if normalise_unit(written) != normalise_unit(unit):
+            return (
+                f"units given where a number is expected: got {text!r}; write a bare number in {unit} "
+                f"(the unit is fixed by the key name; convert from {written!r} first)"
+            )
+        return (
+            f"units given where a number is expected: got {text!r}; write {number} "
+            f"(the unit is fixed by the key name: {unit})"
+        )
+
+    def integer(self, value: Any, key: str) -> int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            if isinstance(value, str):
+                raise self.error(key, self._string_for_number(value, key).replace("a number", "an integer"))
+            raise self.error(key, f"expected an integer, got {_describe(value)}")
+        return value
+
+    def string(self, value: Any, key: str, choices: Sequence[str] | None = None, what: str = "value") -> str:
+        if not isinstance(value, str):
+            hint = f" (one of {', '.join(map(repr, choices))})" if choices else ""
+            raise self.error(key, f"expected a string{hint}, got {_describe(value)}")
+        if choices is not None and value not in choices:
+            raise self.error(key, f"unknown {what} {value!r}{_did_you_mean(value, choices)} Valid: {_list(choices)}")
+        return value
+
+    def vector(self, value: Any, key: str, length: int, *, nonzero: bool = True) -> Vector:
+        if not isinstance(value, list):
+            raise self.error(key, f"expected a list of {length} numbers, got {_describe(value)}")
+        if len(value) != length:
+            raise self.error(key, f"expected a list of {length} numbers, got {len(value)}")
+        out = tuple(self.number(v, f"{key}[{i}]") for i, v in enumerate(value))
+        if nonzero:
+            norm = math.sqrt(sum(v * v for v in out))
+            if norm == 0.0 or not math.isfinite(norm):
+                raise self.error(key, f"must be a non-zero finite vector (it is normalised), got {list(out)}")
+        return out
+
+    def matrix3(self, value: Any, key: str) -> tuple[Vector, ...]:
+        if not isinstance(value, list) or len(value) != 3:
+            got = _describe(value) if not isinstance(value, list) else f"{len(value)} rows"
+            raise self.error(key, f"expected 3 rows of 3 numbers ([[Ixx, Ixy, Ixz], [...], [...]]), got {got}")
+        return tuple(self.vector(row, f"{key}[{i}]", 3, nonzero=False) for i, row in enumerate(value))
+
+    def scalar_or_list(self, value: Any, key: str, length: int, what: str) -> PerWheel:
+        """One number, or a list of ``length`` numbers (one per wheel or axis)."""
+        if isinstance(value, list):
+            if len(value) != length:
+                raise self.error(key, f"expected one number or a list of {length} (one per {what}), got {len(value)}")
+            return tuple(self.number(v, f"{key}[{i}]") for i, v in enumerate(value))
+        return self.number(value, key)
+
+    # -- rules -----------------------------------------------------------------
+
+    def check(self, ok: bool, key: str, rule: str, value: Any) -> None:
+        if not ok:
+            shown = list(value) if isinstance(value, tuple) else value
+            raise self.error(key, f"must be {rule}, got {shown!r}")
+
+
+def _did_you_mean(word: str, options: Iterable[str]) -> str:
+    close = difflib.get_close_matches(word, list(options), n=1, cutoff=0.6)
+    return f"; did you mean {close[0]!r}?" if close else "."
+
+
+def _list(options: Iterable[str]) -> str:
+    return ", ".join(repr(o) for o in options)
+
+
+def _values(x: PerWheel) -> tuple[float, ...]:
+    return x if isinstance(x, tuple) else (x,)
+
+
+class _Table:
+    """A TOML table being read: rejects unknown keys on entry, tracks the path for messages."""
+
+    def __init__(self, reader: _Reader, data: Any, path: str) -> None:
+        self.reader = reader
+        self.path = path
+        if not isinstance(data, dict):
+            raise reader.error(path or None, f"expected a table, got {_describe(data)}")
+        self.data = data
+        allowed = children(re.sub(r"\[\d+\]", "[]", path))
+        for key in data:
+            if key not in allowed:
+                where = f"[{path}]" if path else "the top level"
+                raise reader.error(
+                    self.key(key),
+                    f"unknown key{_did_you_mean(key, allowed)} Keys of {where}: {', '.join(allowed)}",
+                )
+
+    def key(self, name: str) -> str:
+        return f"{self.path}.{name}" if self.path else name
+
+    def has(self, name: str) -> bool:
+        return name in self.data
+
+    def missing(self, name: str, hint: str = "") -> ConfigError:
+        meaning = meaning_of(self.key(name))
+        text = f"missing required key ({meaning})" if meaning else "missing required key"
+        return self.reader.error(self.key(name), text + hint)
+
+    def get(self, name: str, read: Callable[[Any, str], Any], *, required: bool = True, default: Any = None) -> Any:
+        if name not in self.data:
+            if required:
+                raise self.missing(name)
+            return default
+        return read(self.data[name], self.key(name))
+
+    def number(self, name: str, *, required: bool = True, default: float | None = None, **kw: Any) -> Any:
+        return self.get(name, lambda v, k: self.reader.number(v, k, **kw), required=required, default=default)
+
+    def table(self, name: str, *, required: bool = True) -> _Table | None:
+        if name not in self.data:
+            if required:
+                meaning = meaning_of(self.key(name))
+                raise self.reader.error(
+                    self.key(name), f"missing required table: add a [{self.key(name)}] table ({meaning})"
+                )
+            return None
+        return _Table(self.reader, self.data[name], self.key(name))
+
+    def forbid(self, name: str, reason: str) -> None:
+        if name in self.data:
+            raise self.reader.error(self.key(name), reason)
+
+
+def _positive(r: _Reader, key: str, value: float | None, *, allow_zero: bool = False, unit: str = "") -> None:
+    if value is None:
+        return
+    for i, v in enumerate(_values(value)):
+        k = key if not isinstance(value, tuple) else f"{key}[{i}]"
+        rule = "non-negative (>= 0)" if allow_zero else "strictly positive (> 0)"
+        r.check(v >= 0 if allow_zero else v > 0, k, rule + (f" [{unit}]" if unit else ""), v)
+
+
+def _in_range(r: _Reader, key: str, value: float, low: float, high: float, *, low_open: bool, high_open: bool) -> None:
+    ok = (value > low if low_open else value >= low) and (value < high if high_open else value <= high)
+    unit = unit_of(key)
+    interval = f"{'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}"
+    r.check(ok, key, f"in {interval}" + (f" {unit}" if unit else ""), value)
+
+
+# Parsing
+
+
+def _read_inertia(r: _Reader, t: _Table) -> InertiaConfig:
+    has_m, has_t = t.has("moments_kg_m2"), t.has("tensor_kg_m2")
+    if has_m and has_t:
+        raise r.error(t.key("tensor_kg_m2"), "give moments_kg_m2 or tensor_kg_m2, not both")
+    if not (has_m or has_t):
+        raise r.error(
+            t.key("moments_kg_m2"),
+            "missing required key: give moments_kg_m2 = [Ixx, Iyy, Izz] or tensor_kg_m2 = 3 rows of 3 [kg m^2]",
+        )
+    if has_m:
+        key = t.key("moments_kg_m2")
+        config = InertiaConfig(moments_kg_m2=r.vector(t.data["moments_kg_m2"], key, 3, nonzero=False))
+    else:
+        key = t.key("tensor_kg_m2")
+        config = InertiaConfig(tensor_kg_m2=r.matrix3(t.data["tensor_kg_m2"], key))
+    _try_build(r, key, lambda: build.rigid_body(config))
+    return config
+
+
+def _read_wheels(r: _Reader, t: _Table) -> WheelsConfig:
+    layout = t.get("layout", lambda v, k: r.string(v, k, WHEEL_LAYOUTS, "layout"))
+    axes = None
+    elevation = None
+    if layout == "custom":
+        if not t.has("axes_B"):
+            raise t.missing("axes_B", ": layout = 'custom' needs one axis per wheel")
+        key = t.key("axes_B")
+        raw = t.data["axes_B"]
+        if not isinstance(raw, list) or not raw:
+            raise r.error(key, f"expected a list of axes [[x, y, z], ...], got {_describe(raw)}")
+        axes = tuple(r.vector(a, f"{key}[{i}]", 3) for i, a in enumerate(raw))
+        n = len(axes)
+        t.forbid("elevation_deg", "only for layout = 'pyramid'")
+    else:
+        t.forbid("axes_B", f"only for layout = 'custom' (the {layout} layout fixes the axes)")
+        n = 4 if layout == "pyramid" else 3
+        if layout == "pyramid":
+            elevation = t.number("elevation_deg", required=False, default=PYRAMID_ELEVATION_DEG)
+            _in_range(r, t.key("elevation_deg"), elevation, 0.0, 90.0, low_open=True, high_open=True)
+        else:
+            t.forbid("elevation_deg", "only for layout = 'pyramid'")
+    count = t.get("count", r.integer, required=False, default=n)
+    if count != n:
+        if layout == "custom":
+            rule = f"the number of axes_B ({n})"
+        else:
+            rule = f"{n} for layout = {layout!r} (use layout = 'custom' with axes_B for another set)"
+        raise r.error(t.key("count"), f"must be {rule}, got {count}")
+
+    def per_wheel(name: str, *, required: bool = True, allow_zero: bool = False) -> PerWheel:
+        value = t.get(name, lambda v, k: r.scalar_or_list(v, k, n, "wheel"), required=required, default=0.0)
+        _positive(r, t.key(name), value, allow_zero=allow_zero, unit=unit_of(t.key(name)))
+        return value
+
+    config = WheelsConfig(
+        layout=layout,
+        count=n,
+        axes_B=axes,
+        elevation_deg=elevation,
+        spin_inertia_kg_m2=per_wheel("spin_inertia_kg_m2"),
+        torque_max_Nm=per_wheel("torque_max_Nm"),
+        momentum_max_Nms=per_wheel("momentum_max_Nms"),
+        viscous_friction_Nms_per_rad=per_wheel("viscous_friction_Nms_per_rad", required=False, allow_zero=True),
+        coulomb_friction_Nm=per_wheel("coulomb_friction_Nm", required=False, allow_zero=True),
+        null_space_gain_per_s=t.number("null_space_gain_per_s", required=False, default=0.0),
+        bias_momentum_Nms=t.get(
+            "bias_momentum_Nms", lambda v, k: r.scalar_or_list(v, k, n, "wheel"), required=False, default=0.0
+        ),
+    )
+    _positive(r, t.key("null_space_gain_per_s"), config.null_space_gain_per_s, allow_zero=True, unit="1/s")
+    key = t.key("axes_B") if layout == "custom" else t.key("layout")
+    _try_build(r, key, lambda: build.reaction_wheels(config))
+    return config
+
+
+def _read_preset(r: _Reader, t: _Table, presets: Mapping[str, Any], what: str) -> str | None:
+    return t.get("preset", lambda v, k: r.string(v, k, tuple(presets), what), required=False)
+
+
+def _read_gyro(r: _Reader, t: _Table) -> GyroConfig:
+    preset = _read_preset(r, t, GYRO_PRESETS, "gyro preset")
+    period = t.number("period_s")
+    _positive(r, t.key("period_s"), period, unit="s")
+    if preset is None and not t.has("arw_deg_per_sqrt_h"):
+        raise t.missing("arw_deg_per_sqrt_h", f", or a preset ({_list(GYRO_PRESETS)})")
+    num = {
+        name: t.number(name, required=False)
+        for name in (
+            "arw_deg_per_sqrt_h",
+            "rrw_deg_per_h_per_sqrt_h",
+            "bias_instability_deg_per_h",
+            "bias_instability_time_s",
+            "quantization_deg_per_s",
+        )
+    }
+    num["saturation_deg_per_s"] = t.number("saturation_deg_per_s", required=False, allow_inf=True)
+    for name in ("arw_deg_per_sqrt_h", "bias_instability_deg_per_h", "bias_instability_time_s"):
+        _positive(r, t.key(name), num[name], unit=unit_of(t.key(name)))
+    for name in ("rrw_deg_per_h_per_sqrt_h", "quantization_deg_per_s"):
+        _positive(r, t.key(name), num[name], allow_zero=True, unit=unit_of(t.key(name)))
+    _positive(r, t.key("saturation_deg_per_s"), num["saturation_deg_per_s"], unit="deg/s")
+    if num["rrw_deg_per_h_per_sqrt_h"] is not None and num["bias_instability_deg_per_h"] is not None:
+        raise r.error(
+            t.key("bias_instability_deg_per_h"),
+            "give rrw_deg_per_h_per_sqrt_h or bias_instability_deg_per_h, not both "
+            "(the Farrenkopf model has one bias-driving noise)",
+        )
+    if preset is None and num["bias_instability_deg_per_h"] is not None and num["bias_instability_time_s"] is None:
+        raise t.missing("bias_instability_time_s", " (required with bias_instability_deg_per_h)")
+    per_axis = {
+        name: t.get(name, lambda v, k: r.scalar_or_list(v, k, 3, "axis"), required=False)
+        for name in ("bias_deg_per_h", "scale_factor_ppm")
+    }
+    if per_axis["scale_factor_ppm"] is not None:
+        for i, v in enumerate(_values(per_axis["scale_factor_ppm"])):
+            k = t.key("scale_factor_ppm") + (f"[{i}]" if isinstance(per_axis["scale_factor_ppm"], tuple) else "")
+            r.check(v > -1e6, k, "> -1e6 ppm (a positive gain)", v)
+    misalignment = t.get("misalignment_arcsec", lambda v, k: r.vector(v, k, 3, nonzero=False), required=False)
+    config = GyroConfig(preset=preset, period_s=period, misalignment_arcsec=misalignment, **num, **per_axis)
+    _try_build(r, t.path, lambda: build.gyro(config))
+    return config
+
+
+def _read_star_tracker(r: _Reader, t: _Table, sun: Vector | None) -> StarTrackerConfig:
+    preset = _read_preset(r, t, STAR_TRACKER_PRESETS, "star tracker preset")
+    period = t.number("period_s")
+    _positive(r, t.key("period_s"), period, unit="s")
+    if preset is None:
+        for name in ("cross_boresight_arcsec", "roll_arcsec"):
+            if not t.has(name):
+                raise t.missing(name, f", or a preset ({_list(STAR_TRACKER_PRESETS)})")
+    cross = t.number("cross_boresight_arcsec", required=False)
+    roll = t.number("roll_arcsec", required=False)
+    _positive(r, t.key("cross_boresight_arcsec"), cross, unit="arcsec")
+    _positive(r, t.key("roll_arcsec"), roll, unit="arcsec")
+    boresight = t.get("boresight_B", lambda v, k: r.vector(v, k, 3), required=False, default=(0.0, 0.0, 1.0))
+    exclusion = t.number("sun_exclusion_deg", required=False)
+    if exclusion is not None:
+        _in_range(r, t.key("sun_exclusion_deg"), exclusion, 0.0, 180.0, low_open=True, high_open=True)
+    if sun is not None and exclusion is None and preset is None:
+        raise t.missing("sun_exclusion_deg", " (needed because environment.sun_direction_N is given)")
+    config = StarTrackerConfig(
+        preset=preset,
+        period_s=period,
+        cross_boresight_arcsec=cross,
+        roll_arcsec=roll,
+        boresight_B=boresight,
+        sun_exclusion_deg=exclusion,
+    )
+    _try_build(r, t.path, lambda: build.star_tracker(config, sun))
+    return config
+
+
+def _read_control(r: _Reader, t: _Table) -> ControlConfig:
+    period = t.number("period_s")
+    _positive(r, t.key("period_s"), period, unit="s")
+    bandwidth = t.number("bandwidth_rad_per_s")
+    _positive(r, t.key("bandwidth_rad_per_s"), bandwidth, unit="rad/s")
+    nyquist = math.pi / period
+    r.check(
+        bandwidth < nyquist,
+        t.key("bandwidth_rad_per_s"),
+        f"below the Nyquist frequency pi / period_s = {nyquist:.6g} rad/s of the {period:g} s controller "
+        "(a tenth of the sample rate or less is the usual design range)",
+        bandwidth,
+    )
+    damping = t.number("damping")
+    _positive(r, t.key("damping"), damping)
+    lqr = None
+    lt = t.table("lqr", required=False)
+    if lt is not None:
+        values = {
+            name: lt.get(name, lambda v, k: r.scalar_or_list(v, k, 3, "axis"))
+            for name in ("max_angle_deg", "max_rate_deg_per_s", "max_torque_Nm")
+        }
+        for name, value in values.items():
+            _positive(r, lt.key(name), value, unit=unit_of(lt.key(name)))
+        for i, v in enumerate(_values(values["max_angle_deg"])):
+            k = lt.key("max_angle_deg") + (f"[{i}]" if isinstance(values["max_angle_deg"], tuple) else "")
+            r.check(v <= 180.0, k, "at most 180 deg (the largest attitude error)", v)
+        lqr = LQRBounds(**values)
+    return ControlConfig(period_s=period, bandwidth_rad_per_s=bandwidth, damping=damping, lqr=lqr)
+
+
+def _read_orbit(r: _Reader, t: _Table) -> OrbitConfig:
+    altitude = t.number("altitude_km")
+    _positive(r, t.key("altitude_km"), altitude, unit="km")
+    r.check(altitude < 1e9, t.key("altitude_km"), "below 1e9 km (an Earth orbit)", altitude)
+    inclination = t.number("inclination_deg", required=False, default=0.0)
+    _in_range(r, t.key("inclination_deg"), inclination, 0.0, 180.0, low_open=False, high_open=False)
+    angles = {}
+    for name in ("raan_deg", "argument_of_latitude_deg"):
+        angles[name] = t.number(name, required=False, default=0.0)
+        _in_range(r, t.key(name), angles[name], -360.0, 360.0, low_open=False, high_open=False)
+    config = OrbitConfig(altitude_km=altitude, inclination_deg=inclination, **angles)
+    _try_build(r, t.path, lambda: build.circular_orbit(config))
+    return config
+
+
+#: Accepted deviation of a typed quaternion's norm from 1: four significant
+#: digits as typed (e.g. 0.7071) are off by ~1e-5; a non-unit quaternion such
+#: as [1, 1, 0, 0] is a typo, not an attitude, and is rejected.
+QUATERNION_NORM_TOLERANCE = 1e-4
+
+
+def _read_quaternion(r: _Reader, value: Any, key: str) -> tuple[float, float, float, float]:
+    q = r.vector(value, key, 4)
+    norm = math.sqrt(sum(v * v for v in q))
+    if abs(norm - 1.0) > QUATERNION_NORM_TOLERANCE:
+        raise r.error(
+            key,
+            f"must be a unit quaternion [w, x, y, z] (| |q| - 1 | <= {QUATERNION_NORM_TOLERANCE:g}); "
+            f"got {list(q)} with |q| = {norm:.6g}",
+        )
+    return q  # type: ignore[return-value]
+
+
+def _read_slew(r: _Reader, t: _Table) -> SlewRequirement:
+    max_time = t.number("max_time_s")
+    _positive(r, t.key("max_time_s"), max_time, unit="s")
+    start = t.get("start_q_BN", lambda v, k: _read_quaternion(r, v, k), required=False, default=(1.0, 0.0, 0.0, 0.0))
+    rate = t.number("rate_max_deg_per_s", required=False)
+    _positive(r, t.key("rate_max_deg_per_s"), rate, unit="deg/s")
+    angle = axis = target = None
+    if t.has("target_q_BN"):
+        for name in ("angle_deg", "axis_B"):
+            t.forbid(name, "give angle_deg with axis_B, or target_q_BN, not both")
+        target = _read_quaternion(r, t.data["target_q_BN"], t.key("target_q_BN"))
+    else:
+        if not t.has("angle_deg"):
+            raise t.missing("angle_deg")
+        angle = t.number("angle_deg")
+        _in_range(r, t.key("angle_deg"), angle, 0.0, 180.0, low_open=True, high_open=False)
+        if not t.has("axis_B"):
+            raise t.missing("axis_B", " (the body axis of the angle_deg rotation)")
+        axis = r.vector(t.data["axis_B"], t.key("axis_B"), 3)
+    slew = SlewRequirement(
+        max_time_s=max_time, angle_deg=angle, axis_B=axis, target_q_BN=target, start_q_BN=start, rate_max_deg_per_s=rate
+    )
+    if target is not None and slew.angle_rad < 1e-9:
+        raise r.error(t.key("target_q_BN"), f"equals start_q_BN {list(start)} (a zero slew)")
+    return slew
+
+
+def _read_keep_out(r: _Reader, raw: Any, key: str, sun: Vector | None) -> tuple[KeepOutConfig, ...]:
+    if not isinstance(raw, list):
+        raise r.error(key, f"expected an array of tables ([[requirements.keep_out]] entries), got {_describe(raw)}")
+    cones = []
+    for i, entry in enumerate(raw):
+        t = _Table(r, entry, f"{key}[{i}]")
+        name = t.get("name", r.string, required=False, default=f"keep_out_{i}")
+        boresight = t.get("boresight_B", lambda v, k: r.vector(v, k, 3))
+        dkey = t.key("direction_N")
+        if not t.has("direction_N"):
+            raise t.missing("direction_N")
+        raw_direction = t.data["direction_N"]
+        follows_sun = isinstance(raw_direction, str)
+        if follows_sun:
+            if raw_direction != "sun":
+                raise r.error(dkey, f'expected a list of 3 numbers or "sun", got {_describe(raw_direction)}')
+            if sun is None:
+                raise r.error(dkey, '"sun" needs environment.sun_direction_N: add it to an [environment] table')
+            direction = sun
+        else:
+            direction = r.vector(raw_direction, dkey, 3)
+        half = t.number("half_angle_deg")
+        _in_range(r, t.key("half_angle_deg"), half, 0.0, 180.0, low_open=True, high_open=True)
+        cones.append(KeepOutConfig(name, boresight, direction, half, follows_sun))
+    return tuple(cones)
+
+
+def _read_requirements(r: _Reader, t: _Table, sun: Vector | None) -> RequirementsConfig:
+    accuracy = t.number("pointing_accuracy_deg")
+    _in_range(r, t.key("pointing_accuracy_deg"), accuracy, 0.0, 180.0, low_open=True, high_open=False)
+    settling = t.number("settling_time_s")
+    _positive(r, t.key("settling_time_s"), settling, unit="s")
+    slew = _read_slew(r, t.table("slew"))
+    keep_out = t.get("keep_out", lambda v, k: _read_keep_out(r, v, k, sun), required=False, default=())
+    return RequirementsConfig(accuracy, settling, slew, keep_out)
+
+
+def _read_dispersion(r: _Reader, t: _Table, name: str) -> Dispersion | None:
+    suffix, _, _, extra = DISPERSIONS[name]
+    dt = t.table(name, required=False)
+    if dt is None:
+        return None
+    distribution = dt.get("distribution", lambda v, k: r.string(v, k, DISTRIBUTIONS + extra, "distribution"))
+    sigma_key, half_key = f"sigma_{suffix}", f"half_width_{suffix}"
+    if distribution == "normal":
+        dt.forbid(half_key, f"only with distribution = 'uniform' (normal takes {sigma_key})")
+        scale = dt.number(sigma_key)
+    elif distribution == "uniform":
+        dt.forbid(sigma_key, f"only with distribution = 'normal' (uniform takes {half_key})")
+        scale = dt.number(half_key)
+    else:  # uniform_so3
+        for k in (sigma_key, half_key):
+            dt.forbid(k, f"distribution = {distribution!r} takes no scale")
+        return Dispersion(distribution, None, suffix)
+    scale_key = dt.key(sigma_key if distribution == "normal" else half_key)
+    _positive(r, scale_key, scale, allow_zero=True, unit=unit_of(scale_key))
+    if suffix == "percent":
+        r.check(scale < 100.0, scale_key, "below 100 percent (moments must stay positive)", scale)
+    axis = 0.0
+    if name == "inertia":
+        axis = dt.number("axis_sigma_deg", required=False, default=0.0)
+        _positive(r, dt.key("axis_sigma_deg"), axis, allow_zero=True, unit="deg")
+        r.check(axis <= 30.0, dt.key("axis_sigma_deg"), "at most 30 deg (principal axes known to a few degrees)", axis)
+    return Dispersion(distribution, scale, suffix, axis)
+
+
+def _read_montecarlo(r: _Reader, t: _Table) -> MonteCarloConfig:
+    runs = t.get("runs", r.integer)
+    r.check(runs >= 1, t.key("runs"), "a positive integer", runs)
+    seed = t.get("seed", r.integer)
+    r.check(seed >= 0, t.key("seed"), "a non-negative integer", seed)
+    return MonteCarloConfig(runs, seed, **{name: _read_dispersion(r, t, name) for name in DISPERSIONS})
+
+
+def _try_build(r: _Reader, key: str, make: Callable[[], Any], context: str = "") -> Any:
+    """Build an object to prove the values are consistent; its ValueError becomes a ConfigError on ``key``."""
+    try:
+        with np.errstate(all="ignore"):
+            return make()
+    except (ValueError, ArithmeticError) as exc:
+        raise r.error(key, context + str(exc)) from exc
+
+
+def config_from_dict(data: Mapping[str, Any], file: str = "<config>") -> SpacecraftConfig:
+    """Validate the parsed contents of a spacecraft file (what :func:`tomllib.loads` returns).
+
+    Parameters
+    ----------
+    data : mapping
+        The TOML document as nested dicts and lists.
+    file : str
+        Name of the file, for messages.
+
+    Returns
+    -------
+    SpacecraftConfig
+
+    Raises
+    ------
+    ConfigError
+        For the first problem found, naming the key and the file.
+    """
+    r = _Reader(str(file))
+    top = _Table(r, data, "")
+    name = top.get("name", r.string, required=False, default="spacecraft")
+    description = top.get("description", r.string, required=False, default="")
+    inertia = _read_inertia(r, top.table("inertia"))
+    wheels = _read_wheels(r, top.table("wheels"))
+    _try_build(
+        r,
+        "wheels.spin_inertia_kg_m2",
+        lambda: build.reaction_wheels(wheels).hub_body(build.rigid_body(inertia)),
+        "the wheels' spin inertia leaves no physical body: the hub inertia I - sum(J a a^T) fails the check: ",
+    )
+    et = top.table("environment", required=False)
+    sun = None if et is None else et.get("sun_direction_N", lambda v, k: r.vector(v, k, 3), required=False)
+    gyro = _read_gyro(r, top.table("gyro"))
+    tracker = _read_star_tracker(r, top.table("star_tracker"), sun)
+    control = _read_control(r, top.table("control"))
+    ot = top.table("orbit", required=False)
+    orbit = None if ot is None else _read_orbit(r, ot)
+    requirements = _read_requirements(r, top.table("requirements"), sun)
+    mt = top.table("montecarlo", required=False)
+    montecarlo = None if mt is None else _read_montecarlo(r, mt)
+    return SpacecraftConfig(
+        name=name,
+        description=description,
+        inertia=inertia,
+        wheels_config=wheels,
+        gyro_config=gyro,
+        star_tracker_config=tracker,
+        control=control,
+        requirements=requirements,
+        orbit_config=orbit,
+        environment=EnvironmentConfig(sun),
+        montecarlo=montecarlo,
+        source=str(file),
+    )
+
+
+_TOML_POSITION = re.compile(r"\(at line (\d+), column (\d+)\)")
+
+
+def parse_config(text: str, file: str = "<config>") -> SpacecraftConfig:
+    """Parse and validate the text of a spacecraft file.
+
+    Parameters
+    ----------
+    text : str
+        The TOML text of a spacecraft file.
+    file : str, optional
+        The file name, for the error messages.
+
+    Raises
+    ------
+    ConfigError
+        For a TOML syntax error (with line and column when tomllib gives
+        them) or any validation problem.
+    """
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        message = str(exc)
+        match = _TOML_POSITION.search(message)
+        line = column = None
+        if match:
+            line, column = int(match.group(1)), int(match.group(2))
+            message = message[: match.start()].rstrip()
+            where = f"line {line}, column {column}: "
+        else:
+            message = message.replace("(at end of document)", "").rstrip()
+            where = "at the end of the file: "
+        raise ConfigError(f"{where}TOML syntax error: {message}", None, file, line, column) from exc
+    return config_from_dict(data, file)
+
+
+def load_config(path: str | Path) -> SpacecraftConfig:
+    """Read and validate a spacecraft file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML file.
+
+    Raises
+    ------
+    ConfigError
+        If the file cannot be read, is not UTF-8 TOML, or fails validation.
+    """
+    path = Path(path)
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except OSError as exc:
+        raise ConfigError(f"cannot read the file: {exc.strerror or exc}", None, str(path)) from exc
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"not UTF-8 text (TOML files are UTF-8): {exc}", None, str(path)) from exc
+    return parse_config(text, str(path))
+
+
+def default_config_text() -> str:
+    """The built-in spacecraft file, with its comments (what ``attitude init`` writes)."""
+    return resources.files("attitude").joinpath("data", DEFAULT_CONFIG_FILE).read_text(encoding="utf-8")
+
+
+def default_config() -> SpacecraftConfig:
+    """The built-in default spacecraft (a 12U CubeSat; see the comments of its file)."""
+    return parse_config(default_config_text(), _DEFAULT_LABEL)
+
+
+# ---------------------------------------------------------------------------

@@ -1,0 +1,173 @@
+"""Writing a spacecraft file: :func:`config_to_toml`, the resolved file of a configuration.
+
+Every default filled in and every key commented with its unit and meaning
+(from :data:`attitude.config.schema.CONFIG_KEYS`); the result loads back to
+an equal configuration.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from collections.abc import Mapping
+from typing import Any
+
+from attitude.config.model import GYRO_FIGURES, SpacecraftConfig
+from attitude.config.schema import DISPERSIONS, meaning_of
+from attitude.sensors import GYRO_PRESETS, STAR_TRACKER_PRESETS
+
+__all__ = ["config_to_toml"]
+
+
+# Writing a resolved file
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return repr(value)  # shortest round-trip repr; 'inf' and '1e-05' are valid TOML
+    if isinstance(value, str):
+        return json.dumps(value, ensure_ascii=False).replace("\x7f", "\\u007f")
+    if isinstance(value, (tuple, list)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{ " + ", ".join(f"{k} = {_toml_value(v)}" for k, v in value.items()) + " }"
+    raise TypeError(f"cannot write {value!r} as TOML")
+
+
+def _figures_text(preset: Mapping[str, Any]) -> str:
+    figures = ", ".join(f"{k} = {v!r}" for k, v in preset["figures"].items())
+    return f"{figures} ({preset['source']})"
+
+
+class _Writer:
+    def __init__(self) -> None:
+        self.lines: list[str] = []
+
+    def table(self, header: str, *, array: bool = False) -> None:
+        self.lines.append("")
+        comment = meaning_of(re.sub(r"\[\d+\]", "[]", header))
+        text = f"[[{header}]]" if array else f"[{header}]"
+        self.lines.append(f"{text}  # {comment}" if comment else text)
+
+    def key(self, path: str, name: str, value: Any, note: str = "") -> None:
+        if value is None:
+            return
+        meaning = note or meaning_of(f"{path}.{name}" if path else name)
+        line = f"{name} = {_toml_value(value)}"
+        self.lines.append(f"{line}  # {meaning}" if meaning else line)
+
+    def comment(self, text: str) -> None:
+        self.lines.append(f"# {text}")
+
+
+def config_to_toml(config: SpacecraftConfig) -> str:
+    """The resolved spacecraft file: every value explicit, each key commented with its unit and meaning.
+
+    ``parse_config(config_to_toml(c)) == c`` for every valid configuration
+    (floats are written with their shortest round-trip representation).
+    Presets are written by name with the figures that override them; the
+    preset's own figures appear as a comment.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        A valid configuration.
+    """
+    w = _Writer()
+    w.comment(f"Resolved spacecraft description{f' (from {config.source})' if config.source else ''}.")
+    w.comment("Units are part of the key names; every key is commented with its unit and meaning.")
+    w.lines.append("")
+    w.key("", "name", config.name)
+    w.key("", "description", config.description)
+
+    w.table("inertia")
+    w.key("inertia", "moments_kg_m2", config.inertia.moments_kg_m2)
+    w.key("inertia", "tensor_kg_m2", config.inertia.tensor_kg_m2)
+
+    wc = config.wheels_config
+    w.table("wheels")
+    for name in (
+        "layout",
+        "count",
+        "axes_B",
+        "elevation_deg",
+        "spin_inertia_kg_m2",
+        "torque_max_Nm",
+        "momentum_max_Nms",
+        "viscous_friction_Nms_per_rad",
+        "coulomb_friction_Nm",
+        "null_space_gain_per_s",
+        "bias_momentum_Nms",
+    ):
+        w.key("wheels", name, getattr(wc, name))
+
+    gc = config.gyro_config
+    w.table("gyro")
+    w.key("gyro", "preset", gc.preset)
+    if gc.preset is not None:
+        w.comment(f"preset {gc.preset!r}: {_figures_text(GYRO_PRESETS[gc.preset])}")
+    w.key("gyro", "period_s", gc.period_s)
+    for name in GYRO_FIGURES:
+        w.key("gyro", name, getattr(gc, name))
+
+    sc = config.star_tracker_config
+    w.table("star_tracker")
+    w.key("star_tracker", "preset", sc.preset)
+    if sc.preset is not None:
+        w.comment(f"preset {sc.preset!r}: {_figures_text(STAR_TRACKER_PRESETS[sc.preset])}")
+    for name in ("period_s", "cross_boresight_arcsec", "roll_arcsec", "boresight_B", "sun_exclusion_deg"):
+        w.key("star_tracker", name, getattr(sc, name))
+
+    cc = config.control
+    w.table("control")
+    for name in ("period_s", "bandwidth_rad_per_s", "damping"):
+        w.key("control", name, getattr(cc, name))
+    if cc.lqr is not None:
+        w.table("control.lqr")
+        for name in ("max_angle_deg", "max_rate_deg_per_s", "max_torque_Nm"):
+            w.key("control.lqr", name, getattr(cc.lqr, name))
+
+    if config.orbit_config is not None:
+        w.table("orbit")
+        for name in ("altitude_km", "inclination_deg", "raan_deg", "argument_of_latitude_deg"):
+            w.key("orbit", name, getattr(config.orbit_config, name))
+
+    if config.environment.sun_direction_N is not None:
+        w.table("environment")
+        w.key("environment", "sun_direction_N", config.environment.sun_direction_N)
+
+    rc = config.requirements
+    w.table("requirements")
+    w.key("requirements", "pointing_accuracy_deg", rc.pointing_accuracy_deg)
+    w.key("requirements", "settling_time_s", rc.settling_time_s)
+    w.table("requirements.slew")
+    for name in ("angle_deg", "axis_B", "target_q_BN", "start_q_BN", "max_time_s", "rate_max_deg_per_s"):
+        w.key("requirements.slew", name, getattr(rc.slew, name))
+    for i, cone in enumerate(rc.keep_out):
+        path = f"requirements.keep_out[{i}]"
+        w.table("requirements.keep_out", array=True)
+        w.key(path, "name", cone.name)
+        w.key(path, "boresight_B", cone.boresight_B)
+        w.key(path, "direction_N", "sun" if cone.follows_sun else cone.direction_N)
+        w.key(path, "half_angle_deg", cone.half_angle_deg)
+
+    mc = config.montecarlo
+    if mc is not None:
+        w.table("montecarlo")
+        w.key("montecarlo", "runs", mc.runs)
+        w.key("montecarlo", "seed", mc.seed)
+        for name in DISPERSIONS:
+            d = getattr(mc, name)
+            if d is None:
+                continue
+            entry: dict[str, Any] = {"distribution": d.distribution}
+            if d.scale is not None:
+                entry[f"{'sigma' if d.distribution == 'normal' else 'half_width'}_{d.unit}"] = d.scale
+            if d.axis_sigma_deg:
+                entry["axis_sigma_deg"] = d.axis_sigma_deg
+            w.key("montecarlo", name, entry)
+    return "\n".join(w.lines) + "\n"
