@@ -710,6 +710,7 @@ class PDWheelsScenario:
         rngs : sequence of numpy.random.Generator
             The generator of each run.
         """
+        initial = [self._initial(p) for p in params_list]
         result = simulate_batch(
             RigidBody(np.stack([np.asarray(i[0], dtype=float) for i in initial])),
             np.stack([np.asarray(i[1], dtype=float) for i in initial]),
