@@ -353,7 +353,7 @@ class ClosedLoopScenario:
                 "attitude about the start (normal or uniform), or fly guidance='eigenaxis'"
             )
         self._attitude_sigma = assembly.attitude_sigma0(dispersion)
-        self._bias_sigma = assembly.scenario_bias_sigma0(config)
+        self._bias_sigma = assembly.gyro_bias_sigma0(config)
         self._tracker_covariance = assembly.mekf_tracker_covariance(config, self._tracker, self.consider_misalignment)
         self._reference: ReferenceTrajectory | None = None
         self._feedforward: ReferenceTrajectory | None = None

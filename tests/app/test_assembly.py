@@ -63,11 +63,6 @@ def test_the_design_and_the_scenario_start_the_mekf_with_the_same_attitude_knowl
     assert math.sqrt(dispersed[0, 0]) == pytest.approx(math.radians(0.02), rel=1e-12)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="bias prior still differs: design = gyro bias instability (8 deg/h for the MEMS preset), "
-    "scenario = 10 deg/h floor (tests/app/test_scenarios.py asserts the floor)",
-)
 def test_the_design_and_the_scenario_start_the_mekf_with_the_same_bias_knowledge(study, monkeypatch):
     design_p0 = _design_mekf_p0(UNDISPERSED, study, monkeypatch)
     sc = ClosedLoopScenario(UNDISPERSED, study=study)
@@ -125,6 +120,24 @@ def test_the_initial_attitude_sigma_rule():
     assert uniform == pytest.approx(math.radians(0.5) / math.sqrt(3.0))
     assert assembly.attitude_sigma0(Dispersion("uniform_so3", None, "deg")) == math.pi
     assert assembly.attitude_sigma0(Dispersion("normal", 0.0, "deg")) == math.radians(assembly.ATTITUDE_SIGMA0_DEG)
+
+
+def test_the_initial_gyro_bias_sigma_is_the_largest_of_floor_instability_constant_bias_and_dispersion():
+    from attitude.config import Dispersion
+
+    deg_per_h = math.radians(1.0) / 3600.0  # [rad/s]
+    # The default file: the MEMS preset (8 deg/h instability), no constant bias, no dispersion: the floor.
+    assert assembly.gyro_bias_sigma0(CONFIG) == pytest.approx(assembly.BIAS_SIGMA0_FLOOR_DEG_PER_H * deg_per_h)
+    text = default_config_text().replace('preset = "mems"', "arw_deg_per_sqrt_h = 0.15", 1)
+    unstable = parse_config(
+        text.replace("[gyro]\n", "[gyro]\nbias_instability_deg_per_h = 20.0\nbias_instability_time_s = 300.0\n", 1)
+    )
+    assert assembly.gyro_bias_sigma0(unstable) == pytest.approx(20.0 * deg_per_h)
+    biased = parse_config(text.replace("[gyro]\n", "[gyro]\nbias_deg_per_h = [1.0, -15.0, 2.0]\n", 1))
+    assert assembly.gyro_bias_sigma0(biased) == pytest.approx(15.0 * deg_per_h)
+    wide = dataclasses.replace(CONFIG.montecarlo, gyro_bias=Dispersion("uniform", 60.0, "deg_per_h"))
+    dispersed = dataclasses.replace(CONFIG, montecarlo=wide)
+    assert assembly.gyro_bias_sigma0(dispersed) == pytest.approx(60.0 / math.sqrt(3.0) * deg_per_h)  # U(-h, h)
 
 
 # ---------------------------------------------------------------------------

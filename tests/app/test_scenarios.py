@@ -270,4 +270,5 @@ def test_a_dispersed_gyro_bias_is_added_to_the_files_and_widens_the_filter_prior
     sc_wide = ClosedLoopScenario(dataclasses.replace(CONFIG, montecarlo=wide), study=study)
     sigma_b = math.sqrt(sc_wide.estimator(sc_wide.gyro(None)).P[3, 3])
     assert sigma_b == pytest.approx(math.radians(30.0) / 3600.0)  # above the 10 deg/h default prior
-    assert math.sqrt(sc.estimator(sc.gyro(None)).P[3, 3]) == pytest.approx(assembly.SCENARIO_BIAS_SIGMA0_FLOOR)
+    # The MEMS preset's 8 deg/h instability is below the 10 deg/h floor of the prior.
+    assert math.sqrt(sc.estimator(sc.gyro(None)).P[3, 3]) == pytest.approx(math.radians(10.0) / 3600.0)

@@ -36,13 +36,7 @@ from matplotlib.figure import Figure
 
 from attitude import quaternion as quat
 from attitude.app import assembly
-from attitude.app.assembly import (
-    ATTITUDE_SIGMA0_DEG,
-    BIAS_SIGMA0_DEFAULT_DEG_PER_H,
-    RATE_EKF_TORQUE_NOISE,
-    RATE_SIGMA0_DEG_PER_S,
-    gyro_bias_sigma_deg_per_h,
-)
+from attitude.app.assembly import ATTITUDE_SIGMA0_DEG, RATE_EKF_TORQUE_NOISE, RATE_SIGMA0_DEG_PER_S
 from attitude.config import SpacecraftConfig
 from attitude.sensors import ARCSEC
 from attitude.simulation.engine import SimulationResult
@@ -50,16 +44,7 @@ from estimation.consistency import chi2_band, fraction_inside_band, plot_errors_
 from estimation.mekf import run_mekf
 from estimation.rate_ekf import run_rate_ekf
 
-__all__ = [
-    "ATTITUDE_SIGMA0_DEG",
-    "BIAS_SIGMA0_DEFAULT_DEG_PER_H",
-    "CONFIDENCE",
-    "MIN_FRACTION_INSIDE",
-    "RATE_EKF_TORQUE_NOISE",
-    "RATE_SIGMA0_DEG_PER_S",
-    "estimation_study",
-    "gyro_bias_sigma_deg_per_h",
-]
+__all__ = ["CONFIDENCE", "MIN_FRACTION_INSIDE", "estimation_study"]
 
 #: Confidence of the chi-square band of the average NEES.
 CONFIDENCE = 0.95

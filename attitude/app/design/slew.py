@@ -380,7 +380,7 @@ def fly_slew(
     gyro, tracker = assembly.gyro(config, sampling="mean"), assembly.star_tracker(config)
     q0 = req.slew.q_start()
     sig_a0 = assembly.attitude_sigma0()
-    sig_b0 = math.radians(assembly.gyro_bias_sigma_deg_per_h(config) / 3600.0)
+    sig_b0 = assembly.gyro_bias_sigma0(config)
     q_hat0 = quat.multiply(q0, quat.from_rotation_vector(rng_init.standard_normal(3) * sig_a0))
     mekf = assembly.mekf(gyro, tracker, q0=q_hat0, P0=assembly.mekf_initial_covariance(sig_a0, sig_b0))
     wheels = assembly.reaction_wheels(config)
