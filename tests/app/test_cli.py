@@ -13,7 +13,6 @@ process to show a bad file gives no traceback.
 
 from __future__ import annotations
 
-import ast
 import json
 import math
 import os
@@ -459,15 +458,6 @@ def test_design_help_states_the_sizes_it_uses(capsys):
     assert f"{quick.nodes} planner intervals instead of {full.nodes}" in text
     assert f"{quick.mekf_runs} MEKF and {quick.rate_ekf_runs} rate-EKF" in text
     assert f"instead of {full.mekf_runs} and {full.rate_ekf_runs}" in text
-
-
-def test_report_writers_stay_off_the_top_floor():
-    """The report writer, its sections and the body study only write or use attitude (DESIGN.md floors)."""
-    for name in ("report/writer.py", "report/sections.py", "design/body.py"):
-        tree = ast.parse((ROOT / "attitude" / "app" / name).read_text(encoding="utf-8"))
-        imported = {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
-        imported |= {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.module}
-        assert not {m for m in imported if m.split(".")[0] in ("controllers", "estimation")}, name
 
 
 def test_python_dash_m_attitude_help(tmp_path):
