@@ -1,4 +1,14 @@
-"""The assembly: one place turns a spacecraft file into objects, and the design and the scenarios share it."""
+"""The assembly: one place turns a spacecraft file into objects, and the design and the scenarios share it.
+
+There is no external reference here; the tests check against the file and the toolkit's own rules:
+the design (:mod:`attitude.app.design.slew`) and the Monte Carlo scenario
+(:class:`attitude.app.scenarios.ClosedLoopScenario`) start the MEKF with identical covariances
+(agreement between the two callers); the built objects carry the numbers written in the default
+file, with datasheet units converted to SI by hand (deg/sqrt(h) to rad/s^0.5, as in
+:mod:`attitude.sensors`); the initial attitude and gyro-bias sigma rules of
+:mod:`attitude.app.assembly`; and a source scan (``ast``) proving no other module builds objects
+from file data (DESIGN.md: one place).
+"""
 
 from __future__ import annotations
 

@@ -9,6 +9,37 @@ from those numbers and from the requirements of the file, and the exit code.
 The other commands and the bad-file rules run in process through
 :func:`attitude.app.cli.main` (its return value is the exit code), plus one real
 process to show a bad file gives no traceback.
+
+What each group checks against:
+
+* Design runs: self-consistency of one run's outputs: ``results.json`` is strict
+  JSON (RFC 8259), ``report.md`` shows its numbers as :func:`attitude.app.report.sections.fmt`
+  formats them, every verdict is recomputed from the achieved figure and the file's
+  requirement, the exit code is the verdict (the exit-code contract of
+  :mod:`attitude.app.cli`), and the resolved ``spacecraft.toml`` reloads equal to the
+  input (round trip).
+* ``physics``: the principal moments of :meth:`attitude.rigid_body.RigidBody.principal_axes`;
+  the stability of torque-free spin about the minor, intermediate and major axes
+  (the major-axis rule under energy dissipation) and the middle-axis growth rate and
+  flip period of :mod:`attitude.analytic` (Landau & Lifshitz, *Mechanics*, sec. 37;
+  exact elliptic period vs linearised Euler equations to O(eps^2) for a 1 % off-axis
+  spin); rates scale exactly with the spin rate; the Lagrange gravity-gradient region
+  (Wie, *Space Vehicle Dynamics and Control*; DeBra and Delp 1961) for major axis on
+  the orbit normal, minor to nadir.
+* ``slew``: the target quaternion against :func:`attitude.quaternion.from_axis_angle`,
+  the plan within 95 % of the file's rate limit (the planning margin of
+  :mod:`attitude.app.design.slew`), requested duration and angle honoured, and the
+  keep-out geometry of the default file (no published values).
+* Bad input, help and process behaviour: exit code 2 and a message naming the file,
+  the key, the rule and the value, with no traceback (the exit codes of
+  :mod:`attitude.app.cli`; error messages per DESIGN.md); ``init`` writes the packaged
+  default byte for byte and refuses to overwrite without ``--force``; ``--help``
+  names the units and sizes used (:class:`attitude.app.design.run.DesignOptions`);
+  a closed pipe exits with 141 (128 + SIGPIPE) quietly; the report writer and body
+  study import neither ``controllers`` nor ``estimation`` (the floors of DESIGN.md).
+* Regression cases from review: wheels too small for the slew (momentum within
+  105 % of the wheel capacity, slew time judged on the flown arrival) and
+  hopelessly weak wheels failing fast with the reason.
 """
 
 from __future__ import annotations

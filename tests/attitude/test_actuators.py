@@ -1,4 +1,23 @@
-"""Reaction wheels: allocation, saturation, and momentum exchange with the body."""
+"""Reaction wheels: allocation, saturation, and momentum exchange with the body.
+
+Model: Schaub and Junkins, *Analytical Mechanics of Space Systems*, ch. 4; Wie, *Space Vehicle
+Dynamics and Control*, ch. 7 (as in :mod:`attitude.actuators`). What each group checks against:
+
+* Geometry: unit spin axes, and the isotropic torque envelope of the pyramid whose axes are
+  35.26 deg (``arctan(1 / sqrt(2))``) above the base plane (equal capacity about each body axis, by
+  symmetry); bad wheel sets rejected with errors that name the argument, the rule and the value
+  (DESIGN.md).
+* Allocation: the minimum-norm (Moore-Penrose pseudo-inverse) solution, checked by reproducing the
+  command and having no component along the null space of the distribution matrix (from
+  ``numpy.linalg.svd``); saturation scaling that keeps the torque direction; wheels at their speed
+  limit bypassed or cut, with the expected commands computed by hand for orthogonal and pyramid
+  sets; null-space momentum management producing no body torque; numpy and casadi evaluations of
+  the same allocation (rounding only).
+* Momentum exchange: conservation of the total angular momentum ``H_N = C_NB (I_s omega + A h)``
+  under internal (motor and friction) torques, integrated independently with scipy's
+  ``solve_ivp`` (DOP853, rtol 1e-12); the hub inertia is the total minus the wheels' spin-axis
+  inertia ``sum J_i a_i a_i^T``.
+"""
 
 import casadi as ca
 import numpy as np

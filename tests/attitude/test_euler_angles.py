@@ -1,5 +1,13 @@
 """Tests of attitude.euler_angles against scipy Rotation, finite differences,
-published formulas and a quaternion integration."""
+published formulas and a quaternion integration.
+
+References: ``scipy.spatial.transform.Rotation`` (DCM, quaternion and angles for every sequence,
+intrinsic upper-case letters); central finite differences of the rotation for the kinematic
+matrix; the textbook 3-2-1 and 3-1-3 kinematic differential equations (Schaub and Junkins,
+*Analytical Mechanics of Space Systems*, ch. 3), typed in independently; the Euler-angle
+kinematics integrated and compared with the quaternion kinematics ``q' = q ⊗ [0, omega] / 2`` of
+:mod:`attitude.quaternion`; gimbal lock where ``det W`` vanishes; bad input named with the
+argument, the rule and the value (DESIGN.md)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,27 @@
-"""Linear models of the plant: the nlsys, exact vs finite-difference Jacobians, spin physics, 6 vs 7 states."""
+"""Linear models of the plant: the nlsys, exact vs finite-difference Jacobians, spin physics, 6 vs 7 states.
+
+Derivation in docs/linearize.md. What each group checks against:
+
+* The python-control nonlinear system (``control.NonlinearIOSystem``): its update against the one
+  definition of the dynamics (:meth:`attitude.rigid_body.RigidBody.state_derivative`) at rest;
+  with a spinning reference, against the product rule applied with :mod:`attitude.quaternion`'s
+  own ``multiply`` and ``derivative``; and its torque-free response
+  (``control.input_output_response`` with DOP853) against the exact Jacobi elliptic solution of
+  :func:`attitude.analytic.torque_free_motion` (Landau & Lifshitz, *Mechanics*, sec. 37).
+* At rest: the exact (casadi) model against the hand-derived double integrator
+  ``qe' = w / 2``, ``w' = I^-1 tau``; python-control's own finite-difference linearisation
+  (``method="finite-difference"``) differs from it by exactly the one-sided truncation term
+  ``eps / 2 d^2 f / dx_i^2`` (second derivatives from casadi; Taylor's theorem) and nothing else.
+* Spin operating points: the block structure of the linearised Euler equations
+  ``I dw' = (I w_ref) x dw - w_ref x (I dw)`` derived by hand; the classical torque-free spin
+  results of Euler's equations: nutation at ``w sqrt((Is - Ij)(Is - Ik) / (Ij Ik))`` about the
+  major and minor axes, ``(Is - It) / It w`` for a symmetric top, and growth about the middle
+  axis at :func:`attitude.analytic.intermediate_axis_growth_rate`.
+* 6 vs 7 states: ``|q|^2`` is a first integral, so the 7-state model has an uncontrollable zero
+  mode (rank of ``control.ctrb``; ``control.lqr`` fails or leaves a pole at 0), while the 6-state
+  model is controllable and LQR stabilises it.
+* Bad input: errors name the argument, the rule and the value (DESIGN.md).
+"""
 
 import casadi as ca
 import control

@@ -1,4 +1,25 @@
-"""Propagation: methods, torque inputs, batches, invariants and bad input."""
+"""Propagation: methods, torque inputs, batches, invariants and bad input.
+
+What each group checks against:
+
+* Exact torque-free motion of :mod:`attitude.analytic`: the adaptive method (scipy ``solve_ivp``,
+  DOP853) against the Jacobi elliptic solution for random inertias near the major and minor axes
+  over 20 periods (Landau & Lifshitz, *Mechanics*, sec. 37; docs/torque_free_motion.md), and the
+  order of convergence 4 of the fixed-step RK4 and Runge-Kutta-Munthe-Kaas (RKMK4) methods
+  against the exact axisymmetric free precession (log-log slope of the error vs the step).
+* Torque inputs: agreement between code paths: constant, sampled (zero-order hold) and callable
+  torques (casadi vs numpy evaluation, rounding only), and the fixed-step methods against DOP853 at
+  rtol 1e-13 as the accuracy reference.
+* Batches: a batch equals the single propagations (casadi per body vs vectorised numpy, rounding
+  only), across chunk boundaries, dispersed inertias and two batch dimensions.
+* Invariants: the geometric integrator keeps ``|q| = 1`` to rounding without renormalisation (a
+  product of unit quaternions), and the reported drift of the torque-free invariants (rotational
+  kinetic energy and the inertial angular momentum, conserved by Euler's equations).
+* Results: save/load round trip bit for bit, the figure's panels.
+* Bad input (also as hypothesis properties): errors name the argument, the rule and the value
+  (DESIGN.md); a step far outside RK4's stability region and a non-finite torque raise instead of
+  returning NaN.
+"""
 
 import numpy as np
 import pytest

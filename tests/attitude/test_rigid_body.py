@@ -1,4 +1,23 @@
-"""The plant: inertia checks, principal axes and the one definition of the dynamics."""
+"""The plant: inertia checks, principal axes and the one definition of the dynamics.
+
+What each group checks against:
+
+* Inertia checks: the physical realisability rules of an inertia tensor (symmetric, positive
+  definite, principal moments satisfying the triangle inequality ``I3 <= I1 + I2``, a thin plate on
+  the boundary), on hand-picked cases and random tensors ``R diag(m) R^T`` built from known moments
+  and rotations (hypothesis); errors name the argument, the rule and the value (DESIGN.md).
+* Principal axes: the constructed moments and axes recovered (up to sign) by
+  ``numpy.linalg.eigh``, a right-handed frame, and its quaternion against
+  ``scipy.spatial.transform.Rotation`` (DESIGN.md convention).
+* The one definition of Euler's equations ``I omega_dot = tau - omega x (I omega + h)``:
+  numpy and casadi evaluations agree (rounding only); an independent path (``numpy.linalg.solve``
+  and ``numpy.cross``); casadi's exact Jacobians against central differences; batched evaluation
+  bit-identical to single evaluations.
+* Invariants: torque-free Euler's equations conserve the kinetic energy ``omega . I omega / 2`` and
+  ``|H|^2`` exactly (``dT/dt`` and ``d|H|^2/dt`` vanish algebraically); the energy and momentum
+  formulas, the inertial momentum rotated by ``scipy.spatial.transform.Rotation``; ``skew`` against
+  ``numpy.cross``.
+"""
 
 import casadi as ca
 import numpy as np

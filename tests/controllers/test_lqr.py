@@ -1,4 +1,30 @@
-"""LQR design and flight: Bryson weights, Riccati solutions, bad input, nonlinear closed loops."""
+"""LQR design and flight: Bryson weights, Riccati solutions, bad input, nonlinear closed loops.
+
+What each group checks against:
+
+* Weights: Bryson's rule (Bryson and Ho, *Applied Optimal Control*): each weight is the inverse
+  square of the largest acceptable value, with the attitude bound ``sin(angle / 2)`` on ``|q_ev|``.
+* Continuous design: the closed-form LQR gains of a double integrator per axis for a diagonal
+  body (derived in the test); the continuous algebraic Riccati equation
+  ``A'S + SA - S B R^-1 B'S + Q = 0`` by its residual, ``K = R^-1 B'S``, ``S`` symmetric positive
+  definite and stable poles; the closed loop ``A - BK`` as python-control's ``StateSpace``.
+* Discrete design: the zero-order-hold plant against Van Loan's block exponential
+  ``expm([[A, B], [0, 0]] T)`` (C. F. Van Loan, "Computing integrals involving the matrix
+  exponential", IEEE TAC 23(3), 1978; ``scipy.linalg.expm``, independent of ``control.c2d``); the
+  discrete Riccati equation by its residual and its gain; the discrete gain tending to the
+  continuous one to first order in the period.
+* Bad input: errors name the argument, the rule and the value (DESIGN.md); stabilisability of
+  ``(A, B)`` and detectability of ``(Q^1/2, A)`` (the Popov-Belevitch-Hautus test of
+  :func:`controllers.lqr.design_lqr`) on hand-built cases: the uncontrollable norm mode of the
+  7-state quaternion model, an unstable mode with no input, unweighted attitude modes.
+* Controller: ``tau = -K x`` on the shortest-way error (``q`` and ``-q`` the same attitude, 359 deg
+  is -1 deg), a reference turning at ``omega_ref``; agreement between the compiled and Python
+  engine paths (rounding only).
+* Nonlinear flight: the nonlinear closed loop against its own linear closed loop (python-control),
+  with a mismatch that is second order in the amplitude; with reaction wheels, conservation of the
+  total angular momentum under internal torques and convergence at the rate of the slowest
+  closed-loop pole.
+"""
 
 import control
 import numpy as np

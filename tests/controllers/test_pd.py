@@ -1,4 +1,30 @@
-"""Quaternion-feedback PD and the Wie-Lu rate-limited law: design, large slews, bad input."""
+"""Quaternion-feedback PD and the Wie-Lu rate-limited law: design, large slews, bad input.
+
+What each group checks against:
+
+* Bandwidth design: the quaternion feedback regulator of Wie, Weiss and Arapostathis, "Quaternion
+  feedback regulator for spacecraft eigenaxis rotations", *J. Guidance, Control, and Dynamics*
+  12(3), 1989, with ``K = 2 I wn^2`` and ``C = 2 I zeta wn`` (``q_e,v ≈ theta / 2``): closed-loop
+  poles with the designed ``wn`` and ``zeta`` per axis, also on the plant linearised by casadi
+  from the one definition of the dynamics (independent of :func:`controllers.analysis.attitude_closed_loop`);
+  forgetting the half angle gives a loop ``sqrt 2`` too slow; step overshoot against the
+  second-order formula ``exp(-pi zeta / sqrt(1 - zeta^2))`` at the analytic peak time
+  ``pi / (wn sqrt(1 - zeta^2))`` (python-control's ``step_info`` and ``step_response``).
+* Sample-rate warning: the rule of :mod:`controllers.pd` (``wn`` above a tenth of ``2 pi / T``).
+* Large slews: the shortest way (the sign of ``q_e,0``: 179 deg back, 181 deg forward) with a
+  monotonically decreasing error and no unwinding, for a critically damped loop.
+* Rate-limited eigenaxis slews: the Wie-Lu law (B. Wie and J. Lu, "Feedback control logic for
+  spacecraft eigenaxis rotations under slew rate and control constraints", *J. Guidance,
+  Control, and Dynamics* 18(6), 1995; Wie, *Space Vehicle Dynamics and Control*, 2nd ed., 2008):
+  the saturation limits give the coast rate ``omega_max`` along the eigenaxis, a 120 deg slew
+  holds the rate limit and stays on the eigenaxis great circle, which it loses without
+  gyroscopic compensation; an unlimited PD exceeds the rate. The norm-saturation variant is the
+  toolkit's own (no published source): it flies the same eigenaxis slew and keeps stiffness on
+  every axis where the published law leaves none.
+* Engines and latching: agreement between the compiled and Python engine paths (rounding only);
+  limits latched from each run's initial error.
+* Bad input: errors name the argument, the rule and the value (DESIGN.md).
+"""
 
 import warnings
 

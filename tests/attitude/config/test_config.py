@@ -1,4 +1,24 @@
-"""The spacecraft file: the built-in default, round trips, and one test per validation rule."""
+"""The spacecraft file: the built-in default, round trips, and one test per validation rule.
+
+What each group checks against:
+
+* The built-in default: the objects :mod:`attitude.app.assembly` builds from it against the values
+  written in the packaged ``default_spacecraft.toml`` and its comments; the comment arithmetic of
+  ``[wheels]`` re-derived from the built objects with the single-axis rest-to-rest slew times of a
+  rigid body (bang-bang ``2 sqrt(theta I / tau)`` and rate-limited ``theta / w + w I / tau``, by
+  hand: elementary kinematics of constant acceleration); the Sun cone against the eigenaxis path
+  sampled by :func:`attitude.quaternion.slerp` (the file's "comes within 25 deg of the Sun").
+* The file itself: parsed by the standard library's :mod:`tomllib` (TOML 1.0) as the independent
+  reader; every key commented (``attitude init`` is a commented starting point) and listed in the
+  schema (``CONFIG_KEYS``).
+* Round trips: ``parse_config(config_to_toml(c)) == c`` for the resolved default, a variant using
+  every optional form, and whatever loads from random edits (hypothesis); the slew target ``q_start ⊗ q(axis_B, angle)``
+  keeps the body axis fixed in inertial space (:func:`attitude.quaternion.rotate`).
+* Validation, one snippet per rule: a :class:`attitude.config.ConfigError` whose message names the
+  file, the key, the rule and the value (DESIGN.md), TOML syntax errors with the line and column
+  :mod:`tomllib` reports, and random garbage in numeric keys (hypothesis) raising only
+  ``ConfigError`` or building every object.
+"""
 
 from __future__ import annotations
 

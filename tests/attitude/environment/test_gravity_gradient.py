@@ -1,4 +1,32 @@
-"""Gravity gradient on a circular orbit: torque, LVLH frame, linearisation and stability regions."""
+"""Gravity gradient on a circular orbit: torque, LVLH frame, linearisation and stability regions.
+
+What each group checks against (derivations in docs/gravity_gradient.md):
+
+* Torque ``tau_B = 3 mu / |r|^5 r_B x (I r_B)`` (Wie, *Space Vehicle Dynamics and Control*,
+  gravity-gradient torque; Hughes, *Spacecraft Attitude Dynamics*, gravitational torques): a hand
+  computation in a principal plane, the inverse-cube scaling and the symmetry ``r -> -r``, zero
+  torque with a principal axis at nadir, and, as an independent body, the exact sum of ``rho x F``
+  over the point masses of three dumbbells (Newton's inverse-square law); numpy vs casadi evaluations
+  of the same formula (rounding only); the small-angle stiffness ``3 n^2 [(I3 - I2) theta1,
+  (I3 - I1) theta2, 0]`` (Wie) by central differences.
+* Circular orbit and LVLH axes (``o3`` to nadir, ``o2`` the negative orbit normal; Wie; Hughes):
+  published constants (geostationary radius 42,164.1696 km gives the sidereal day 86,164.0905 s),
+  the circular speed ``sqrt(mu / r)``, the frame built by hand at the node of an equatorial orbit and
+  from position and velocity, and velocity and ``q_LN`` as central-difference time derivatives.
+* Linearisation: the casadi Jacobian entry by entry against Wie's linear roll / pitch / yaw
+  equations re-derived for these axes (docs/gravity_gradient.md), its eigenvalues against the roots
+  of the classical pitch equation and roll-yaw quartic ``s^4 + (1 + 3 k1 + k1 k3) n^2 s^2 + 4 k1 k3
+  n^4``, tangency of the nonlinear model, and ``expm(A t) x0`` against a full inertial simulation
+  (:func:`attitude.propagate.propagate`, through code paths independent of the casadi model).
+* Stability regions: the classical conditions (Wie, gravity-gradient stabilisation; Hughes; DeBra
+  and Delp, J. Astronaut. Sci. 8, 1961): the Lagrange region ``I2 > I1 > I3`` and the DeBra-Delp
+  region, pitch and roll-yaw instability, the boundary, a random sweep over ``(k1, k3)`` against
+  the eigenvalues of the linear model, and the pitch libration frequency ``n sqrt(3 (I1 - I3) /
+  I2)`` in a nonlinear simulation with the pendulum finite-amplitude correction ``(2 theta0)^2 / 16``.
+* Orbital disturbance: the exact integral of a constant-plus-orbital-rate torque on a principal
+  axis at rest; shapes and biases.
+* Bad input: errors name the argument, the rule and the value (DESIGN.md).
+"""
 
 from typing import ClassVar
 

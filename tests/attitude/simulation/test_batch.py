@@ -1,4 +1,21 @@
-"""The vectorised closed loop (attitude.simulation.batch) and its compiled kernel."""
+"""The vectorised closed loop (attitude.simulation.batch) and its compiled kernel.
+
+There is no external reference here: every test is an agreement between independent
+implementations or code paths of the same definitions (:mod:`attitude.simulation.kernel`).
+
+* Batch vs single run: :func:`attitude.simulation.batch.simulate_batch` (C or numpy per component)
+  against :func:`attitude.simulation.engine.simulate` (casadi's virtual machine per run), run by
+  run, with :func:`attitude.simulation.batch.closed_loop_metrics` on the single run as the metric
+  reference: rounding only.
+* Back ends: compiled C vs numpy (rounding only); a run is bit-identical whatever batch it is in, and
+  a diverging run is isolated (the others bit-identical to a batch without it).
+* :class:`attitude.rigid_body.ParametricBody` against :meth:`attitude.rigid_body.RigidBody.omega_dot_components`
+  (Euler's equations, the one definition): rounding only.
+* Compilation and cache (:mod:`attitude.simulation.codegen`): a compiled function's values computed
+  by hand (``x^2 + 1``, ``x^3``), one compiler call per cached library, a damaged library rebuilt,
+  thread safety, and the numpy fallback bit-identical to the numpy back end.
+* Bad input: errors name the argument, the rule and the value (DESIGN.md).
+"""
 
 from __future__ import annotations
 

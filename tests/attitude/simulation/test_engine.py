@@ -1,4 +1,23 @@
-"""The closed-loop engine: compiled vs Python paths, protocols, bookkeeping, bad input."""
+"""The closed-loop engine: compiled vs Python paths, protocols, bookkeeping, bad input.
+
+What each group checks against:
+
+* Engines: agreement between two independent evaluations of the same definitions: the compiled
+  path (plant, wheels and controller in one casadi ``mapaccum``) and the Python path (per tick),
+  to rounding.
+* Physics: the closed-loop PD error decaying as the second-order envelope ``exp(-zeta wn t)``
+  (wn = 0.1 rad/s, zeta = 0.7, the design of :meth:`controllers.pd.QuaternionPD.from_bandwidth`);
+  conservation of the total (body plus wheels) angular momentum in inertial components under
+  internal torques only, and its change at the rate of a constant external torque
+  (``dH_N/dt = tau_N``, Euler's second law; the wheel model of :mod:`attitude.actuators`,
+  Schaub and Junkins, *Analytical Mechanics of Space Systems*, ch. 4).
+* Protocols and bookkeeping: multirate scheduling (sensors, estimator and controller called at the
+  ticks their periods imply), reproducibility at a fixed seed, save/load bit for bit, the review
+  figure's panels and wheel-speed limits (``h_max / J``), the duration rounded up to a tick.
+* Divergence: a sampled rate loop with gain ``C dt / I`` far beyond 2 (the stability limit of the
+  discrete rate loop ``w_{k+1} = (1 - C dt / I) w_k``) is reported with the time.
+* Bad input: errors name the argument, the rule and the value (DESIGN.md).
+"""
 
 import numpy as np
 import pytest
