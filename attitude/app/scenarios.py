@@ -656,7 +656,11 @@ class PDWheelsScenario:
         self.pointing_threshold = float(pointing_threshold)
         self.history_stride = history_stride
         self.controller = assembly.pd_from_bandwidth(
-            self.nominal, self.bandwidth, self.damping, self.period, q_ref=self.q_target
+            self.nominal,
+            bandwidth_rad_per_s=self.bandwidth,
+            damping=self.damping,
+            period_s=self.period,
+            q_ref=self.q_target,
         )
 
     @classmethod
