@@ -327,8 +327,12 @@ def main() -> None:
     late = batch.updated[0] & (t >= duration / 2)
     sig_filter = np.sqrt(np.mean(np.diagonal(batch.P[:, late, :3, :3], axis1=-2, axis2=-1), axis=(0, 1)))
     sig_runs = np.sqrt(np.mean(e_mekf[:, late, :3] ** 2, axis=(0, 1)))
-    cross = steady_state_attitude_sigma(gyro.sigma_v, gyro.sigma_u, tracker.sigma_cross, tracker.period)
-    roll = steady_state_attitude_sigma(gyro.sigma_v, gyro.sigma_u, tracker.sigma_roll, tracker.period)
+    cross = steady_state_attitude_sigma(
+        sigma_v=gyro.sigma_v, sigma_u=gyro.sigma_u, sigma_n=tracker.sigma_cross, dt=tracker.period
+    )
+    roll = steady_state_attitude_sigma(
+        sigma_v=gyro.sigma_v, sigma_u=gyro.sigma_u, sigma_n=tracker.sigma_roll, dt=tracker.period
+    )
     print("   steady-state attitude sigma just after an update [arcsec] (second half of the runs):")
     print("     axis            closed form   filter   runs (RMS)")
     for i, (name, closed) in enumerate(zip(["x (cross)", "y (cross)", "z (roll)"], [cross, cross, roll])):

@@ -465,7 +465,7 @@ def gyro_bias_sigma0(config: SpacecraftConfig) -> float:
     return max(largest_deg_per_h * _DEG_PER_H, dispersed)
 
 
-def mekf_initial_covariance(attitude_sigma_rad: float, bias_sigma_rad_per_s: float) -> NDArray[np.float64]:
+def mekf_initial_covariance(*, attitude_sigma_rad: float, bias_sigma_rad_per_s: float) -> NDArray[np.float64]:
     """The MEKF's initial covariance: diagonal, attitude then bias (6, 6).
 
     Parameters
@@ -480,7 +480,7 @@ def mekf_initial_covariance(attitude_sigma_rad: float, bias_sigma_rad_per_s: flo
     ndarray (6, 6)
         [rad^2, (rad/s)^2]
     """
-    return initial_covariance(attitude_sigma_rad, bias_sigma_rad_per_s)
+    return initial_covariance(attitude_sigma=attitude_sigma_rad, bias_sigma=bias_sigma_rad_per_s)
 
 
 def mekf(
@@ -513,9 +513,9 @@ def mekf(
     if tracker_covariance is None:
         return MEKF.from_sensors(gyro, tracker, q0=q0, P0=P0)
     return MEKF(
-        gyro.sigma_v,
-        gyro.sigma_u,
-        tracker_covariance,
+        sigma_v=gyro.sigma_v,
+        sigma_u=gyro.sigma_u,
+        tracker_covariance=tracker_covariance,
         period=gyro.period,
         q0=q0,
         P0=P0,

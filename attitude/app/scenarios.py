@@ -432,7 +432,9 @@ class ClosedLoopScenario:
             gyro,
             self._tracker,
             q0=self._q_start,
-            P0=assembly.mekf_initial_covariance(self._attitude_sigma, self._bias_sigma),
+            P0=assembly.mekf_initial_covariance(
+                attitude_sigma_rad=self._attitude_sigma, bias_sigma_rad_per_s=self._bias_sigma
+            ),
             tracker_covariance=self._tracker_covariance,
         )
 

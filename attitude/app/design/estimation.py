@@ -129,7 +129,7 @@ def estimation_study(
         y[r, mask] = tracker.add_noise(q_true[mask], rng)
         q0[r] = quat.multiply(q_true[0], quat.from_rotation_vector(rng.standard_normal(3) * sig_a0))
     # The samples above are interval means (angle increments): the MEKF's gyro model.
-    p0 = assembly.mekf_initial_covariance(sig_a0, sig_b0)
+    p0 = assembly.mekf_initial_covariance(attitude_sigma_rad=sig_a0, bias_sigma_rad_per_s=sig_b0)
     mekf = assembly.mekf(assembly.gyro(config, sampling="mean"), tracker, q0=q_true[0], P0=p0)
     res = run_mekf(mekf, t, g, y, tracker_mask=np.broadcast_to(mask, (runs, n)), q0=q0)
     mekf_nees = res.nees(q_true, bias)

@@ -382,7 +382,12 @@ def fly_slew(
     sig_a0 = assembly.attitude_sigma0()
     sig_b0 = assembly.gyro_bias_sigma0(config)
     q_hat0 = quat.multiply(q0, quat.from_rotation_vector(rng_init.standard_normal(3) * sig_a0))
-    mekf = assembly.mekf(gyro, tracker, q0=q_hat0, P0=assembly.mekf_initial_covariance(sig_a0, sig_b0))
+    mekf = assembly.mekf(
+        gyro,
+        tracker,
+        q0=q_hat0,
+        P0=assembly.mekf_initial_covariance(attitude_sigma_rad=sig_a0, bias_sigma_rad_per_s=sig_b0),
+    )
     wheels = assembly.reaction_wheels(config)
     r = simulate(
         body,

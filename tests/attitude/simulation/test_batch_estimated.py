@@ -30,7 +30,7 @@ CONTROLLER = QuaternionPD.from_bandwidth(
     q_ref=quat.multiply(Q_START, quat.from_rotation_vector([0.0, 0.0, 0.2])),
     gyroscopic=True,
 )
-P0 = initial_covariance(math.radians(0.5), math.radians(10.0) / 3600.0)
+P0 = initial_covariance(attitude_sigma=math.radians(0.5), bias_sigma=math.radians(10.0) / 3600.0)
 N_RUNS = 4
 DURATION = 40.0
 
