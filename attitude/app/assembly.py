@@ -393,9 +393,7 @@ def lqr(config: SpacecraftConfig, body: RigidBody | None = None) -> tuple[Any, L
     if c.lqr is None:
         return None
     body = rigid_body(config) if body is None else body
-    q_w, r_w = bryson_weights(
-        angle_max=c.lqr.max_angle_rad, rate_max=c.lqr.max_rate_rad_per_s, torque_max=c.lqr.max_torque
-    )
+    q_w, r_w = bryson_weights(angle_max=c.lqr.angle_max, rate_max=c.lqr.rate_max, torque_max=c.lqr.torque_max)
     plant = linearize(body)
     return plant, design_lqr(plant, Q=q_w, R=r_w, period=c.period_s)
 
@@ -641,7 +639,7 @@ def monte_carlo_requirements(config: SpacecraftConfig, *, keep_out: bool = True)
     pointing accuracy for good, from the start of the run) <= slew max time
     + settling time [s]: the slew and its settling within their combined
     allowed time (the design report, on its one nominal flight, is
-    stricter: the arrival within ``max_time_s`` and the settling after the
+    stricter: the arrival within ``time_max_s`` and the settling after the
     planned slew within ``settling_time_s``); ``rate``: peak rate <= the
     slew rate limit [rad/s] (when given); ``keep_out.<name>``: margin >= 0
     [rad] for each keep-out cone.
@@ -661,7 +659,7 @@ def monte_carlo_requirements(config: SpacecraftConfig, *, keep_out: bool = True)
     req = config.requirements
     out = [
         Requirement("final_pointing_error", max=req.pointing_accuracy_rad, name="pointing"),
-        Requirement("settling_time", max=req.slew.max_time_s + req.settling_time_s, name="settling"),
+        Requirement("settling_time", max=req.slew.time_max_s + req.settling_time_s, name="settling"),
     ]
     if req.slew.rate_max_rad_per_s is not None:
         out.append(Requirement("peak_rate", max=req.slew.rate_max_rad_per_s, name="rate"))

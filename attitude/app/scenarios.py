@@ -100,7 +100,7 @@ def requirements_from_config(config: SpacecraftConfig, *, keep_out: bool = True)
     accuracy for good, from the start of the run) <= slew max time +
     settling time: the slew and its settling within their combined allowed
     time (the design report, on its one nominal flight, is stricter: the
-    arrival within ``max_time_s`` and the settling after the planned slew
+    arrival within ``time_max_s`` and the settling after the planned slew
     within ``settling_time_s``); ``rate``: peak rate <= the slew rate
     limit (when given); ``keep_out.<name>``: margin >= 0 for each keep-out
     cone. ``keep_out=False`` leaves the cones out, for a guidance that does

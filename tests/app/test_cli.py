@@ -135,7 +135,7 @@ def check_verdicts(results: dict, config) -> None:
     req = config.requirements
     flight = results["closed_loop"]
     expected = {
-        "slew_time": (req.slew.max_time_s, flight["flown_slew_time_s"]),  # judged on the flown arrival
+        "slew_time": (req.slew.time_max_s, flight["flown_slew_time_s"]),  # judged on the flown arrival
         "settling_time": (req.settling_time_s, flight["settling_time_after_slew_s"]),
         "pointing_accuracy": (req.pointing_accuracy_deg, flight["max_pointing_error_in_window_deg"]),
     }
@@ -375,7 +375,7 @@ def test_slew_target_quaternion_energy_and_a_failing_time(capsys):
     assert res["slews"]["plan"]["duration_s"] == pytest.approx(40.0, rel=1e-9)
     assert res["slews"]["angle_deg"] == pytest.approx(20.0, rel=1e-9)
     # A slew that cannot be done in the allowed time: exit code 1, the failing row named.
-    code, res = slew_json(capsys, "--to", "max_time_s=10")
+    code, res = slew_json(capsys, "--to", "time_max_s=10")
     assert code == 1
     assert res["verdict"]["failed"] == ["slew_time"]
 
@@ -537,7 +537,7 @@ settling_time_s = 300.0
 [requirements.slew]
 angle_deg = 120.0
 axis_B = [0.0, 0.0, 1.0]
-max_time_s = 150.0
+time_max_s = 150.0
 """
 
 

@@ -128,7 +128,7 @@ def test_requirements_are_judged_on_the_target_metrics():
     assert set(reqs) == {"pointing", "settling", "rate", f"keep_out.{CONE.name}"}
     assert reqs["pointing"].metric == "final_pointing_error" and reqs["pointing"].max == REQ.pointing_accuracy_rad
     assert reqs["settling"].metric == "settling_time"
-    assert reqs["settling"].max == REQ.slew.max_time_s + REQ.settling_time_s
+    assert reqs["settling"].max == REQ.slew.time_max_s + REQ.settling_time_s
     assert reqs[f"keep_out.{CONE.name}"].min == 0.0
 
 

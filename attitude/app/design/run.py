@@ -162,8 +162,8 @@ def _slew_rows(
         _row(
             "slew_time",
             f"slew time for {angle_deg:.1f} deg ({time_label})",
-            "requirements.slew.max_time_s",
-            req.slew.max_time_s,
+            "requirements.slew.time_max_s",
+            req.slew.time_max_s,
             slew_time_s,
             "s",
             "<=",

@@ -139,7 +139,7 @@ def plan_slews(
     objective : {"time", "energy"}
         Minimum time, or minimum ``integral |tau|^2 dt`` over ``duration_s``.
     duration_s : float, optional
-        Slew time for "energy" [s] (default ``requirements.slew.max_time_s``).
+        Slew time for "energy" [s] (default ``requirements.slew.time_max_s``).
     """
     body = assembly.rigid_body(config)
     req = config.requirements
@@ -166,7 +166,7 @@ def plan_slews(
         "q_start_BN": _vec(q0),
         "q_target_BN": _vec(qf),
         "objective": objective,
-        "max_time_s": slew.max_time_s,
+        "time_max_s": slew.time_max_s,
         "rate_limit_deg_per_s": slew.rate_max_deg_per_s,
         "plan_torque_fraction": PLAN_TORQUE_FRACTION,
         "plan_torque_percent": 100.0 * PLAN_TORQUE_FRACTION,
@@ -205,11 +205,11 @@ def plan_slews(
     # The eigenaxis time (closed form, instant) bounds what is achievable within a
     # small factor; far beyond the requirement, optimal planning and the flight
     # would only take a long time to confirm the failure.
-    hopeless = eig is not None and objective == "time" and eig.duration > HOPELESS_FACTOR * slew.max_time_s
+    hopeless = eig is not None and objective == "time" and eig.duration > HOPELESS_FACTOR * slew.time_max_s
     if hopeless:
         error = (
             f"the eigenaxis slew takes {eig.duration:.4g} s, more than {HOPELESS_FACTOR:g} x the required "
-            f"{slew.max_time_s:g} s: these wheels cannot make this slew in time (optimal planning and the flight "
+            f"{slew.time_max_s:g} s: these wheels cannot make this slew in time (optimal planning and the flight "
             "were skipped)"
         )
     else:
@@ -221,7 +221,7 @@ def plan_slews(
                 "nodes": nodes,
             }
             if objective == "energy":
-                kwargs["duration"] = slew.max_time_s if duration_s is None else duration_s
+                kwargs["duration"] = slew.time_max_s if duration_s is None else duration_s
             plan = plan_slew(body, q0, qf, objective=objective, starts=PLAN_STARTS, **kwargs)
         except (SlewPlanningError, ValueError) as exc:
             error = (error + "; " if error else "") + f"{type(exc).__name__}: {exc}"

@@ -283,8 +283,8 @@ def _linear(results: dict[str, Any]) -> list[Block]:
         out.append(
             Paragraph(
                 f"Discrete LQR at {fmt(period)} s by Bryson's rule: largest acceptable attitude error "
-                f"{_vec(lqr['max_angle_deg'])} deg, rate error {_vec(lqr['max_rate_deg_per_s'])} deg/s and torque "
-                f"{_vec(lqr['max_torque_Nm'])} N m per axis. Closed-loop poles as s-plane equivalents; the "
+                f"{_vec(lqr['angle_max_deg'])} deg, rate error {_vec(lqr['rate_max_deg_per_s'])} deg/s and torque "
+                f"{_vec(lqr['torque_max_Nm'])} N m per axis. Closed-loop poles as s-plane equivalents; the "
                 f"slowest decays at {fmt(lqr['slowest_decay_rate_per_s'])} 1/s."
             )
         )
@@ -391,7 +391,7 @@ def _slews(results: dict[str, Any]) -> list[Block]:
     def row(label: str, key: str, required: str = "") -> list[str]:
         return [label] + [fmt(None if x is None else x[key]) for x in (plan, eig)] + [required]
 
-    rows.append(row("duration [s]", "duration_s", f"<= {fmt(s['max_time_s'])}"))
+    rows.append(row("duration [s]", "duration_s", f"<= {fmt(s['time_max_s'])}"))
     limit = s["rate_limit_deg_per_s"]
     rows.append(row("peak body rate [deg/s]", "peak_rate_deg_per_s", "" if limit is None else f"<= {fmt(limit)}"))
     rows.append(row("peak torque [mN m]", "peak_torque_mNm"))
