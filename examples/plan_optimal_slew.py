@@ -115,7 +115,7 @@ def main() -> None:
     print(
         f"   the cone is active: without it the tracker passes {np.degrees(np.min(cone.separation(free.q))):.1f} deg "
         f"from the Sun (so does the eigenaxis slew); with it the re-simulated minimum is "
-        f"{np.degrees(kept.min_separation[0]):.3f} deg"
+        f"{np.degrees(kept.separation_min[0]):.3f} deg"
     )
     for plan in (free, kept, energy):
         for note in plan.warnings:

@@ -233,7 +233,7 @@ def _cmd_slew(args: argparse.Namespace) -> int:
         name = cone["name"]
         table.append(
             [f"separation '{name}' [deg]"]
-            + [fmt(None if x is None else x["min_separation_deg"][name]) for x in (s["plan"], s["eigenaxis"])]
+            + [fmt(None if x is None else x["separation_min_deg"][name]) for x in (s["plan"], s["eigenaxis"])]
         )
     widths = [max(len(r[i]) for r in table) for i in range(3)]
     for row in table:

@@ -117,7 +117,7 @@ def _trajectory_summary(name: str, t: Any, q: Any, omega: Any, torque: Any, cone
         "duration_s": _f(t[-1] - t[0]),
         "peak_rate_deg_per_s": _f(np.degrees(np.max(np.linalg.norm(omega, axis=-1)))),
         "peak_torque_mNm": _f(1e3 * np.max(np.linalg.norm(torque, axis=-1))),
-        "min_separation_deg": sep,
+        "separation_min_deg": sep,
     }
 
 
@@ -235,8 +235,8 @@ def plan_slews(
             plan.torque,
             cones,
         )
-        entry["min_separation_deg"] = {
-            c.name: _f(math.degrees(s)) for c, s in zip(cones, np.atleast_1d(plan.min_separation))
+        entry["separation_min_deg"] = {
+            c.name: _f(math.degrees(s)) for c, s in zip(cones, np.atleast_1d(plan.separation_min))
         }
         entry.update(
             {
@@ -430,11 +430,11 @@ def fly_slew(
         "settled_at_s": _f(settled_at),
         "plan_slew_time_s": slew_end,
         "flown_slew_time_s": _f(arrived_at),
-        "max_pointing_error_after_slew_deg": _f(np.max(err_deg[r.t >= slew_end])),
+        "pointing_error_max_after_slew_deg": _f(np.max(err_deg[r.t >= slew_end])),
         "settling_time_after_slew_s": _f(max(0.0, settled_at - slew_end)),
         "pointing_window_start_s": _f(slew_end + req.settling_time_s),
         "pointing_window_end_s": _f(r.t[-1]),
-        "max_pointing_error_in_window_deg": _f(np.max(err_deg[window])),
+        "pointing_error_max_in_window_deg": _f(np.max(err_deg[window])),
         "pointing_error_end_deg": _f(err_deg[-1]),
         "pointing_error_end_arcsec": _f(err_deg[-1] * 3600.0),
         "knowledge_error_rms_in_window_arcsec": _f(np.sqrt(np.mean(knowledge[window] ** 2))),
@@ -446,7 +446,7 @@ def fly_slew(
         "wheel_momentum_limit_Nms": _f(np.min(wheels.momentum_max)),
         "peak_motor_torque_mNm": _f(1e3 * np.max(np.abs(r.motor_torque))),
         "motor_torque_limit_mNm": _f(1e3 * np.min(wheels.torque_max)),
-        "min_separation_deg": {k.name: _f(np.degrees(np.min(k.separation(r.q)))) for k in study.cones},
+        "separation_min_deg": {k.name: _f(np.degrees(np.min(k.separation(r.q)))) for k in study.cones},
         "tracker_updates": None if updates is None else int(np.nanmax(updates)),
         "tracker_blinded_samples": _blinded_samples(tracker, r),
         "wall_time_s": _f(r.info.get("wall_time_s", 0.0)),
