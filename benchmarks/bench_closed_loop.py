@@ -28,7 +28,7 @@ WHEELS = ReactionWheels.pyramid(0.005, 0.05, 0.8, viscous_friction=2e-6)
 
 def pd_with_wheels(duration_s: float = 600.0) -> dict[str, Any]:
     target = quat.from_axis_angle([1.0, 0.5, 0.0], np.radians(30.0))
-    pd = QuaternionPD.from_bandwidth(BODY, 0.1, 0.7, 0.1, q_ref=target, gyroscopic=True)
+    pd = QuaternionPD.from_bandwidth(BODY, wn=0.1, zeta=0.7, period=0.1, q_ref=target, gyroscopic=True)
 
     def run(engine: str):
         return simulate(BODY, quat.identity(), np.zeros(3), duration_s, controller=pd, wheels=WHEELS, engine=engine)

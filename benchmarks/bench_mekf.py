@@ -40,7 +40,9 @@ def _data(n_runs: int) -> tuple[MEKF, np.ndarray, np.ndarray, np.ndarray, np.nda
     for r in range(n_runs):
         gyro_meas[r] = gyro.measure_history(t, np.tile(omega, (N_STEPS, 1)), rng, q_BN=q_true)
         tracker_meas[r, ::5] = tracker.add_noise(q_true[::5], rng)
-    mekf = MEKF.from_sensors(gyro, tracker, q0=q_true[0], P0=initial_covariance(np.radians(0.1), np.radians(0.01)))
+    mekf = MEKF.from_sensors(
+        gyro, tracker, q0=q_true[0], P0=initial_covariance(attitude_sigma=np.radians(0.1), bias_sigma=np.radians(0.01))
+    )
     return mekf, t, gyro_meas, tracker_meas, q_true
 
 

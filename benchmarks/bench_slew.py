@@ -67,7 +67,7 @@ def _figures(plan: SlewPlan) -> dict[str, Any]:
     }
 
 
-def _fine_min_separation_deg(plan: SlewPlan, cone: KeepOutCone, per_interval: int = 20) -> float:
+def _fine_separation_min_deg(plan: SlewPlan, cone: KeepOutCone, per_interval: int = 20) -> float:
     """Smallest separation [deg] on an adaptive re-simulation, ``per_interval`` samples per plan interval."""
     frac = np.arange(per_interval) / per_interval
     t = np.concatenate([(plan.t[:-1, None] + frac * np.diff(plan.t)[:, None]).ravel(), plan.t[-1:]])
@@ -106,7 +106,7 @@ def published_benchmark(repeats: int = 3) -> dict[str, Any]:
         "per_nodes": cases,
         "target_100_nodes_cpu_s": TARGET_100_NODES_S,
         "meets_100_nodes_target": at_100["cpu_s"]["median_s"] < TARGET_100_NODES_S,
-        "max_refined_error_rel": max(abs(c["refined_time_error_rel"]) for c in cases),
+        "refined_time_error_max_rel": max(abs(c["refined_time_error_rel"]) for c in cases),
         "target_error_rel": 5e-4,
     }
 
@@ -142,10 +142,10 @@ def small_satellite(repeats: int = 3) -> dict[str, Any]:
             "eigenaxis_s": plan.eigenaxis_duration,
             "eigenaxis_enters_keep_out": plan.info.get("eigenaxis_enters_keep_out"),
             **_figures(plan),
-            "max_rate_deg_s": math.degrees(plan.max_rate),
+            "peak_rate_deg_per_s": math.degrees(plan.peak_rate),
         }
-        if plan.min_separation.size:
-            entry["min_keep_out_separation_deg"] = np.degrees(plan.min_separation).tolist()
+        if plan.separation_min.size:
+            entry["keep_out_separation_min_deg"] = np.degrees(plan.separation_min).tolist()
         out[name] = entry
     return {"case": "small satellite, inertia [[10,1.2,-0.5],[1.2,12,0.3],[-0.5,0.3,8]] kg m^2", **out}
 
@@ -175,8 +175,8 @@ def keep_out_margin() -> dict[str, Any]:
                     "duration_s": margin.duration,
                     "duration_checkpoints_only_s": bare.duration,
                     "margin_cost_rel": margin.duration / bare.duration - 1.0,
-                    "min_separation_deg": _fine_min_separation_deg(margin, cone),
-                    "min_separation_checkpoints_only_deg": _fine_min_separation_deg(bare, cone),
+                    "separation_min_deg": _fine_separation_min_deg(margin, cone),
+                    "separation_min_checkpoints_only_deg": _fine_separation_min_deg(bare, cone),
                 }
             )
         out[name] = rows

@@ -241,8 +241,8 @@ def loop_gain(plant: Any, controller: Any, *, minimal: bool = True) -> list[cont
 
     Examples
     --------
-    For a diagonal inertia and ``QuaternionPD.from_bandwidth(body, wn, zeta,
-    T)`` each loop is ``(2 zeta wn s + wn^2) / s^2``.
+    For a diagonal inertia and ``QuaternionPD.from_bandwidth(body, wn=wn,
+    zeta=zeta, period=T)`` each loop is ``(2 zeta wn s + wn^2) / s^2``.
     """
     P = rigid_body_at_rest(plant) if isinstance(plant, RigidBody) else plant
     if not isinstance(P, (control.StateSpace, control.TransferFunction)):
@@ -688,7 +688,7 @@ def _hold_integrals(A: NDArray, B: NDArray, t: float) -> tuple[NDArray, NDArray]
     return E[:n, :n], E[:n, n:]
 
 
-def sampled_loop(loop: LTI, period: float, computation_delay: float = 0.0) -> control.StateSpace:
+def sampled_loop(loop: LTI, *, period: float, computation_delay: float = 0.0) -> control.StateSpace:
     """Exact discrete loop: zero-order hold at the plant input plus a computation delay.
 
     The input ``u_k`` computed at ``t_k = k T`` is applied from
@@ -764,7 +764,7 @@ def sampled_loop(loop: LTI, period: float, computation_delay: float = 0.0) -> co
     return control.ss(Ad, Bd, Cd, Dd, T)
 
 
-def delayed_loop(loop: LTI, delay: float, *, pade_order: int = 6) -> control.TransferFunction:
+def delayed_loop(loop: LTI, *, delay: float, pade_order: int = 6) -> control.TransferFunction:
     """Continuous loop times a Pade approximation of ``exp(-delay s)``.
 
     Use ``delay = T/2 + tau_d`` for the classical approximation of a
@@ -841,7 +841,7 @@ class SampleTimeStudy(ResultIO):
         return fig
 
 
-def sample_time_study(loop: LTI, periods: ArrayLike, computation_delay: ArrayLike = 0.0) -> SampleTimeStudy:
+def sample_time_study(loop: LTI, *, periods: ArrayLike, computation_delay: ArrayLike = 0.0) -> SampleTimeStudy:
     """Tabulate the margins of the sampled loop for several sample times.
 
     Parameters
@@ -861,7 +861,7 @@ def sample_time_study(loop: LTI, periods: ArrayLike, computation_delay: ArrayLik
     cont = margins(loop)
     if not math.isfinite(cont.gain_crossover):
         raise ValueError("loop must have a gain crossover for a sample-time study (|L| never crosses 1)")
-    rows = [margins(sampled_loop(loop, T, tau)) for T, tau in zip(periods, delays)]
+    rows = [margins(sampled_loop(loop, period=T, computation_delay=tau)) for T, tau in zip(periods, delays)]
     predicted = cont.phase_margin_deg - np.degrees(cont.gain_crossover * (periods / 2 + delays))
     return SampleTimeStudy(
         period=periods,

@@ -93,30 +93,30 @@ def _per_axis(value: ArrayLike, name: str, unit: str) -> NDArray[np.float64]:
 
 
 def bryson_weights(
-    max_angle_rad: ArrayLike, max_rate_rad_s: ArrayLike, max_torque_Nm: ArrayLike
+    *, angle_max: ArrayLike, rate_max: ArrayLike, torque_max: ArrayLike
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """LQR weights by Bryson's rule: each term is 1 at its largest acceptable value.
 
     The attitude state is the error-quaternion vector part, whose magnitude
     for an error angle ``theta`` is ``sin(theta/2) ≈ theta/2``: the angle
-    bound maps to the state bound ``sin(max_angle/2)`` (about half the angle;
+    bound maps to the state bound ``sin(angle_max/2)`` (about half the angle;
     forgetting the half weights attitude four times too lightly).
 
     Parameters
     ----------
-    max_angle_rad : float or array_like (3,)
+    angle_max : float or array_like (3,)
         Largest acceptable attitude error per axis [rad], in ``(0, pi]``.
-    max_rate_rad_s : float or array_like (3,)
+    rate_max : float or array_like (3,)
         Largest acceptable rate deviation per axis [rad/s].
-    max_torque_Nm : float or array_like (3,)
+    torque_max : float or array_like (3,)
         Largest acceptable control torque per axis [N m].
 
     Returns
     -------
     Q : ndarray (6, 6)
-        ``diag(1/sin(max_angle/2)^2, 1/max_rate^2)`` [1, (s/rad)^2].
+        ``diag(1/sin(angle_max/2)^2, 1/rate_max^2)`` [1, (s/rad)^2].
     R : ndarray (3, 3)
-        ``diag(1/max_torque^2)`` [1/(N m)^2].
+        ``diag(1/torque_max^2)`` [1/(N m)^2].
 
     Raises
     ------
@@ -124,11 +124,11 @@ def bryson_weights(
         A bound that is not finite and strictly positive, an angle above pi,
         or a shape other than scalar or (3,).
     """
-    angle = _per_axis(max_angle_rad, "max_angle_rad", "rad")
+    angle = _per_axis(angle_max, "angle_max", "rad")
     if np.any(angle > np.pi):
-        raise ValueError(f"max_angle_rad must not exceed pi (the largest attitude error), got {describe(angle)}")
-    rate = _per_axis(max_rate_rad_s, "max_rate_rad_s", "rad/s")
-    torque = _per_axis(max_torque_Nm, "max_torque_Nm", "N m")
+        raise ValueError(f"angle_max must not exceed pi (the largest attitude error), got {describe(angle)}")
+    rate = _per_axis(rate_max, "rate_max", "rad/s")
+    torque = _per_axis(torque_max, "torque_max", "N m")
     q_max = np.sin(0.5 * angle)
     Q = np.diag(np.concatenate([1.0 / q_max**2, 1.0 / rate**2]))
     R = np.diag(1.0 / torque**2)
@@ -267,7 +267,7 @@ class LQRDesign:
         return float(np.min(-self.s_poles.real))
 
 
-def design_lqr(sys: control.StateSpace, Q: ArrayLike, R: ArrayLike, *, period: float | None = None) -> LQRDesign:
+def design_lqr(sys: control.StateSpace, *, Q: ArrayLike, R: ArrayLike, period: float | None = None) -> LQRDesign:
     """Continuous or discrete (zero-order hold) LQR design with checked inputs.
 
     Parameters
@@ -399,9 +399,9 @@ class LQRController:
     def __init__(
         self,
         design: LQRDesign,
+        *,
         q_ref: ArrayLike | None = None,
         period: float | None = None,
-        *,
         omega_ref: ArrayLike | None = None,
     ) -> None:
         if not isinstance(design, LQRDesign):

@@ -86,7 +86,7 @@ def _matrix(value: ArrayLike, name: str) -> NDArray[np.float64]:
     return arr
 
 
-@dataclass
+@dataclass(kw_only=True)
 class QuaternionPD:
     """Quaternion-feedback PD controller (module docstring).
 
@@ -130,6 +130,7 @@ class QuaternionPD:
     def from_bandwidth(
         cls,
         body: RigidBody,
+        *,
         wn: ArrayLike,
         zeta: ArrayLike,
         period: float,
@@ -305,7 +306,7 @@ class RateLimitedPD:
     axis is saturated the torque term is constant and ``omega`` relaxes with
     time constant ``1/c`` to the coast rate ``omega_c = -(k/c) sat_L(e)``,
     ``|omega_c,i| = (k/c) L_i``. Asking the coast to run *along the
-    eigenaxis* ``e(0)/|e(0)|`` *at exactly* ``omega_max`` gives
+    eigenaxis* ``e(0)/|e(0)|`` *at exactly* ``rate_max`` gives
 
     .. math::
 
@@ -314,23 +315,23 @@ class RateLimitedPD:
     Starting at rest, ``omega`` stays parallel to ``e(0)`` and the kinematics
     ``e_dot = 0.5 (e_0 omega + e x omega) = 0.5 e_0 omega`` keep ``e``
     parallel to ``e(0)``: every component leaves its limit at the same
-    instant (when ``|e| = (c/k) omega_max``) and the rest of the slew is the
+    instant (when ``|e| = (c/k) rate_max``) and the rest of the slew is the
     linear quaternion feedback on the same axis. ``|omega|`` never exceeds
-    ``omega_max``: it approaches it from below during the acceleration, and
+    ``rate_max``: it approaches it from below during the acceleration, and
     in the linear region ``d|omega|/dt = k|e| - c|omega|`` is negative
-    whenever ``|omega| = omega_max`` because ``k|e| < c omega_max`` there.
+    whenever ``|omega| = rate_max`` because ``k|e| < c rate_max`` there.
     (The same bound holds for the zero-order-hold sampled law when
     ``c T < 1``: each step is a convex combination of the previous rate and
-    a rate below ``omega_max``.)
+    a rate below ``rate_max``.)
 
     **Where the factor 2 goes.** ``q_v`` is half the rotation angle, so the
     linear closed loop about the target is ``theta'' + c theta' + (k/2)
     theta = 0``: ``k = 2 wn^2`` and ``c = 2 zeta wn``
     (:meth:`from_bandwidth`), the same factor as in :class:`QuaternionPD`.
     The limits involve only the ratio ``c/k`` and the coast-rate condition
-    ``(k/c) L = omega_max`` contains no half-angle factor: the rate is set
+    ``(k/c) L = rate_max`` contains no half-angle factor: the rate is set
     by ``sat_L(e)`` directly, not by the angle. The equivalent "cascade"
-    writing ``J P sat(P^-1 k e)`` with ``P = c omega_max |e(0)|/|e(0)|``
+    writing ``J P sat(P^-1 k e)`` with ``P = c rate_max |e(0)|/|e(0)|``
     (per axis) is the same law.
 
     **How the controller learns the initial error.** ``saturation="initial"``
@@ -344,25 +345,25 @@ class RateLimitedPD:
     The compiled engine evaluates the law without Python state, so it needs
     the limits before the run (``q_start`` or ``retarget(q_ref, q0)``); the
     limits are then constant inputs. A slew with ``|e(0)| <= (c/k)
-    omega_max`` never reaches the rate limit (the linear loop started there
-    keeps ``|omega| <= omega_max``, same argument as above): its limits are
-    ``(c/k) omega_max`` on every axis, so the law is the plain linear PD for
+    rate_max`` never reaches the rate limit (the linear loop started there
+    keeps ``|omega| <= rate_max``, same argument as above): its limits are
+    ``(c/k) rate_max`` on every axis, so the law is the plain linear PD for
     that target, stiff about every axis (this also covers ``e(0) = 0``,
     whose direction is rounding noise). The limits are continuous across
-    ``|e(0)| = (c/k) omega_max``: either choice leaves that slew unsaturated.
+    ``|e(0)| = (c/k) rate_max``: either choice leaves that slew unsaturated.
 
     Limitation of the published law: in a slew that does reach the limit,
     an axis with ``e_i(0) = 0`` gets ``L_i = 0``, i.e. no attitude stiffness
     about it until the next retarget (only rate damping).
     ``saturation="norm"`` is the memoryless variant
-    ``sat(e) = e min(1, (c/k) omega_max / |e|)``: identical to the latched
+    ``sat(e) = e min(1, (c/k) rate_max / |e|)``: identical to the latched
     law along the eigenaxis (``e`` parallel to ``e(0)``), stiff about every
     axis, and it needs no latching.
 
     Actuator torque limits are left to the actuators; a direction-preserving
     allocation (:class:`attitude.actuators.ReactionWheels`) keeps the torque
     along ``J e(0)``. The torque peaks at the start of a rate-limited slew at
-    ``c omega_max |J e(0)|/|e(0)|`` (without gyroscopic term).
+    ``c rate_max |J e(0)|/|e(0)|`` (without gyroscopic term).
 
     Parameters
     ----------
@@ -370,7 +371,7 @@ class RateLimitedPD:
         Attitude gain per unit inertia [1/s^2] (``K = k J``).
     c : float
         Rate gain per unit inertia [1/s] (``C = c J``).
-    omega_max : float
+    rate_max : float
         Slew-rate limit [rad/s].
     inertia : array_like (3,) or (3, 3)
         Spacecraft inertia ``J`` [kg m^2] (principal moments or tensor).
@@ -397,12 +398,12 @@ class RateLimitedPD:
 
     def __init__(
         self,
+        *,
         k: float,
         c: float,
-        omega_max: float,
+        rate_max: float,
         inertia: ArrayLike,
         period: float,
-        *,
         q_ref: ArrayLike | None = None,
         q_start: ArrayLike | None = None,
         gyroscopic: bool = True,
@@ -410,7 +411,7 @@ class RateLimitedPD:
     ) -> None:
         self.k = positive_scalar(k, "k", why=_SCALAR_GAIN)
         self.c = positive_scalar(c, "c", why=_SCALAR_GAIN)
-        self.omega_max = positive_scalar(omega_max, "omega_max", why=_SCALAR_GAIN)
+        self.rate_max = positive_scalar(rate_max, "rate_max", why=_SCALAR_GAIN)
         self.inertia = RigidBody(inertia).inertia
         if self.inertia.shape != (3, 3):
             raise ValueError(f"inertia must describe one body, got a batch of shape {self.inertia.shape[:-2]}")
@@ -428,7 +429,7 @@ class RateLimitedPD:
 
     def __repr__(self) -> str:
         return (
-            f"RateLimitedPD(k={self.k:.6g}, c={self.c:.6g}, omega_max={self.omega_max:.6g}, "
+            f"RateLimitedPD(k={self.k:.6g}, c={self.c:.6g}, rate_max={self.rate_max:.6g}, "
             f"period={self.period:.6g}, saturation={self.saturation!r}, limits={self.limits})"
         )
 
@@ -436,9 +437,10 @@ class RateLimitedPD:
     def from_bandwidth(
         cls,
         body: RigidBody,
+        *,
         wn: float,
         zeta: float,
-        omega_max: float,
+        rate_max: float,
         period: float,
         **kwargs: Any,
     ) -> RateLimitedPD:
@@ -453,7 +455,7 @@ class RateLimitedPD:
             target (one value: the eigenaxis property needs ``K = k J``).
         zeta : float
             Damping ratio of the linear closed loop.
-        omega_max : float
+        rate_max : float
             Slew-rate limit [rad/s].
         period : float
             Sample time [s]. Warns when ``wn`` exceeds a tenth of the sample
@@ -467,7 +469,7 @@ class RateLimitedPD:
         zeta = positive_scalar(zeta, "zeta", why=_SCALAR_GAIN)
         period = positive_scalar(period, "period", why=_SCALAR_GAIN)
         _warn_if_above_tenth_of_sample_rate(wn, period, stacklevel=2)
-        return cls(2.0 * wn**2, 2.0 * zeta * wn, omega_max, body.inertia, period, **kwargs)
+        return cls(k=2.0 * wn**2, c=2.0 * zeta * wn, rate_max=rate_max, inertia=body.inertia, period=period, **kwargs)
 
     # -- gains and limits ------------------------------------------------------------
 
@@ -483,15 +485,15 @@ class RateLimitedPD:
 
     @property
     def error_limit(self) -> float:
-        """``(c/k) omega_max``: the ``|q_e,v|`` below which the law is linear [-]."""
-        return self.c / self.k * self.omega_max
+        """``(c/k) rate_max``: the ``|q_e,v|`` below which the law is linear [-]."""
+        return self.c / self.k * self.rate_max
 
     def saturation_limits(self, q_ref: ArrayLike, q: ArrayLike) -> NDArray[np.float64]:
-        """Limits ``L_i = (c/k) omega_max |e_i| / |e|`` [-] for the error from ``q`` to ``q_ref``.
+        """Limits ``L_i = (c/k) rate_max |e_i| / |e|`` [-] for the error from ``q`` to ``q_ref``.
 
         ``e`` is the vector part of the shortest-way error ``q_ref* ⊗ q``.
-        When ``|e| <= (c/k) omega_max`` (a slew too small to reach the rate
-        limit) every limit is ``(c/k) omega_max`` (class docstring).
+        When ``|e| <= (c/k) rate_max`` (a slew too small to reach the rate
+        limit) every limit is ``(c/k) rate_max`` (class docstring).
 
         Parameters
         ----------

@@ -197,17 +197,17 @@ class TrackingController:
         self,
         reference: Any,
         body: RigidBody,
+        *,
         wn: ArrayLike,
         zeta: ArrayLike,
         period: float,
-        *,
         t_start: float = 0.0,
         feedforward: Any = None,
     ) -> None:
         self.trajectory = _as_reference(reference)
         self.torque_source = self.trajectory if feedforward is None else _as_reference(feedforward)
         self.t_start = float(as_float_array(t_start, "t_start"))
-        self.feedback = QuaternionPD.from_bandwidth(body, wn, zeta, period, reference_fn=self.reference)
+        self.feedback = QuaternionPD.from_bandwidth(body, wn=wn, zeta=zeta, period=period, reference_fn=self.reference)
         self.period = self.feedback.period
 
     def _samples(self, t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:

@@ -305,10 +305,10 @@ class RateEKF:
     def __init__(
         self,
         body: RigidBody,
+        *,
         sigma_v: float,
         sigma_u: float,
         gyro_period: float,
-        *,
         torque_noise: ArrayLike,
         P0: ArrayLike,
         x0: ArrayLike | None = None,
@@ -468,7 +468,7 @@ class RateEKF:
             raise ValueError(f"gyro must be an attitude.sensors.Gyro, got {gyro!r}")
         gyro.check_sampling("instantaneous", consumer="RateEKF.from_gyro", action=sampling_check)
         kwargs.setdefault("gyro_name", gyro.name)
-        return cls(body, gyro.sigma_v, gyro.sigma_u, gyro.period, **kwargs)
+        return cls(body, sigma_v=gyro.sigma_v, sigma_u=gyro.sigma_u, gyro_period=gyro.period, **kwargs)
 
     def _jacobian_coefficients(self) -> None:
         """Exact ``A(omega, h) = A0 + sum_i c_i [omega, h]_i`` from casadi's Jacobian of the one definition."""

@@ -77,7 +77,7 @@ def main() -> None:
     print(f"   exact vs one-sided finite differences: max |dA| = {np.max(np.abs(plant.A - plant_fd.A)):.1e}")
 
     # 2. PD from wn and zeta --------------------------------------------------------
-    pd = QuaternionPD.from_bandwidth(body, WN_RAD_S, ZETA, PERIOD_S, gyroscopic=True)
+    pd = QuaternionPD.from_bandwidth(body, wn=WN_RAD_S, zeta=ZETA, period=PERIOD_S, gyroscopic=True)
     closed = attitude_closed_loop(body, pd)
     poles = np.linalg.eigvals(closed.A)
     wn_cl = np.abs(poles)
@@ -99,7 +99,7 @@ def main() -> None:
             f"   {name}      {m.gain_margin_db:7.2f}   {m.phase_margin_deg:8.3f}   {m.delay_margin_s:16.3f}"
             f"   {m.gain_crossover:17.4f}   ({s.phase_margin_deg:.3f} deg, {s.gain_crossover:.4f} rad/s)"
         )
-    study = sample_time_study(loops[0], [0.05, 0.1, 0.2, 0.5], COMPUTATION_DELAY_S)
+    study = sample_time_study(loops[0], periods=[0.05, 0.1, 0.2, 0.5], computation_delay=COMPUTATION_DELAY_S)
     print(f"   x axis sampled with a {1e3 * COMPUTATION_DELAY_S:.0f} ms computation delay:")
     for period, pm, pm_pred, gm in zip(
         study.period, study.phase_margin_deg, study.predicted_phase_margin_deg, study.gain_margin
@@ -109,15 +109,15 @@ def main() -> None:
             f"GM {20 * np.log10(gm):6.2f} dB"
         )
     plot_bode(loops).savefig(args.out / "pd_bode.png", dpi=110)
-    sampled = [sampled_loop(loop, PERIOD_S, COMPUTATION_DELAY_S) for loop in loops]
+    sampled = [sampled_loop(loop, period=PERIOD_S, computation_delay=COMPUTATION_DELAY_S) for loop in loops]
     plot_bode(sampled, labels=[f"{a} axis, 10 Hz ZOH + 20 ms delay" for a in "xyz"]).savefig(
         args.out / "pd_bode_sampled.png", dpi=110
     )
     study.plot().savefig(args.out / "pd_sample_time_study.png", dpi=110)
 
     # 4. Discrete LQR (Bryson) ---------------------------------------------------------
-    q_w, r_w = bryson_weights(np.radians(2.0), np.radians(0.5), 0.015)
-    lqr = design_lqr(plant, q_w, r_w, period=PERIOD_S)
+    q_w, r_w = bryson_weights(angle_max=np.radians(2.0), rate_max=np.radians(0.5), torque_max=0.015)
+    lqr = design_lqr(plant, Q=q_w, R=r_w, period=PERIOD_S)
     print("\n4. Discrete LQR at 10 Hz, Bryson: 2 deg, 0.5 deg/s, 15 mN m")
     s_poles = lqr.s_poles
     print(f"   closed-loop poles (s-plane equivalents): {np.round(np.sort_complex(s_poles), 4)}")
@@ -129,7 +129,9 @@ def main() -> None:
 
     # 5. Nonlinear proof ------------------------------------------------------------------
     target = quat.from_axis_angle([1.0, 1.0, 0.5], np.radians(60.0))
-    slew_ctrl = RateLimitedPD.from_bandwidth(body, WN_RAD_S, ZETA, np.radians(RATE_LIMIT_DEG_S), PERIOD_S, q_ref=target)
+    slew_ctrl = RateLimitedPD.from_bandwidth(
+        body, wn=WN_RAD_S, zeta=ZETA, rate_max=np.radians(RATE_LIMIT_DEG_S), period=PERIOD_S, q_ref=target
+    )
     duration = 120.0 if args.quick else 200.0
     slew = simulate(body, quat.identity(), np.zeros(3), duration, controller=slew_ctrl, wheels=wheels)
     peak_rate = np.degrees(np.max(np.linalg.norm(slew.omega, axis=1)))

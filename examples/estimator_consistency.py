@@ -327,8 +327,12 @@ def main() -> None:
     late = batch.updated[0] & (t >= duration / 2)
     sig_filter = np.sqrt(np.mean(np.diagonal(batch.P[:, late, :3, :3], axis1=-2, axis2=-1), axis=(0, 1)))
     sig_runs = np.sqrt(np.mean(e_mekf[:, late, :3] ** 2, axis=(0, 1)))
-    cross = steady_state_attitude_sigma(gyro.sigma_v, gyro.sigma_u, tracker.sigma_cross, tracker.period)
-    roll = steady_state_attitude_sigma(gyro.sigma_v, gyro.sigma_u, tracker.sigma_roll, tracker.period)
+    cross = steady_state_attitude_sigma(
+        sigma_v=gyro.sigma_v, sigma_u=gyro.sigma_u, sigma_n=tracker.sigma_cross, dt=tracker.period
+    )
+    roll = steady_state_attitude_sigma(
+        sigma_v=gyro.sigma_v, sigma_u=gyro.sigma_u, sigma_n=tracker.sigma_roll, dt=tracker.period
+    )
     print("   steady-state attitude sigma just after an update [arcsec] (second half of the runs):")
     print("     axis            closed form   filter   runs (RMS)")
     for i, (name, closed) in enumerate(zip(["x (cross)", "y (cross)", "z (roll)"], [cross, cross, roll])):
@@ -489,7 +493,7 @@ def fly_slew(
     )
     target = quat.from_axis_angle(SLEW_AXIS, np.radians(SLEW_DEG))
     wheels = ReactionWheels.pyramid(0.005, 0.02, 0.5, viscous_friction=1e-6)
-    pd = QuaternionPD.from_bandwidth(body, PD_WN, PD_ZETA, GYRO_PERIOD, q_ref=target, gyroscopic=True)
+    pd = QuaternionPD.from_bandwidth(body, wn=PD_WN, zeta=PD_ZETA, period=GYRO_PERIOD, q_ref=target, gyroscopic=True)
     q_start = quat.identity()
     # The point-sampling case is the deliberate mismatch this section shows: tell from_sensors so.
     check = "raise" if sampling == "mean" else "ignore"
@@ -559,7 +563,7 @@ def fly_slew_rate_ekf(body: RigidBody, tracker: StarTracker, duration: float, se
     gyro = BiasLoggingGyro(datasheet_gyro(rng.standard_normal(3) * TURN_ON_BIAS_DEG_H))
     target = quat.from_axis_angle(SLEW_AXIS, np.radians(SLEW_DEG))
     wheels = ReactionWheels.pyramid(0.005, 0.02, 0.5, viscous_friction=1e-6)
-    pd = QuaternionPD.from_bandwidth(body, PD_WN, PD_ZETA, GYRO_PERIOD, q_ref=target, gyroscopic=True)
+    pd = QuaternionPD.from_bandwidth(body, wn=PD_WN, zeta=PD_ZETA, period=GYRO_PERIOD, q_ref=target, gyroscopic=True)
     q_start = quat.identity()
     # At rest at t = 0 (rate known to 0.01 deg/s); turn-on bias from the datasheet repeatability.
     p0 = np.diag([np.radians(0.01) ** 2] * 3 + [(TURN_ON_BIAS_DEG_H * DEG_H) ** 2] * 3)

@@ -115,7 +115,7 @@ def main() -> None:
     print(
         f"   the cone is active: without it the tracker passes {np.degrees(np.min(cone.separation(free.q))):.1f} deg "
         f"from the Sun (so does the eigenaxis slew); with it the re-simulated minimum is "
-        f"{np.degrees(kept.min_separation[0]):.3f} deg"
+        f"{np.degrees(kept.separation_min[0]):.3f} deg"
     )
     for plan in (free, kept, energy):
         for note in plan.warnings:
@@ -127,7 +127,7 @@ def main() -> None:
     # States resampled at the controller rate come from the plan's own torque
     # (not an interpolation); the feedforward is the plan's torque averaged
     # over each 0.1 s sample, so every sample delivers the planned impulse.
-    tracker = TrackingController(kept.resample(0.1), body, 0.3, 0.8, 0.1, feedforward=kept)
+    tracker = TrackingController(kept.resample(0.1), body, wn=0.3, zeta=0.8, period=0.1, feedforward=kept)
     q_start = quat.multiply(q0, quat.from_axis_angle([0.0, 1.0, 0.0], np.radians(0.5)))
     flight_s = float(np.ceil(kept.duration / 10.0) * 10.0 + 60.0)
     flight = simulate(body, q_start, np.zeros(3), flight_s, controller=tracker, wheels=wheels)

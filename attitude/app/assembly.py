@@ -229,6 +229,7 @@ def orbit(config: SpacecraftConfig) -> CircularOrbit | None:
 
 def pd_from_bandwidth(
     body: RigidBody,
+    *,
     bandwidth_rad_per_s: float,
     damping: float,
     period_s: float,
@@ -254,7 +255,9 @@ def pd_from_bandwidth(
     QuaternionPD
     """
     kw: dict[str, Any] = {} if q_ref is None else {"q_ref": q_ref}
-    return QuaternionPD.from_bandwidth(body, bandwidth_rad_per_s, damping, period_s, gyroscopic=True, **kw)
+    return QuaternionPD.from_bandwidth(
+        body, wn=bandwidth_rad_per_s, zeta=damping, period=period_s, gyroscopic=True, **kw
+    )
 
 
 def quaternion_pd(
@@ -277,11 +280,17 @@ def quaternion_pd(
     """
     c = config.control
     body = rigid_body(config) if body is None else body
-    return pd_from_bandwidth(body, c.bandwidth_rad_per_s, c.damping, c.period_s, q_ref)
+    return pd_from_bandwidth(
+        body, bandwidth_rad_per_s=c.bandwidth_rad_per_s, damping=c.damping, period_s=c.period_s, q_ref=q_ref
+    )
 
 
 def rate_limited_pd(
-    config: SpacecraftConfig, rate_max_rad_per_s: float, body: RigidBody | None = None, q_ref: ArrayLike | None = None
+    config: SpacecraftConfig,
+    *,
+    rate_max_rad_per_s: float,
+    body: RigidBody | None = None,
+    q_ref: ArrayLike | None = None,
 ) -> RateLimitedPD:
     """The ``[control]`` table's Wie-Lu rate-limited quaternion PD.
 
@@ -303,7 +312,9 @@ def rate_limited_pd(
     c = config.control
     body = rigid_body(config) if body is None else body
     kw: dict[str, Any] = {} if q_ref is None else {"q_ref": q_ref}
-    return RateLimitedPD.from_bandwidth(body, c.bandwidth_rad_per_s, c.damping, rate_max_rad_per_s, c.period_s, **kw)
+    return RateLimitedPD.from_bandwidth(
+        body, wn=c.bandwidth_rad_per_s, zeta=c.damping, rate_max=rate_max_rad_per_s, period=c.period_s, **kw
+    )
 
 
 def eigenaxis_controller(
@@ -328,7 +339,7 @@ def eigenaxis_controller(
     """
     rate_max = config.requirements.slew.rate_max_rad_per_s
     if rate_max is not None:
-        return rate_limited_pd(config, rate_margin * rate_max, body, q_target)
+        return rate_limited_pd(config, rate_max_rad_per_s=rate_margin * rate_max, body=body, q_ref=q_target)
     return quaternion_pd(config, body, q_target)
 
 
@@ -357,7 +368,9 @@ def tracking_controller(
     """
     c = config.control
     body = rigid_body(config) if body is None else body
-    return TrackingController(reference, body, c.bandwidth_rad_per_s, c.damping, c.period_s, feedforward=feedforward)
+    return TrackingController(
+        reference, body, wn=c.bandwidth_rad_per_s, zeta=c.damping, period=c.period_s, feedforward=feedforward
+    )
 
 
 def lqr(config: SpacecraftConfig, body: RigidBody | None = None) -> tuple[Any, LQRDesign] | None:
@@ -380,9 +393,9 @@ def lqr(config: SpacecraftConfig, body: RigidBody | None = None) -> tuple[Any, L
     if c.lqr is None:
         return None
     body = rigid_body(config) if body is None else body
-    q_w, r_w = bryson_weights(c.lqr.max_angle_rad, c.lqr.max_rate_rad_per_s, c.lqr.max_torque)
+    q_w, r_w = bryson_weights(angle_max=c.lqr.angle_max, rate_max=c.lqr.rate_max, torque_max=c.lqr.torque_max)
     plant = linearize(body)
-    return plant, design_lqr(plant, q_w, r_w, period=c.period_s)
+    return plant, design_lqr(plant, Q=q_w, R=r_w, period=c.period_s)
 
 
 # ---------------------------------------------------------------------------
@@ -450,7 +463,7 @@ def gyro_bias_sigma0(config: SpacecraftConfig) -> float:
     return max(largest_deg_per_h * _DEG_PER_H, dispersed)
 
 
-def mekf_initial_covariance(attitude_sigma_rad: float, bias_sigma_rad_per_s: float) -> NDArray[np.float64]:
+def mekf_initial_covariance(*, attitude_sigma_rad: float, bias_sigma_rad_per_s: float) -> NDArray[np.float64]:
     """The MEKF's initial covariance: diagonal, attitude then bias (6, 6).
 
     Parameters
@@ -465,7 +478,7 @@ def mekf_initial_covariance(attitude_sigma_rad: float, bias_sigma_rad_per_s: flo
     ndarray (6, 6)
         [rad^2, (rad/s)^2]
     """
-    return initial_covariance(attitude_sigma_rad, bias_sigma_rad_per_s)
+    return initial_covariance(attitude_sigma=attitude_sigma_rad, bias_sigma=bias_sigma_rad_per_s)
 
 
 def mekf(
@@ -498,9 +511,9 @@ def mekf(
     if tracker_covariance is None:
         return MEKF.from_sensors(gyro, tracker, q0=q0, P0=P0)
     return MEKF(
-        gyro.sigma_v,
-        gyro.sigma_u,
-        tracker_covariance,
+        sigma_v=gyro.sigma_v,
+        sigma_u=gyro.sigma_u,
+        tracker_covariance=tracker_covariance,
         period=gyro.period,
         q0=q0,
         P0=P0,
@@ -626,7 +639,7 @@ def monte_carlo_requirements(config: SpacecraftConfig, *, keep_out: bool = True)
     pointing accuracy for good, from the start of the run) <= slew max time
     + settling time [s]: the slew and its settling within their combined
     allowed time (the design report, on its one nominal flight, is
-    stricter: the arrival within ``max_time_s`` and the settling after the
+    stricter: the arrival within ``time_max_s`` and the settling after the
     planned slew within ``settling_time_s``); ``rate``: peak rate <= the
     slew rate limit [rad/s] (when given); ``keep_out.<name>``: margin >= 0
     [rad] for each keep-out cone.
@@ -646,7 +659,7 @@ def monte_carlo_requirements(config: SpacecraftConfig, *, keep_out: bool = True)
     req = config.requirements
     out = [
         Requirement("final_pointing_error", max=req.pointing_accuracy_rad, name="pointing"),
-        Requirement("settling_time", max=req.slew.max_time_s + req.settling_time_s, name="settling"),
+        Requirement("settling_time", max=req.slew.time_max_s + req.settling_time_s, name="settling"),
     ]
     if req.slew.rate_max_rad_per_s is not None:
         out.append(Requirement("peak_rate", max=req.slew.rate_max_rad_per_s, name="rate"))

@@ -145,7 +145,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
 # slew
 
 #: Keys ``--to`` accepts: those of ``[requirements.slew]``.
-SLEW_KEYS = ("angle_deg", "axis_B", "target_q_BN", "start_q_BN", "max_time_s", "rate_max_deg_per_s")
+SLEW_KEYS = ("angle_deg", "axis_B", "target_q_BN", "start_q_BN", "time_max_s", "rate_max_deg_per_s")
 
 
 def _parse_value(text: str) -> Any:
@@ -233,7 +233,7 @@ def _cmd_slew(args: argparse.Namespace) -> int:
         name = cone["name"]
         table.append(
             [f"separation '{name}' [deg]"]
-            + [fmt(None if x is None else x["min_separation_deg"][name]) for x in (s["plan"], s["eigenaxis"])]
+            + [fmt(None if x is None else x["separation_min_deg"][name]) for x in (s["plan"], s["eigenaxis"])]
         )
     widths = [max(len(r[i]) for r in table) for i in range(3)]
     for row in table:
@@ -448,7 +448,7 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="'KEY=VALUE ...'",
         help="the slew to plan, as [requirements.slew] keys replacing the file's: angle_deg=60 axis_B=1,0,0 "
         "(a rotation about a body axis from start_q_BN, in deg) or target_q_BN=w,x,y,z (scalar first); "
-        "also start_q_BN, max_time_s [s], rate_max_deg_per_s [deg/s]",
+        "also start_q_BN, time_max_s [s], rate_max_deg_per_s [deg/s]",
     )
     p.add_argument(
         "--objective",
@@ -461,7 +461,7 @@ def build_parser() -> argparse.ArgumentParser:
         type=_positive,
         default=None,
         metavar="S",
-        help="slew time for --objective energy [s] (default: requirements.slew.max_time_s)",
+        help="slew time for --objective energy [s] (default: requirements.slew.time_max_s)",
     )
     p.add_argument("--nodes", type=_nodes, default=60, help="planner intervals, at least 4 (default: %(default)s)")
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
@@ -504,7 +504,7 @@ def build_parser() -> argparse.ArgumentParser:
             "to the target instead, which cannot avoid a keep-out cone (add --no-keep-out to judge it on the\n"
             "other requirements). Settling and pointing are judged against the target attitude: the\n"
             "settling time is when the error to the target enters the pointing accuracy for good, required\n"
-            "within max_time_s + settling_time_s. Seeds come from one master seed, so a campaign is\n"
+            "within time_max_s + settling_time_s. Seeds come from one master seed, so a campaign is\n"
             "reproducible whatever the number of workers. Writes the per-run table (CSV), statistics, time\n"
             "histories (npz), a checkpoint (an interrupted campaign resumes) and figures to --out. Exit code\n"
             "0 when every completed run meets every requirement; 1 also when the slew cannot be planned.\n\n"

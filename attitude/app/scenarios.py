@@ -100,7 +100,7 @@ def requirements_from_config(config: SpacecraftConfig, *, keep_out: bool = True)
     accuracy for good, from the start of the run) <= slew max time +
     settling time: the slew and its settling within their combined allowed
     time (the design report, on its one nominal flight, is stricter: the
-    arrival within ``max_time_s`` and the settling after the planned slew
+    arrival within ``time_max_s`` and the settling after the planned slew
     within ``settling_time_s``); ``rate``: peak rate <= the slew rate
     limit (when given); ``keep_out.<name>``: margin >= 0 for each keep-out
     cone. ``keep_out=False`` leaves the cones out, for a guidance that does
@@ -255,7 +255,7 @@ class ClosedLoopScenario:
     at the control period, and the plan's own torque steps for the
     feedforward), so it pickles small and workers (local processes or Dask)
     never plan. Attributes: ``slew_end`` (planned slew duration [s], None
-    for the eigenaxis guidance), ``plan_min_separation`` (the plan's own
+    for the eigenaxis guidance), ``plan_separation_min`` (the plan's own
     smallest boresight separation per cone [rad]), ``plan_summary`` (the
     study's JSON-ready summary).
 
@@ -358,7 +358,7 @@ class ClosedLoopScenario:
         self._reference: ReferenceTrajectory | None = None
         self._feedforward: ReferenceTrajectory | None = None
         self.slew_end: float | None = None
-        self.plan_min_separation: dict[str, float] = {}
+        self.plan_separation_min: dict[str, float] = {}
         self.plan_summary: dict[str, Any] | None = None
         if guidance == "plan":
             self._plan(study)
@@ -389,8 +389,8 @@ class ClosedLoopScenario:
         self._reference = ReferenceTrajectory.from_plan(plan.resample(c.period_s))
         self._feedforward = ReferenceTrajectory.from_plan(plan)
         self.slew_end = float(plan.duration)
-        separations = np.atleast_1d(plan.min_separation)
-        self.plan_min_separation = {cone.name: float(s) for cone, s in zip(study.cones, separations)}
+        separations = np.atleast_1d(plan.separation_min)
+        self.plan_separation_min = {cone.name: float(s) for cone, s in zip(study.cones, separations)}
         self.plan_summary = study.summary
 
     @property
@@ -432,7 +432,9 @@ class ClosedLoopScenario:
             gyro,
             self._tracker,
             q0=self._q_start,
-            P0=assembly.mekf_initial_covariance(self._attitude_sigma, self._bias_sigma),
+            P0=assembly.mekf_initial_covariance(
+                attitude_sigma_rad=self._attitude_sigma, bias_sigma_rad_per_s=self._bias_sigma
+            ),
             tracker_covariance=self._tracker_covariance,
         )
 
@@ -543,7 +545,7 @@ class _BatchRecorder:
         self.peak_speed = np.zeros(n)
         self.nees_sum = np.zeros(n)
         self.nees_count = 0
-        self.min_separation = {c.name: np.full(n, np.inf) for c in self.cones}
+        self.separation_min = {c.name: np.full(n, np.inf) for c in self.cones}
         self.t: list[float] = []
         self.final_error = np.zeros(n)
         self.n_ticks = -1
@@ -559,7 +561,7 @@ class _BatchRecorder:
         speeds = self.wheels.wheel_speed(x[:, 7:], x[:, 4:7])
         np.fmax(self.peak_speed, np.max(np.abs(speeds), axis=1), out=self.peak_speed)
         for cone in self.cones:
-            np.fmin(self.min_separation[cone.name], cone.separation(q), out=self.min_separation[cone.name])
+            np.fmin(self.separation_min[cone.name], cone.separation(q), out=self.separation_min[cone.name])
         est_error = np.full(x.shape[0], np.nan)
         if updated:
             errors = quat.to_rotation_vector(quat.multiply(quat.conjugate(q_hat), q))
@@ -597,7 +599,7 @@ class _BatchRecorder:
                 "nees": float(self.nees_sum[r] / self.nees_count),
             }
             for cone in self.cones:
-                metrics[f"keep_out_margin.{cone.name}"] = float(self.min_separation[cone.name][r] - cone.half_angle_rad)
+                metrics[f"keep_out_margin.{cone.name}"] = float(self.separation_min[cone.name][r] - cone.half_angle_rad)
             run_history = None
             if self.stride:
                 run_history = {name: values[r] for name, values in history.items()}
@@ -656,7 +658,11 @@ class PDWheelsScenario:
         self.pointing_threshold = float(pointing_threshold)
         self.history_stride = history_stride
         self.controller = assembly.pd_from_bandwidth(
-            self.nominal, self.bandwidth, self.damping, self.period, q_ref=self.q_target
+            self.nominal,
+            bandwidth_rad_per_s=self.bandwidth,
+            damping=self.damping,
+            period_s=self.period,
+            q_ref=self.q_target,
         )
 
     @classmethod

@@ -254,35 +254,35 @@ class LQRBounds:
 
     Parameters
     ----------
-    max_angle_deg : float or tuple of float
+    angle_max_deg : float or tuple of float
         Largest acceptable attitude error (one value, or one per axis) [deg] (key
-        ``control.lqr.max_angle_deg``).
-    max_rate_deg_per_s : float or tuple of float
+        ``control.lqr.angle_max_deg``).
+    rate_max_deg_per_s : float or tuple of float
         Largest acceptable rate error (one value, or one per axis) [deg/s] (key
-        ``control.lqr.max_rate_deg_per_s``).
-    max_torque_Nm : float or tuple of float
+        ``control.lqr.rate_max_deg_per_s``).
+    torque_max_Nm : float or tuple of float
         Largest acceptable control torque (one value, or one per axis) [N m] (key
-        ``control.lqr.max_torque_Nm``).
+        ``control.lqr.torque_max_Nm``).
     """
 
-    max_angle_deg: PerWheel
-    max_rate_deg_per_s: PerWheel
-    max_torque_Nm: PerWheel
+    angle_max_deg: PerWheel
+    rate_max_deg_per_s: PerWheel
+    torque_max_Nm: PerWheel
 
     @property
-    def max_angle_rad(self) -> NDArray[np.float64]:
+    def angle_max(self) -> NDArray[np.float64]:
         """Largest acceptable attitude error per axis [rad], shape (3,)."""
-        return np.radians(np.broadcast_to(np.array(self.max_angle_deg, dtype=np.float64), (3,)))
+        return np.radians(np.broadcast_to(np.array(self.angle_max_deg, dtype=np.float64), (3,)))
 
     @property
-    def max_rate_rad_per_s(self) -> NDArray[np.float64]:
+    def rate_max(self) -> NDArray[np.float64]:
         """Largest acceptable rate error per axis [rad/s], shape (3,)."""
-        return np.radians(np.broadcast_to(np.array(self.max_rate_deg_per_s, dtype=np.float64), (3,)))
+        return np.radians(np.broadcast_to(np.array(self.rate_max_deg_per_s, dtype=np.float64), (3,)))
 
     @property
-    def max_torque(self) -> NDArray[np.float64]:
+    def torque_max(self) -> NDArray[np.float64]:
         """Largest acceptable control torque per axis [N m], shape (3,)."""
-        return np.broadcast_to(np.array(self.max_torque_Nm, dtype=np.float64), (3,)).copy()
+        return np.broadcast_to(np.array(self.torque_max_Nm, dtype=np.float64), (3,)).copy()
 
 
 @dataclass(frozen=True)
@@ -361,8 +361,8 @@ class SlewRequirement:
 
     Parameters
     ----------
-    max_time_s : float
-        Largest allowed slew time [s] (key ``requirements.slew.max_time_s``).
+    time_max_s : float
+        Largest allowed slew time [s] (key ``requirements.slew.time_max_s``).
     angle_deg : float or None, optional
         Slew angle about axis_B (with axis_B; or give target_q_BN) [deg] (key
         ``requirements.slew.angle_deg``).
@@ -378,7 +378,7 @@ class SlewRequirement:
         ``requirements.slew.rate_max_deg_per_s``).
     """
 
-    max_time_s: float
+    time_max_s: float
     angle_deg: float | None = None
     axis_B: Vector | None = None
     target_q_BN: tuple[float, float, float, float] | None = None

@@ -48,6 +48,7 @@ from attitude.config.model import (
 from attitude.config.schema import (
     DISPERSIONS,
     DISTRIBUTIONS,
+    RENAMED_KEYS,
     ConfigError,
     children,
     meaning_of,
@@ -223,8 +224,15 @@ class _Table:
         if not isinstance(data, dict):
             raise reader.error(path or None, f"expected a table, got {_describe(data)}")
         self.data = data
-        allowed = children(re.sub(r"\[\d+\]", "[]", path))
+        schema_path = re.sub(r"\[\d+\]", "[]", path)
+        allowed = children(schema_path)
         for key in data:
+            old = f"{schema_path}.{key}" if schema_path else key
+            if key not in allowed and old in RENAMED_KEYS:
+                raise reader.error(
+                    self.key(key),
+                    f"{old} was renamed {RENAMED_KEYS[old]} (names read quantity, qualifier, unit; DESIGN.md)",
+                )
             if key not in allowed:
                 where = f"[{path}]" if path else "the top level"
                 raise reader.error(
@@ -460,12 +468,12 @@ def _read_control(r: _Reader, t: _Table) -> ControlConfig:
     if lt is not None:
         values = {
             name: lt.get(name, lambda v, k: r.scalar_or_list(v, k, 3, "axis"))
-            for name in ("max_angle_deg", "max_rate_deg_per_s", "max_torque_Nm")
+            for name in ("angle_max_deg", "rate_max_deg_per_s", "torque_max_Nm")
         }
         for name, value in values.items():
             _positive(r, lt.key(name), value, unit=unit_of(lt.key(name)))
-        for i, v in enumerate(_values(values["max_angle_deg"])):
-            k = lt.key("max_angle_deg") + (f"[{i}]" if isinstance(values["max_angle_deg"], tuple) else "")
+        for i, v in enumerate(_values(values["angle_max_deg"])):
+            k = lt.key("angle_max_deg") + (f"[{i}]" if isinstance(values["angle_max_deg"], tuple) else "")
             r.check(v <= 180.0, k, "at most 180 deg (the largest attitude error)", v)
         lqr = LQRBounds(**values)
     return ControlConfig(period_s=period, bandwidth_rad_per_s=bandwidth, damping=damping, lqr=lqr)
@@ -505,8 +513,8 @@ def _read_quaternion(r: _Reader, value: Any, key: str) -> tuple[float, float, fl
 
 
 def _read_slew(r: _Reader, t: _Table) -> SlewRequirement:
-    max_time = t.number("max_time_s")
-    _positive(r, t.key("max_time_s"), max_time, unit="s")
+    time_max = t.number("time_max_s")
+    _positive(r, t.key("time_max_s"), time_max, unit="s")
     start = t.get("start_q_BN", lambda v, k: _read_quaternion(r, v, k), required=False, default=(1.0, 0.0, 0.0, 0.0))
     rate = t.number("rate_max_deg_per_s", required=False)
     _positive(r, t.key("rate_max_deg_per_s"), rate, unit="deg/s")
@@ -524,7 +532,7 @@ def _read_slew(r: _Reader, t: _Table) -> SlewRequirement:
             raise t.missing("axis_B", " (the body axis of the angle_deg rotation)")
         axis = r.vector(t.data["axis_B"], t.key("axis_B"), 3)
     slew = SlewRequirement(
-        max_time_s=max_time, angle_deg=angle, axis_B=axis, target_q_BN=target, start_q_BN=start, rate_max_deg_per_s=rate
+        time_max_s=time_max, angle_deg=angle, axis_B=axis, target_q_BN=target, start_q_BN=start, rate_max_deg_per_s=rate
     )
     if target is not None and slew.angle_rad < 1e-9:
         raise r.error(t.key("target_q_BN"), f"equals start_q_BN {list(start)} (a zero slew)")

@@ -19,6 +19,7 @@ __all__ = [
     "CONFIG_KEYS",
     "DISPERSIONS",
     "DISTRIBUTIONS",
+    "RENAMED_KEYS",
     "ConfigError",
     "children",
     "meaning_of",
@@ -95,9 +96,9 @@ CONFIG_KEYS: dict[str, tuple[str, str]] = {
     "control.bandwidth_rad_per_s": ("rad/s", "natural frequency of the PD attitude loop"),
     "control.damping": ("", "damping ratio of the PD attitude loop"),
     "control.lqr": ("", "LQR weights by Bryson's rule (optional)"),
-    "control.lqr.max_angle_deg": ("deg", "largest acceptable attitude error (one value, or one per axis)"),
-    "control.lqr.max_rate_deg_per_s": ("deg/s", "largest acceptable rate error (one value, or one per axis)"),
-    "control.lqr.max_torque_Nm": ("N m", "largest acceptable control torque (one value, or one per axis)"),
+    "control.lqr.angle_max_deg": ("deg", "largest acceptable attitude error (one value, or one per axis)"),
+    "control.lqr.rate_max_deg_per_s": ("deg/s", "largest acceptable rate error (one value, or one per axis)"),
+    "control.lqr.torque_max_Nm": ("N m", "largest acceptable control torque (one value, or one per axis)"),
     # orbit and environment
     "orbit": ("", "circular orbit (optional: gravity gradient)"),
     "orbit.altitude_km": ("km", "altitude above the Earth's equatorial radius"),
@@ -115,7 +116,7 @@ CONFIG_KEYS: dict[str, tuple[str, str]] = {
     "requirements.slew.axis_B": ("", "slew axis in body axes (normalised)"),
     "requirements.slew.target_q_BN": ("", "target attitude [w, x, y, z] (instead of angle_deg and axis_B)"),
     "requirements.slew.start_q_BN": ("", "start attitude [w, x, y, z]"),
-    "requirements.slew.max_time_s": ("s", "largest allowed slew time"),
+    "requirements.slew.time_max_s": ("s", "largest allowed slew time"),
     "requirements.slew.rate_max_deg_per_s": ("deg/s", "largest allowed body rate during the slew (optional)"),
     "requirements.keep_out": ("", "keep-out cones (array of tables [[requirements.keep_out]])"),
     "requirements.keep_out[].name": ("", "label of the cone"),
@@ -155,6 +156,16 @@ CONFIG_KEYS["montecarlo.inertia.axis_sigma_deg"] = (
     "deg",
     "standard deviation of a rotation of the principal axes, per axis (normal; default 0: axes kept)",
 )
+
+#: Keys renamed to the naming rule (quantity, qualifier, unit; DESIGN.md): old
+#: dotted path -> new key name in the same table. A file that still uses an
+#: old key gets a message naming the new one, not the unknown-key message.
+RENAMED_KEYS: dict[str, str] = {
+    "control.lqr.max_angle_deg": "angle_max_deg",
+    "control.lqr.max_rate_deg_per_s": "rate_max_deg_per_s",
+    "control.lqr.max_torque_Nm": "torque_max_Nm",
+    "requirements.slew.max_time_s": "time_max_s",
+}
 
 
 def children(path: str) -> tuple[str, ...]:

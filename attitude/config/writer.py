@@ -128,7 +128,7 @@ def config_to_toml(config: SpacecraftConfig) -> str:
         w.key("control", name, getattr(cc, name))
     if cc.lqr is not None:
         w.table("control.lqr")
-        for name in ("max_angle_deg", "max_rate_deg_per_s", "max_torque_Nm"):
+        for name in ("angle_max_deg", "rate_max_deg_per_s", "torque_max_Nm"):
             w.key("control.lqr", name, getattr(cc.lqr, name))
 
     if config.orbit_config is not None:
@@ -145,7 +145,7 @@ def config_to_toml(config: SpacecraftConfig) -> str:
     w.key("requirements", "pointing_accuracy_deg", rc.pointing_accuracy_deg)
     w.key("requirements", "settling_time_s", rc.settling_time_s)
     w.table("requirements.slew")
-    for name in ("angle_deg", "axis_B", "target_q_BN", "start_q_BN", "max_time_s", "rate_max_deg_per_s"):
+    for name in ("angle_deg", "axis_B", "target_q_BN", "start_q_BN", "time_max_s", "rate_max_deg_per_s"):
         w.key("requirements.slew", name, getattr(rc.slew, name))
     for i, cone in enumerate(rc.keep_out):
         path = f"requirements.keep_out[{i}]"

@@ -93,8 +93,8 @@ def verify(prob: Problem, t: NDArray, torque: NDArray, tolerance: float) -> dict
     check = {
         "final_attitude_error": att_err,
         "final_rate_error": rate_err,
-        "min_separation": sep,
-        "max_rate": float(np.max(np.linalg.norm(x[:, 4:], axis=1))),
+        "separation_min": sep,
+        "peak_rate": float(np.max(np.linalg.norm(x[:, 4:], axis=1))),
         "nfev": traj.info.get("nfev"),
     }
     rate_tol = tolerance / prob.t_s
@@ -103,8 +103,8 @@ def verify(prob: Problem, t: NDArray, torque: NDArray, tolerance: float) -> dict
         problems.append(f"final attitude error {att_err:.3g} rad > {tolerance:.3g}")
     if rate_err > rate_tol:
         problems.append(f"final rate error {rate_err:.3g} rad/s > {rate_tol:.3g}")
-    if prob.rate_max is not None and check["max_rate"] > prob.rate_max + rate_tol:
-        problems.append(f"largest rate {check['max_rate']:.6g} rad/s > rate_max {prob.rate_max:.6g}")
+    if prob.rate_max is not None and check["peak_rate"] > prob.rate_max + rate_tol:
+        problems.append(f"largest rate {check['peak_rate']:.6g} rad/s > rate_max {prob.rate_max:.6g}")
     for i, cone in enumerate(cones):
         if sep[i] < cone.half_angle - tolerance:
             problems.append(f"keep_out[{i}] separation {sep[i]:.6g} rad < half angle {cone.half_angle:.6g}")
@@ -136,13 +136,13 @@ def eigenaxis_comparison(prob: Problem, torque_max: ArrayLike | ReactionWheels) 
         ).duration
     except ValueError:
         return {}
-    out: dict[str, Any] = {"duration_s": duration, "enters_keep_out": False, "min_separation_deg": []}
+    out: dict[str, Any] = {"duration_s": duration, "enters_keep_out": False, "separation_min_deg": []}
     if prob.cones:
         # The path is q0 ⊗ exp(e theta / 2), theta in [0, angle], whatever the timing along it.
         axis, angle = axis_angle(prob.q0, prob.qf)
         q = quat.multiply(prob.q0, quat.from_axis_angle(axis, np.linspace(0.0, angle, EIGENAXIS_PATH_SAMPLES)))
         seps = [float(np.min(c.separation(q))) for c in prob.cones]
-        out["min_separation_deg"] = [math.degrees(s) for s in seps]
+        out["separation_min_deg"] = [math.degrees(s) for s in seps]
         out["enters_keep_out"] = any(s < c.half_angle for s, c in zip(seps, prob.cones))
     return out
 

@@ -96,9 +96,9 @@ class SlewPlan(ResultIO):
         Angle [rad] between the target and the open-loop re-simulated final attitude.
     final_rate_error : float
         ``|omega_sim(t_f) - omegaf|`` [rad/s] of the re-simulation.
-    min_separation : ndarray (m,)
+    separation_min : ndarray (m,)
         Smallest keep-out separation [rad] per cone along the re-simulation.
-    max_rate : float
+    peak_rate : float
         Largest ``|omega|`` [rad/s] along the re-simulation.
     q_target, omega_target : ndarray
         The requested final attitude and rate [rad/s].
@@ -139,8 +139,8 @@ class SlewPlan(ResultIO):
     switch_times: NDArray[np.float64]
     final_attitude_error: float
     final_rate_error: float
-    min_separation: NDArray[np.float64]
-    max_rate: float
+    separation_min: NDArray[np.float64]
+    peak_rate: float
     q_target: NDArray[np.float64]
     omega_target: NDArray[np.float64]
     inertia: NDArray[np.float64]

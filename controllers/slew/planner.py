@@ -316,9 +316,9 @@ def plan_slew(
         "refinement": refine_info,
         "energy_n2m2s": energy,
         "torque_clip_ratio": float(np.max(ratio)),
-        "verification": {k: v for k, v in check.items() if k != "min_separation"},
+        "verification": {k: v for k, v in check.items() if k != "separation_min"},
         "eigenaxis_enters_keep_out": eig.get("enters_keep_out"),
-        "eigenaxis_min_separation_deg": eig.get("min_separation_deg"),
+        "eigenaxis_separation_min_deg": eig.get("separation_min_deg"),
         "warnings": notes,
     }
     return SlewPlan(
@@ -338,8 +338,8 @@ def plan_slew(
         switch_times=switch_times,
         final_attitude_error=check["final_attitude_error"],
         final_rate_error=check["final_rate_error"],
-        min_separation=check["min_separation"],
-        max_rate=check["max_rate"],
+        separation_min=check["separation_min"],
+        peak_rate=check["peak_rate"],
         q_target=prob.qf.copy(),
         omega_target=prob.omegaf.copy(),
         inertia=prob.body.inertia,

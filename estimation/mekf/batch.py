@@ -114,7 +114,7 @@ class MEKFBatch:
     ----------
     mekf : MEKF
         Settings (noise figures, tracker covariance, gate, reset option,
-        ``max_gyro_rate``) and initial state.
+        ``gyro_rate_max``) and initial state.
     n_runs : int
         Number of runs N (>= 1).
     q0 : array_like (4,) or (N, 4), optional
@@ -136,7 +136,7 @@ class MEKFBatch:
         The last step applied a tracker sample / the gate rejected one.
     tracker_nan, gyro_nan, gyro_rejected : ndarray (N,) of bool
         The last step skipped a NaN tracker sample / a NaN gyro sample /
-        rejected a gyro sample above ``max_gyro_rate``.
+        rejected a gyro sample above ``gyro_rate_max``.
 
     Raises
     ------
@@ -176,7 +176,7 @@ class MEKFBatch:
         #: Settings copied from the filter.
         self.covariance_reset = mekf.covariance_reset
         self.gate_threshold = mekf.gate_threshold
-        self.max_gyro_rate = mekf.max_gyro_rate
+        self.gyro_rate_max = mekf.gyro_rate_max
         #: Step period [s] (the filter's; what a closed loop steps it at).
         self.period = mekf.period
         self._counts = {k: np.zeros(runs, dtype=np.int64) for k in _BATCH_COUNT_KEYS}
@@ -239,7 +239,7 @@ class MEKFBatch:
         gyro : array_like (N, 3) or None
             Gyro samples [rad/s], the mean rate since the previous step. A
             row with a non-finite entry (NaN) or a component above
-            ``max_gyro_rate`` is skipped and counted (``gyro_nan``,
+            ``gyro_rate_max`` is skipped and counted (``gyro_nan``,
             ``gyro_rejected``) and the run's last valid rate is held (zero
             before one); None: no sample in any run (held rates).
         tracker : array_like (N, 4), optional
@@ -323,13 +323,13 @@ class MEKFBatch:
         """The batch equations for one step (no checks: :meth:`step` and :func:`run_mekf` validate)."""
         self._clear_step_outputs()
         q, b, P, R = self._q, self._b, self._P, self._R
-        # Gyro: NaN rows and rows above max_gyro_rate are skipped, the last valid rate is held.
+        # Gyro: NaN rows and rows above gyro_rate_max are skipped, the last valid rate is held.
         if g is None:
             rate = self._last
         else:
             finite = np.all(np.isfinite(g), axis=-1)
             largest = np.max(np.abs(np.where(finite[:, None], g, 0.0)), axis=-1)
-            rejected = finite & (largest > self.max_gyro_rate)
+            rejected = finite & (largest > self.gyro_rate_max)
             self.gyro_nan = ~finite
             self.gyro_rejected = rejected
             rate = np.where((finite & ~rejected)[:, None], g, self._last)

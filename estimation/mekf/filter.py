@@ -231,7 +231,7 @@ def _transition_one(w: NDArray[np.float64], dt: float) -> NDArray[np.float64]:
     return out
 
 
-def process_noise(sigma_v: float, sigma_u: float, dt: float) -> NDArray[np.float64]:
+def process_noise(*, sigma_v: float, sigma_u: float, dt: float) -> NDArray[np.float64]:
     """Discrete process noise (6, 6) of ``[delta_theta, delta_b]`` over ``dt`` [s].
 
     The formula of :meth:`attitude.sensors.Gyro.process_noise` (Crassidis and
@@ -255,7 +255,7 @@ def process_noise(sigma_v: float, sigma_u: float, dt: float) -> NDArray[np.float
     return farrenkopf_process_noise(sv * sv, su * su, h)
 
 
-def initial_covariance(attitude_sigma: float, bias_sigma: float) -> NDArray[np.float64]:
+def initial_covariance(*, attitude_sigma: float, bias_sigma: float) -> NDArray[np.float64]:
     """Diagonal initial covariance (6, 6) from per-axis standard deviations.
 
     Parameters
@@ -305,7 +305,7 @@ class MEKF:
     - a missing (None) or NaN gyro sample: the last valid gyro sample is held
       over the interval (zero rate before the first one); NaN samples are
       counted as ``gyro_nan``, samples with a component above
-      ``max_gyro_rate`` as ``gyro_rejected``. The held rate's error is not in
+      ``gyro_rate_max`` as ``gyro_rejected``. The held rate's error is not in
       ``Q``: a long gyro outage makes the filter over-confident, which the
       counts and the NIS reveal;
     - a time that goes backwards raises ValueError (a repeated time
@@ -347,7 +347,7 @@ class MEKF:
     gate_probability : float or None
         Probability of the innovation gate, in (0, 1) (module docstring);
         default ``1 - 1e-9``; None disables the gate.
-    max_gyro_rate : float, optional
+    gyro_rate_max : float, optional
         Largest plausible gyro component [rad/s] (> 0); default
         ``pi / period``. Larger samples are rejected like NaN ones.
 
@@ -361,10 +361,10 @@ class MEKF:
 
     def __init__(
         self,
+        *,
         sigma_v: float,
         sigma_u: float,
         tracker_covariance: ArrayLike,
-        *,
         period: float,
         q0: ArrayLike,
         P0: ArrayLike,
@@ -374,7 +374,7 @@ class MEKF:
         gyro_name: str = "gyro",
         tracker_name: str = "star_tracker",
         gate_probability: float | None = GATE_PROBABILITY,
-        max_gyro_rate: float | None = None,
+        gyro_rate_max: float | None = None,
     ) -> None:
         self.sigma_v = positive_scalar(sigma_v, "sigma_v")
         su = as_float_array(sigma_u, "sigma_u")
@@ -412,8 +412,8 @@ class MEKF:
             self.gate_probability = float(gp)
             self.gate_threshold = float(stats.chi2.ppf(self.gate_probability, 3))
         #: Largest accepted gyro component [rad/s].
-        self.max_gyro_rate = (
-            math.pi / self.period if max_gyro_rate is None else positive_scalar(max_gyro_rate, "max_gyro_rate")
+        self.gyro_rate_max = (
+            math.pi / self.period if gyro_rate_max is None else positive_scalar(gyro_rate_max, "gyro_rate_max")
         )
 
         self._q = q.copy()
@@ -485,9 +485,9 @@ class MEKF:
         elif not all(hasattr(gyro, a) for a in ("sigma_v", "sigma_u", "period", "name")):
             raise ValueError(f"gyro must be an attitude.sensors.Gyro (or have its noise figures), got {gyro!r}")
         return cls(
-            gyro.sigma_v,
-            gyro.sigma_u,
-            tracker.covariance_B,
+            sigma_v=gyro.sigma_v,
+            sigma_u=gyro.sigma_u,
+            tracker_covariance=tracker.covariance_B,
             period=gyro.period,
             q0=q0,
             P0=P0,
@@ -625,7 +625,7 @@ class MEKF:
         if not np.all(np.isfinite(g)):
             self._counts["gyro_nan"] += 1
             return None
-        if np.abs(g).max() > self.max_gyro_rate:
+        if np.abs(g).max() > self.gyro_rate_max:
             self._counts["gyro_rejected"] += 1
             return None
         return g.copy()

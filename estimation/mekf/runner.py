@@ -215,7 +215,7 @@ def run_mekf(
     gyro_meas : array_like (n, 3) or (n_runs, n, 3)
         Gyro samples [rad/s]; ``gyro_meas[..., k, :]`` is the mean rate over
         ``(t[k-1], t[k]]`` (row 0 only sets the first rate estimate). Rows
-        with NaN, or with a component above the filter's ``max_gyro_rate``,
+        with NaN, or with a component above the filter's ``gyro_rate_max``,
         are skipped, counted, and the last valid sample is held.
     tracker_meas : array_like (n, 4) or (n_runs, n, 4)
         Tracker quaternions ``q_BN``; all-NaN rows mean "no sample". Samples
@@ -314,7 +314,7 @@ def run_mekf(
             "sigma_u": mekf.sigma_u,
             "gate_probability": mekf.gate_probability,
             "gate_threshold": None if mekf.gate_probability is None else mekf.gate_threshold,
-            "max_gyro_rate": mekf.max_gyro_rate,
+            "gyro_rate_max": mekf.gyro_rate_max,
             "wall_time_s": wall,
             "filter_steps_per_s": runs * n / wall if wall > 0 else float("inf"),
         }

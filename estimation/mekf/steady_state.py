@@ -23,7 +23,7 @@ __all__ = ["steady_state_attitude_sigma", "steady_state_covariance"]
 
 
 def steady_state_covariance(
-    sigma_v: float, sigma_u: float, sigma_n: float, dt: float
+    *, sigma_v: float, sigma_u: float, sigma_n: float, dt: float
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Steady-state covariances (2, 2) of the single-axis attitude/bias filter, in closed form.
 
@@ -108,7 +108,7 @@ def steady_state_covariance(
 
 
 def steady_state_attitude_sigma(
-    sigma_v: float, sigma_u: float, sigma_n: float, dt: float, *, when: str = "post"
+    *, sigma_v: float, sigma_u: float, sigma_n: float, dt: float, when: str = "post"
 ) -> float:
     """Closed-form steady-state attitude error standard deviation per axis [rad].
 
@@ -132,5 +132,5 @@ def steady_state_attitude_sigma(
     """
     if when not in ("post", "pre"):
         raise ValueError(f"when must be 'post' or 'pre', got {when!r}")
-    pre, post = steady_state_covariance(sigma_v, sigma_u, sigma_n, dt)
+    pre, post = steady_state_covariance(sigma_v=sigma_v, sigma_u=sigma_u, sigma_n=sigma_n, dt=dt)
     return float(np.sqrt((post if when == "post" else pre)[0, 0]))

@@ -141,12 +141,12 @@ def check_numbers_in_report(md: str, results: dict) -> None:
     values += [p["wn_rad_per_s"] for p in lin["pd"]["poles"]]
     values += [m["phase_margin_deg"] for m in lin["margins"]] + [m["delay_margin_s"] for m in lin["margins"]]
     values += [slews["plan"]["duration_s"], slews["eigenaxis"]["duration_s"], slews["plan"]["peak_torque_mNm"]]
-    values += list(slews["plan"]["min_separation_deg"].values()) + list(
-        slews["eigenaxis"]["min_separation_deg"].values()
+    values += list(slews["plan"]["separation_min_deg"].values()) + list(
+        slews["eigenaxis"]["separation_min_deg"].values()
     )
     values += [
         flight["pointing_error_end_arcsec"],
-        flight["max_pointing_error_in_window_deg"],
+        flight["pointing_error_max_in_window_deg"],
         flight["knowledge_error_rms_in_window_arcsec"],
         flight["peak_wheel_speed_rpm"],
     ]
@@ -165,14 +165,14 @@ def check_verdicts(results: dict, config) -> None:
     req = config.requirements
     flight = results["closed_loop"]
     expected = {
-        "slew_time": (req.slew.max_time_s, flight["flown_slew_time_s"]),  # judged on the flown arrival
+        "slew_time": (req.slew.time_max_s, flight["flown_slew_time_s"]),  # judged on the flown arrival
         "settling_time": (req.settling_time_s, flight["settling_time_after_slew_s"]),
-        "pointing_accuracy": (req.pointing_accuracy_deg, flight["max_pointing_error_in_window_deg"]),
+        "pointing_accuracy": (req.pointing_accuracy_deg, flight["pointing_error_max_in_window_deg"]),
     }
     if req.slew.rate_max_deg_per_s is not None:
         expected["slew_rate"] = (req.slew.rate_max_deg_per_s, flight["peak_rate_deg_per_s"])
     for i, cone in enumerate(req.keep_out):
-        expected[f"keep_out_{i}"] = (cone.half_angle_deg, flight["min_separation_deg"][cone.name])
+        expected[f"keep_out_{i}"] = (cone.half_angle_deg, flight["separation_min_deg"][cone.name])
     rows = {r["id"]: r for r in results["requirements"]}
     assert set(rows) == set(expected), "one row per requirement of the file"
     for rid, (required, achieved) in expected.items():
@@ -184,7 +184,7 @@ def check_verdicts(results: dict, config) -> None:
     # The pointing figure is the largest error over the window the report names, and settling is consistent.
     assert num(flight["pointing_window_start_s"]) == pytest.approx(flight["slew_end_s"] + req.settling_time_s)
     settled = num(flight["settling_time_after_slew_s"]) <= req.settling_time_s
-    assert not settled or num(flight["max_pointing_error_in_window_deg"]) <= req.pointing_accuracy_deg
+    assert not settled or num(flight["pointing_error_max_in_window_deg"]) <= req.pointing_accuracy_deg
     failed = [r["id"] for r in results["requirements"] if not r["pass"]]
     assert results["verdict"] == {"pass": not failed, "failed": failed}
     for c in results["checks"]:
@@ -387,7 +387,7 @@ def test_slew_about_a_body_axis(capsys):
     assert rows["slew_time"]["achieved"] == plan["duration_s"]
     assert code == (0 if res["verdict"]["pass"] else 1)
     # The Sun cone is nowhere near a turn about the boresight: both slews keep clear of it.
-    assert min(eig["min_separation_deg"].values()) > 35.0
+    assert min(eig["separation_min_deg"].values()) > 35.0
 
 
 def test_slew_target_quaternion_energy_and_a_failing_time(capsys):
@@ -405,7 +405,7 @@ def test_slew_target_quaternion_energy_and_a_failing_time(capsys):
     assert res["slews"]["plan"]["duration_s"] == pytest.approx(40.0, rel=1e-9)
     assert res["slews"]["angle_deg"] == pytest.approx(20.0, rel=1e-9)
     # A slew that cannot be done in the allowed time: exit code 1, the failing row named.
-    code, res = slew_json(capsys, "--to", "max_time_s=10")
+    code, res = slew_json(capsys, "--to", "time_max_s=10")
     assert code == 1
     assert res["verdict"]["failed"] == ["slew_time"]
 
@@ -558,7 +558,7 @@ settling_time_s = 300.0
 [requirements.slew]
 angle_deg = 120.0
 axis_B = [0.0, 0.0, 1.0]
-max_time_s = 150.0
+time_max_s = 150.0
 """
 
 
@@ -604,9 +604,12 @@ def test_hopelessly_weak_wheels_fail_fast_with_the_reason(tmp_path):
     path = tmp_path / "weak.toml"
     run_attitude("init", str(path), cwd=tmp_path)
     text = path.read_text()
-    path.write_text(
-        "\n".join("torque_max_Nm = 1e-12" if ln.startswith("torque_max_Nm") else ln for ln in text.splitlines())
-    )
+    lines = text.splitlines()
+    wheels = next(
+        i for i, ln in enumerate(lines) if ln.startswith("torque_max_Nm")
+    )  # [wheels] (control.lqr has one too)
+    lines[wheels] = "torque_max_Nm = 1e-12"
+    path.write_text("\n".join(lines))
     proc = run_attitude("design", str(path), "--quick", "--out", str(tmp_path / "out"), cwd=tmp_path, timeout=120)
     assert proc.returncode == 1, proc.stderr[-2000:]
     assert "cannot make this slew in time" in (tmp_path / "out" / "report.md").read_text()

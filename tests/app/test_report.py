@@ -118,7 +118,7 @@ def test_number_format_and_alignment():
         "-inf",
     ]
     assert all(is_numeric(t) for t in ("12.5", "-0.3", "inf", "n/a", "<= 0.05 deg", "[1, 0, 0]", ".5"))
-    assert not any(is_numeric(t) for t in ("PD", "stable", "sampled (10 Hz)", "requirements.slew.max_time_s"))
+    assert not any(is_numeric(t) for t in ("PD", "stable", "sampled (10 Hz)", "requirements.slew.time_max_s"))
 
 
 def test_markdown_and_html_render_the_same_blocks():

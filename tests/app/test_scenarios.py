@@ -74,10 +74,10 @@ def nominal(scenario):
 def test_the_scenario_flies_the_design_plan(scenario, study):
     assert scenario.guidance == "plan"
     assert scenario.slew_end == pytest.approx(study.plan.duration)
-    assert scenario.plan_min_separation[CONE.name] == pytest.approx(float(np.min(study.plan.min_separation)))
+    assert scenario.plan_separation_min[CONE.name] == pytest.approx(float(np.min(study.plan.separation_min)))
     # The plan steers around the Sun cone (it is planned 0.5 deg wider), which the eigenaxis path enters.
-    assert scenario.plan_min_separation[CONE.name] > CONE.half_angle_rad
-    assert study.summary["eigenaxis"]["min_separation_deg"][CONE.name] < CONE.half_angle_deg
+    assert scenario.plan_separation_min[CONE.name] > CONE.half_angle_rad
+    assert study.summary["eigenaxis"]["separation_min_deg"][CONE.name] < CONE.half_angle_deg
 
 
 def test_planned_slew_at_nominal_meets_every_requirement_including_keep_out(scenario, nominal):
@@ -88,7 +88,7 @@ def test_planned_slew_at_nominal_meets_every_requirement_including_keep_out(scen
     # jitter of the MEMS gyro noise through the PD (sqrt(zeta / wn) sigma_v = 0.011 deg per axis at
     # wn = 0.2 rad/s, zeta = 0.7, ARW 0.34 deg/sqrt(h)) plus the MEKF knowledge error (~20 arcsec):
     # 0.06 deg is about 5 sigma of their sum on one axis (measured: 0.03 deg less than planned).
-    planned = scenario.plan_min_separation[CONE.name] - CONE.half_angle_rad
+    planned = scenario.plan_separation_min[CONE.name] - CONE.half_angle_rad
     flown = m[f"keep_out_margin.{CONE.name}"]
     assert flown > 0.0
     assert abs(flown - planned) < math.radians(0.06), (math.degrees(flown), math.degrees(planned))
@@ -139,7 +139,7 @@ def test_eigenaxis_guidance_still_enters_the_sun_cone(study):
     assert margin < 0.0
     # Along the eigenaxis path the boresight passes 25 deg from the Sun (the file's comment): the PD on
     # the nominal body follows that great circle up to the noise (measured 0.03 deg off).
-    expected = math.radians(study.summary["eigenaxis"]["min_separation_deg"][CONE.name]) - CONE.half_angle_rad
+    expected = math.radians(study.summary["eigenaxis"]["separation_min_deg"][CONE.name]) - CONE.half_angle_rad
     assert margin == pytest.approx(expected, abs=math.radians(0.5))
     names = {r.name for r in requirements_from_config(CONFIG, keep_out=False)}
     assert not any(n.startswith("keep_out") for n in names)
@@ -150,7 +150,7 @@ def test_requirements_are_judged_on_the_target_metrics():
     assert set(reqs) == {"pointing", "settling", "rate", f"keep_out.{CONE.name}"}
     assert reqs["pointing"].metric == "final_pointing_error" and reqs["pointing"].max == REQ.pointing_accuracy_rad
     assert reqs["settling"].metric == "settling_time"
-    assert reqs["settling"].max == REQ.slew.max_time_s + REQ.settling_time_s
+    assert reqs["settling"].max == REQ.slew.time_max_s + REQ.settling_time_s
     assert reqs[f"keep_out.{CONE.name}"].min == 0.0
 
 

@@ -78,7 +78,7 @@ def pd_analytic(wn, zeta):
 
 class TestLoopGain:
     def test_diagonal_inertia_gives_the_pd_double_integrator_per_axis(self):
-        pd = QuaternionPD.from_bandwidth(DIAGONAL, WN, ZETA, 0.1)
+        pd = QuaternionPD.from_bandwidth(DIAGONAL, wn=WN, zeta=ZETA, period=0.1)
         for L, wn, zeta in zip(loop_gain(DIAGONAL, pd), WN, ZETA):
             # (K/2 + C s) / (I s^2) with K = 2 I wn^2 and C = 2 I zeta wn.
             np.testing.assert_allclose(L.num[0][0], [2 * zeta * wn, wn**2], rtol=1e-12)
@@ -86,7 +86,7 @@ class TestLoopGain:
 
     def test_full_tensor_with_one_bandwidth_decouples_at_the_plant_input(self):
         # G = J (wn^2 + 2 zeta wn s) J^-1 / s^2 is diagonal when wn, zeta are scalars.
-        pd = QuaternionPD.from_bandwidth(FULL, 0.1, 0.7, 0.1)
+        pd = QuaternionPD.from_bandwidth(FULL, wn=0.1, zeta=0.7, period=0.1)
         for L in loop_gain(FULL, pd):
             np.testing.assert_allclose(L.num[0][0], [0.14, 0.01], rtol=1e-9)
             np.testing.assert_array_equal(L.den[0][0], [1.0, 0.0, 0.0])
@@ -94,7 +94,7 @@ class TestLoopGain:
     def test_coupled_channels_match_a_direct_matrix_computation(self):
         # Per-axis bandwidths on a full tensor couple the channels. Independent
         # evaluation: G(jw) = Gc C (jw I - A)^-1 B, then L_i = [(I + G F_i)^-1 G]_ii.
-        pd = QuaternionPD.from_bandwidth(FULL, WN, ZETA, 0.1)
+        pd = QuaternionPD.from_bandwidth(FULL, wn=WN, zeta=ZETA, period=0.1)
         loops = loop_gain(FULL, pd)
         plant = rigid_body_at_rest(FULL)
         gain = np.hstack([pd.K, pd.C])
@@ -118,8 +118,8 @@ class TestLoopGain:
             assert complex(L(1j * w)) == pytest.approx(complex(expected(1j * w)), rel=1e-12)
 
     def test_rate_limited_pd_linear_region_is_the_same_loop(self):
-        wl = RateLimitedPD.from_bandwidth(FULL, 0.1, 0.7, 0.01, 0.1)
-        pd = QuaternionPD.from_bandwidth(FULL, 0.1, 0.7, 0.1)
+        wl = RateLimitedPD.from_bandwidth(FULL, wn=0.1, zeta=0.7, rate_max=0.01, period=0.1)
+        pd = QuaternionPD.from_bandwidth(FULL, wn=0.1, zeta=0.7, period=0.1)
         for a, b in zip(loop_gain(FULL, wl), loop_gain(FULL, pd)):
             np.testing.assert_allclose(a.num[0][0], b.num[0][0], rtol=1e-12)
 
@@ -132,7 +132,7 @@ class TestLoopGain:
 
 class TestClosedLoop:
     def test_attitude_closed_loop_is_the_designed_second_order_system(self):
-        pd = QuaternionPD.from_bandwidth(FULL, WN, ZETA, 0.1)
+        pd = QuaternionPD.from_bandwidth(FULL, wn=WN, zeta=ZETA, period=0.1)
         cl = attitude_closed_loop(FULL, pd)
         for i, (wn, zeta) in enumerate(zip(WN, ZETA)):
             expected = control.tf([wn**2], [1.0, 2 * zeta * wn, wn**2])
@@ -166,17 +166,17 @@ def assert_same_margins(a: Margins, b: Margins, rel=1e-8):
 
 
 def loops_for_comparison():
-    pd = QuaternionPD.from_bandwidth(FULL, WN, ZETA, 0.1)
+    pd = QuaternionPD.from_bandwidth(FULL, wn=WN, zeta=ZETA, period=0.1)
     coupled = loop_gain(FULL, pd)
     return {
         "pd-double-integrator": pd_double_integrator(),
         "classic-type-1": control.tf([2.0], [1.0, 3.0, 2.0, 0.0]),
         "conditionally-stable": control.tf(np.polymul([10.0], [1.0, 2.0, 1.0]), [1.0, 10.0, 0.0, 0.0, 0.0]),
-        "pd-with-pade-delay": delayed_loop(pd_double_integrator(), 1.0, pade_order=5),
+        "pd-with-pade-delay": delayed_loop(pd_double_integrator(), delay=1.0, pade_order=5),
         "coupled-full-tensor": coupled[2],
-        "sampled-pd": sampled_loop(pd_double_integrator(), 0.5),
-        "sampled-coupled-with-delay": sampled_loop(coupled[0], 2.0, 1.0),
-        "fast-sampled-coupled": sampled_loop(coupled[0], 0.005 / 0.153),
+        "sampled-pd": sampled_loop(pd_double_integrator(), period=0.5),
+        "sampled-coupled-with-delay": sampled_loop(coupled[0], period=2.0, computation_delay=1.0),
+        "fast-sampled-coupled": sampled_loop(coupled[0], period=0.005 / 0.153),
         "unstable": control.tf([10.0], [1.0, 3.0, 2.0, 0.0]),
     }
 
@@ -211,7 +211,7 @@ class TestMargins:
         # (control.stability_margins returns gm ~ 3e-9 at omega ~ 5e-6 rad/s here: a
         # spurious root next to the double pole at z = 1, and it never looks at pi/T.)
         T, a = 0.5, 2 * 0.7 * 0.1
-        m = margins(sampled_loop(pd_double_integrator(), T))
+        m = margins(sampled_loop(pd_double_integrator(), period=T))
         assert m.gain_margin == pytest.approx(2.0 / (a * T), rel=1e-12)
         assert m.phase_crossover == pytest.approx(math.pi / T, rel=1e-15)
         assert m.gain_margin_lower == 0.0
@@ -270,12 +270,12 @@ class TestSampledLoop:
 
     def test_without_delay_it_is_the_zero_order_hold_equivalent(self):
         L, T = pd_double_integrator(), 0.5
-        exact = self.response(sampled_loop(L, T), self.W)
+        exact = self.response(sampled_loop(L, period=T), self.W)
         np.testing.assert_allclose(exact, self.response(control.c2d(L, T, "zoh"), self.W), rtol=1e-9)
 
     def test_one_frame_delay_is_a_z_inverse(self):
         L, T = pd_double_integrator(), 0.5
-        exact = self.response(sampled_loop(L, T, T), self.W)
+        exact = self.response(sampled_loop(L, period=T, computation_delay=T), self.W)
         zoh = self.response(control.c2d(L, T, "zoh"), self.W) * np.exp(-1j * self.W * T)
         np.testing.assert_allclose(exact, zoh, rtol=1e-9)
 
@@ -290,7 +290,7 @@ class TestSampledLoop:
         u = (t >= tau - 1e-12).astype(float)
         num, den = L.num[0][0], L.den[0][0]
         _, y_cont, _ = scipy.signal.lsim((num, den), u, t, interp=False)
-        y_disc = control.step_response(sampled_loop(L, T, tau), np.arange(n + 1) * T).outputs
+        y_disc = control.step_response(sampled_loop(L, period=T, computation_delay=tau), np.arange(n + 1) * T).outputs
         # lsim with a zero-order-hold input is exact up to the matrix exponential.
         np.testing.assert_allclose(y_disc, y_cont[::100], atol=1e-10)
 
@@ -299,7 +299,7 @@ class TestSampledLoop:
         loop = pd_double_integrator()
         wc = margins(loop).gain_crossover
         periods = np.array([0.01, 0.05, 0.1, 0.2]) / wc
-        study = sample_time_study(loop, periods, fraction * periods)
+        study = sample_time_study(loop, periods=periods, computation_delay=fraction * periods)
         drop = study.continuous_phase_margin_deg - study.phase_margin_deg
         predicted = np.degrees(wc * (periods / 2 + fraction * periods))
         np.testing.assert_allclose(study.predicted_phase_margin_deg, study.continuous_phase_margin_deg - predicted)
@@ -312,13 +312,13 @@ class TestSampledLoop:
 
     def test_pade_approximation_agrees_with_the_exact_sampled_loop(self):
         loop, T, tau = pd_double_integrator(), 0.5, 0.25
-        exact = margins(sampled_loop(loop, T, tau)).phase_margin_deg
-        approx = margins(delayed_loop(loop, T / 2 + tau)).phase_margin_deg
+        exact = margins(sampled_loop(loop, period=T, computation_delay=tau)).phase_margin_deg
+        approx = margins(delayed_loop(loop, delay=T / 2 + tau)).phase_margin_deg
         # Same estimate as above, omega_c T = 0.077: a fraction of a percent of the drop.
         assert approx == pytest.approx(exact, abs=0.02 * (margins(loop).phase_margin_deg - exact))
 
     def test_study_saves_and_loads(self, tmp_path):
-        study = sample_time_study(pd_double_integrator(), [0.1, 0.5, 1.0])
+        study = sample_time_study(pd_double_integrator(), periods=[0.1, 0.5, 1.0])
         back = SampleTimeStudy.load(study.save(tmp_path / "study"))
         np.testing.assert_array_equal(back.phase_margin_deg, study.phase_margin_deg)
         assert back.continuous_gain_crossover == study.continuous_gain_crossover
@@ -326,11 +326,17 @@ class TestSampledLoop:
     @pytest.mark.parametrize(
         ("call", "match"),
         [
-            (lambda: sampled_loop(pd_double_integrator(), 0.0), "period must be strictly positive"),
-            (lambda: sampled_loop(pd_double_integrator(), 0.1, -0.01), "computation_delay must be non-negative"),
-            (lambda: sampled_loop(sampled_loop(pd_double_integrator(), 0.1), 0.1), "loop must be continuous"),
-            (lambda: delayed_loop(pd_double_integrator(), 0.1, pade_order=0), "pade_order must be a positive"),
-            (lambda: sample_time_study(control.tf([0.1], [1.0, 10.0]), [0.1]), "must have a gain crossover"),
+            (lambda: sampled_loop(pd_double_integrator(), period=0.0), "period must be strictly positive"),
+            (
+                lambda: sampled_loop(pd_double_integrator(), period=0.1, computation_delay=-0.01),
+                "computation_delay must be non-negative",
+            ),
+            (
+                lambda: sampled_loop(sampled_loop(pd_double_integrator(), period=0.1), period=0.1),
+                "loop must be continuous",
+            ),
+            (lambda: delayed_loop(pd_double_integrator(), delay=0.1, pade_order=0), "pade_order must be a positive"),
+            (lambda: sample_time_study(control.tf([0.1], [1.0, 10.0]), periods=[0.1]), "must have a gain crossover"),
         ],
     )
     def test_bad_input_is_rejected(self, call, match):
@@ -345,8 +351,8 @@ class TestSampledLoop:
 
 class TestFigures:
     def test_bode_has_magnitude_and_phase_per_axis_with_margins(self):
-        pd = QuaternionPD.from_bandwidth(FULL, WN, ZETA, 0.5)
-        loops = [sampled_loop(L, 2.0, 1.0) for L in loop_gain(FULL, pd)]
+        pd = QuaternionPD.from_bandwidth(FULL, wn=WN, zeta=ZETA, period=0.5)
+        loops = [sampled_loop(L, period=2.0, computation_delay=1.0) for L in loop_gain(FULL, pd)]
         fig = plot_bode(loops)
         assert isinstance(fig, Figure)
         assert len(fig.axes) == 6
@@ -363,7 +369,7 @@ class TestFigures:
         assert any("GM = inf" in t.get_text() for t in fig.axes[0].texts)
 
     def test_step_panels_mark_the_designed_overshoot(self):
-        pd = QuaternionPD.from_bandwidth(FULL, WN, ZETA, 0.1)
+        pd = QuaternionPD.from_bandwidth(FULL, wn=WN, zeta=ZETA, period=0.1)
         fig = plot_step(attitude_closed_loop(FULL, pd))
         assert isinstance(fig, Figure) and len(fig.axes) == 3
         for ax, zeta in zip(fig.axes, ZETA):
@@ -372,7 +378,7 @@ class TestFigures:
             assert any(t.get_text() == f"overshoot {expected:.1f} %" for t in ax.texts)
 
     def test_study_plot(self):
-        fig = sample_time_study(pd_double_integrator(), [0.1, 0.5, 1.0]).plot()
+        fig = sample_time_study(pd_double_integrator(), periods=[0.1, 0.5, 1.0]).plot()
         assert isinstance(fig, Figure) and len(fig.axes) == 2
 
     def test_bad_figure_input_is_rejected(self):

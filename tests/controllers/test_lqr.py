@@ -41,7 +41,7 @@ from controllers.lqr import LQRController, LQRDesign, bryson_weights, design_lqr
 BODY = RigidBody([[10.0, 1.2, -0.5], [1.2, 12.0, 0.3], [-0.5, 0.3, 8.0]])
 TARGET = quat.from_axis_angle([1.0, 0.5, 0.0], np.radians(30.0))
 AXIS = np.array([0.3, -0.8, 0.5]) / np.linalg.norm([0.3, -0.8, 0.5])
-Q_B, R_B = bryson_weights(np.radians(5.0), np.radians(1.0), 0.05)
+Q_B, R_B = bryson_weights(angle_max=np.radians(5.0), rate_max=np.radians(1.0), torque_max=0.05)
 
 
 def relative_peak_mismatch(actual, expected):
@@ -51,8 +51,8 @@ def relative_peak_mismatch(actual, expected):
 class TestBryson:
     def test_weights_are_inverse_squared_bounds(self):
         angle, rate, torque = np.radians([5.0, 4.0, 6.0]), np.radians([1.0, 2.0, 0.5]), np.array([0.05, 0.1, 0.02])
-        Q, R = bryson_weights(angle, rate, torque)
-        # The state is |q_ev| = sin(angle/2): the bound on it is sin(max_angle/2), about half the angle.
+        Q, R = bryson_weights(angle_max=angle, rate_max=rate, torque_max=torque)
+        # The state is |q_ev| = sin(angle/2): the bound on it is sin(angle_max/2), about half the angle.
         np.testing.assert_allclose(np.diag(Q), np.r_[1.0 / np.sin(angle / 2) ** 2, 1.0 / rate**2], rtol=1e-15)
         # ... which is ~angle/2: (x / sin x)^2 = 1 + x^2/3 + x^4/15 + ..., x = angle/2 (x^4/15 < 1e-6 here).
         np.testing.assert_allclose(np.diag(Q)[:3] * (angle / 2) ** 2, 1.0 + angle**2 / 12, rtol=1e-6)
@@ -60,29 +60,29 @@ class TestBryson:
         assert np.count_nonzero(Q - np.diag(np.diag(Q))) == 0
 
     def test_scalars_apply_to_every_axis(self):
-        Q, R = bryson_weights(0.1, 0.01, 0.5)
+        Q, R = bryson_weights(angle_max=0.1, rate_max=0.01, torque_max=0.5)
         np.testing.assert_allclose(np.diag(Q), [1 / np.sin(0.05) ** 2] * 3 + [1e4] * 3, rtol=1e-15)
         np.testing.assert_allclose(R, 4.0 * np.eye(3), rtol=1e-15)
 
     @pytest.mark.parametrize(
         ("args", "name"),
         [
-            ((0.0, 0.1, 0.1), "max_angle_rad"),
-            ((4.0, 0.1, 0.1), "max_angle_rad"),
-            ((0.1, -0.1, 0.1), "max_rate_rad_s"),
-            ((0.1, 0.1, np.nan), "max_torque_Nm"),
-            ((0.1, 0.1, [0.1, 0.2]), "max_torque_Nm"),
+            ((0.0, 0.1, 0.1), "angle_max"),
+            ((4.0, 0.1, 0.1), "angle_max"),
+            ((0.1, -0.1, 0.1), "rate_max"),
+            ((0.1, 0.1, np.nan), "torque_max"),
+            ((0.1, 0.1, [0.1, 0.2]), "torque_max"),
         ],
     )
     def test_bad_bounds_name_the_argument(self, args, name):
         with pytest.raises(ValueError, match=name):
-            bryson_weights(*args)
+            bryson_weights(**dict(zip(("angle_max", "rate_max", "torque_max"), args)))
 
 
 class TestContinuousDesign:
     def test_diagonal_body_gives_the_closed_form_double_integrator_gains(self):
         moments = np.array([10.0, 12.0, 8.0])
-        design = design_lqr(linearize(RigidBody(moments)), Q_B, R_B)
+        design = design_lqr(linearize(RigidBody(moments)), Q=Q_B, R=R_B)
         # Per axis q' = c w, w' = g tau (c = 1/2, g = 1/I). With z = q, v = c g tau it is z'' = v with cost
         # a z^2 + (b/c^2) z'^2 + r/(c g)^2 v^2, whose LQR gain is [sqrt(q1/rho), sqrt(q2/rho + 2 sqrt(q1/rho))].
         c, g = 0.5, 1.0 / moments
@@ -95,7 +95,7 @@ class TestContinuousDesign:
 
     def test_riccati_equation_gain_and_poles(self):
         sys = linearize(BODY)
-        design = design_lqr(sys, Q_B, R_B)
+        design = design_lqr(sys, Q=Q_B, R=R_B)
         A, B = sys.A, sys.B
         S, K = design.S, design.K
         residual = A.T @ S + S @ A - S @ B @ np.linalg.solve(R_B, B.T @ S) + Q_B
@@ -110,7 +110,7 @@ class TestContinuousDesign:
 
     def test_closed_loop_is_a_named_statespace(self):
         sys = linearize(BODY)
-        design = design_lqr(sys, Q_B, R_B)
+        design = design_lqr(sys, Q=Q_B, R=R_B)
         cl = design.closed_loop
         assert isinstance(cl, control.StateSpace) and cl.isctime()
         np.testing.assert_allclose(cl.A, sys.A - sys.B @ design.K, atol=1e-15)
@@ -126,7 +126,7 @@ class TestContinuousDesign:
 class TestDiscreteDesign:
     def test_plant_is_the_zero_order_hold_model(self):
         sys = linearize(BODY)
-        design = design_lqr(sys, Q_B, R_B, period=0.1)
+        design = design_lqr(sys, Q=Q_B, R=R_B, period=0.1)
         # Van Loan: expm([[A, B], [0, 0]] T) = [[Ad, Bd], [0, I]], independent of control.c2d.
         aug = np.zeros((9, 9))
         aug[:6, :6], aug[:6, 6:] = sys.A, sys.B
@@ -136,7 +136,7 @@ class TestDiscreteDesign:
         assert design.plant.dt == 0.1
 
     def test_riccati_equation_and_poles(self):
-        design = design_lqr(linearize(BODY), Q_B, R_B, period=0.1)
+        design = design_lqr(linearize(BODY), Q=Q_B, R=R_B, period=0.1)
         A, B, S, K = design.plant.A, design.plant.B, design.S, design.K
         gain = np.linalg.solve(R_B + B.T @ S @ B, B.T @ S @ A)
         residual = A.T @ S @ A - S - A.T @ S @ B @ gain + Q_B
@@ -148,10 +148,10 @@ class TestDiscreteDesign:
 
     def test_discrete_gain_tends_to_the_continuous_one(self):
         sys = linearize(BODY)
-        k_c = design_lqr(sys, Q_B, R_B).K
+        k_c = design_lqr(sys, Q=Q_B, R=R_B).K
 
         def gap(period):
-            return np.linalg.norm(design_lqr(sys, Q_B, R_B, period=period).K - k_c) / np.linalg.norm(k_c)
+            return np.linalg.norm(design_lqr(sys, Q=Q_B, R=R_B, period=period).K - k_c) / np.linalg.norm(k_c)
 
         # First order in the period (per-sample sums are the integral's rectangle rule): ~0.17 T here.
         assert gap(1e-3) < 1e-3
@@ -177,11 +177,11 @@ class TestBadInput:
     )
     def test_bad_weights_name_the_argument(self, Q, R, message):
         with pytest.raises(ValueError, match=message):
-            design_lqr(self.SYS, Q, R)
+            design_lqr(self.SYS, Q=Q, R=R)
 
     def test_diagonals_are_accepted(self):
-        a = design_lqr(self.SYS, np.diag(Q_B), np.diag(R_B))
-        b = design_lqr(self.SYS, Q_B, R_B)
+        a = design_lqr(self.SYS, Q=np.diag(Q_B), R=np.diag(R_B))
+        b = design_lqr(self.SYS, Q=Q_B, R=R_B)
         np.testing.assert_array_equal(a.K, b.K)
 
     def test_unstabilisable_pair_names_sys(self):
@@ -189,39 +189,39 @@ class TestBadInput:
         a7, b7 = (np.array(m) for m in BODY.casadi_jacobian()(np.r_[TARGET, 0.0, 0.0, 0.0], np.zeros(3)))
         sys7 = control.ss(a7, b7, np.eye(7), np.zeros((7, 3)))
         with pytest.raises(ValueError, match=r"sys must be stabilisable: \(A, B\)"):
-            design_lqr(sys7, np.eye(7), np.eye(3))
+            design_lqr(sys7, Q=np.eye(7), R=np.eye(3))
         with pytest.raises(ValueError, match=r"sys must be stabilisable: \(A, B\) \(zero-order hold"):
-            design_lqr(sys7, np.eye(7), np.eye(3), period=0.1)
+            design_lqr(sys7, Q=np.eye(7), R=np.eye(3), period=0.1)
         # An unstable mode with no input path.
         unstable = control.ss([[0.5, 0.0], [0.0, -1.0]], [[0.0], [1.0]], np.eye(2), np.zeros((2, 1)))
         with pytest.raises(ValueError, match="sys must be stabilisable"):
-            design_lqr(unstable, np.eye(2), 1.0)
+            design_lqr(unstable, Q=np.eye(2), R=1.0)
         # A stable uncontrollable mode is fine (stabilisable).
         stable = control.ss([[-0.5, 0.0], [0.0, 0.0]], [[0.0], [1.0]], np.eye(2), np.zeros((2, 1)))
-        assert np.max(design_lqr(stable, np.eye(2), 1.0).poles.real) < 0
+        assert np.max(design_lqr(stable, Q=np.eye(2), R=1.0).poles.real) < 0
 
     def test_undetectable_weight_names_Q(self):
         # Weighting rates only leaves the attitude (eigenvalue 0) free of cost.
         with pytest.raises(ValueError, match=r"Q must make \(Q\^1/2, A\) detectable"):
-            design_lqr(self.SYS, np.diag([0.0, 0.0, 0.0, 1.0, 1.0, 1.0]), R_B)
+            design_lqr(self.SYS, Q=np.diag([0.0, 0.0, 0.0, 1.0, 1.0, 1.0]), R=R_B)
         # Spinning reference, discrete design: the attitude modes (z = 1, exp(+-i 0.3 T)) are still unweighted.
         spin = linearize(BODY, omega_ref=principal_spin(BODY, 2, 0.3))
         with pytest.raises(ValueError, match=r"\(Q\^1/2, A\) \(zero-order hold at period = 0.1 s\) detectable"):
-            design_lqr(spin, np.diag([0.0, 0.0, 0.0, 1.0, 1.0, 1.0]), R_B, period=0.1)
+            design_lqr(spin, Q=np.diag([0.0, 0.0, 0.0, 1.0, 1.0, 1.0]), R=R_B, period=0.1)
         # Weighting the attitude alone is enough: the rates drive it, so every mode shows in the cost.
-        assert design_lqr(spin, np.diag([1.0, 1.0, 1.0, 0.0, 0.0, 0.0]), R_B, period=0.1).discrete
+        assert design_lqr(spin, Q=np.diag([1.0, 1.0, 1.0, 0.0, 0.0, 0.0]), R=R_B, period=0.1).discrete
 
     def test_bad_sys_and_period(self):
         with pytest.raises(ValueError, match=r"sys must be a control\.StateSpace"):
-            design_lqr(control.tf([1.0], [1.0, 0.0]), np.eye(1), 1.0)
+            design_lqr(control.tf([1.0], [1.0, 0.0]), Q=np.eye(1), R=1.0)
         with pytest.raises(ValueError, match="sys must be continuous-time"):
-            design_lqr(control.c2d(self.SYS, 0.1), Q_B, R_B)
+            design_lqr(control.c2d(self.SYS, 0.1), Q=Q_B, R=R_B)
         with pytest.raises(ValueError, match="period must be strictly positive"):
-            design_lqr(self.SYS, Q_B, R_B, period=0.0)
+            design_lqr(self.SYS, Q=Q_B, R=R_B, period=0.0)
 
 
 class TestController:
-    DESIGN = design_lqr(linearize(BODY), Q_B, R_B, period=0.1)
+    DESIGN = design_lqr(linearize(BODY), Q=Q_B, R=R_B, period=0.1)
 
     def test_torque_is_minus_k_times_the_linear_state(self):
         rng = np.random.default_rng(11)
@@ -270,10 +270,10 @@ class TestController:
     def test_bad_construction(self):
         with pytest.raises(ValueError, match="design must be an LQRDesign"):
             LQRController(np.zeros((3, 6)), period=0.1)
-        small = design_lqr(control.ss([[0.0]], [[1.0]], [[1.0]], [[0.0]]), 1.0, 1.0)
+        small = design_lqr(control.ss([[0.0]], [[1.0]], [[1.0]], [[0.0]]), Q=1.0, R=1.0)
         with pytest.raises(ValueError, match=r"design.K must have shape \(3, 6\)"):
             LQRController(small, period=0.1)
-        continuous = design_lqr(linearize(BODY), Q_B, R_B)
+        continuous = design_lqr(linearize(BODY), Q=Q_B, R=R_B)
         with pytest.raises(ValueError, match="period"):
             LQRController(continuous)
         with pytest.raises(ValueError, match="must equal the sample time"):
@@ -306,7 +306,7 @@ class TestNonlinearClosedLoop:
     @pytest.mark.parametrize("spin_axis", [None, 2, 3])
     def test_discrete_design_matches_its_linear_closed_loop(self, spin_axis):
         w_ref = np.zeros(3) if spin_axis is None else principal_spin(BODY, spin_axis, 0.2)
-        design = design_lqr(linearize(BODY, omega_ref=w_ref), Q_B, R_B, period=0.1)
+        design = design_lqr(linearize(BODY, omega_ref=w_ref), Q=Q_B, R=R_B, period=0.1)
         # Same sampling and hold on both sides, so the mismatch is the plant's nonlinearity alone.
         big = self.run(design, 0.5, w_ref)
         small = self.run(design, 0.25, w_ref)
@@ -319,7 +319,7 @@ class TestNonlinearClosedLoop:
             assert b / s == pytest.approx(2.0, rel=0.05)
 
     def test_continuous_design_matches_its_linear_closed_loop(self):
-        design = design_lqr(linearize(BODY), Q_B, R_B)
+        design = design_lqr(linearize(BODY), Q=Q_B, R=R_B)
         # Sampling the continuous law at 0.01 s adds a hold delay of T/2 against closed-loop poles of
         # |s| <= 0.3 rad/s: a relative mismatch ~ |s| T/2 * (gain spread) ~ 1e-3 (measured 1.2e-3 on
         # the rates, 4.5e-4 on q_ev), inside the issue's 1%.
@@ -327,7 +327,7 @@ class TestNonlinearClosedLoop:
         assert max(mismatch) < 0.01
 
     def test_discrete_lqr_with_reaction_wheels(self):
-        design = design_lqr(linearize(BODY), Q_B, R_B, period=0.1)
+        design = design_lqr(linearize(BODY), Q=Q_B, R=R_B, period=0.1)
         ctrl = LQRController(design, q_ref=TARGET)
         wheels = ReactionWheels.pyramid(0.005, 0.05, 0.8)
         q0 = quat.multiply(TARGET, quat.from_axis_angle(AXIS, np.radians(20.0)))

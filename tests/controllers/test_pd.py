@@ -65,7 +65,7 @@ def rotation_about(axis, q):
 class TestBandwidthDesign:
     @pytest.mark.parametrize("body", [DIAGONAL, FULL], ids=["diagonal", "full-tensor"])
     def test_closed_loop_poles_have_the_designed_wn_and_zeta_per_axis(self, body):
-        pd = QuaternionPD.from_bandwidth(body, WN, ZETA, 0.1)
+        pd = QuaternionPD.from_bandwidth(body, wn=WN, zeta=ZETA, period=0.1)
         cl = attitude_closed_loop(body, pd)
         # The closed loop is theta'' + 2 Z Wn theta' + Wn^2 theta = 0 axis by axis:
         # the products of inertia cancel because K and C carry the full tensor.
@@ -84,7 +84,7 @@ class TestBandwidthDesign:
         # tau = -K q_v - C omega (the law itself, no half-angle bookkeeping).
         from attitude.linearize import linearize
 
-        pd = QuaternionPD.from_bandwidth(body, WN, ZETA, 0.1)
+        pd = QuaternionPD.from_bandwidth(body, wn=WN, zeta=ZETA, period=0.1)
         plant = linearize(body)
         a_cl = plant.A - plant.B @ np.hstack([pd.K, pd.C])
         poles = np.linalg.eigvals(a_cl)
@@ -102,7 +102,7 @@ class TestBandwidthDesign:
 
     @pytest.mark.parametrize("zeta", [0.3, 0.5, 0.7])
     def test_step_overshoot_matches_the_second_order_formula(self, zeta):
-        pd = QuaternionPD.from_bandwidth(FULL, 0.2, zeta, 0.1)
+        pd = QuaternionPD.from_bandwidth(FULL, wn=0.2, zeta=zeta, period=0.1)
         cl = attitude_closed_loop(FULL, pd)
         expected = np.exp(-np.pi * zeta / np.sqrt(1 - zeta**2))
         t_peak = np.pi / (0.2 * np.sqrt(1 - zeta**2))
@@ -124,17 +124,17 @@ class TestSampleRateWarning:
     # Sample rate 2 pi / 1 s = 6.28 rad/s: a tenth is 0.628 rad/s.
     def test_quaternion_pd_warns_above_a_tenth_of_the_sample_rate(self):
         with pytest.warns(UserWarning, match="tenth of the sample rate"):
-            QuaternionPD.from_bandwidth(FULL, [0.1, 0.7, 0.1], 0.7, 1.0)
+            QuaternionPD.from_bandwidth(FULL, wn=[0.1, 0.7, 0.1], zeta=0.7, period=1.0)
 
     def test_rate_limited_pd_warns_above_a_tenth_of_the_sample_rate(self):
         with pytest.warns(UserWarning, match="tenth of the sample rate"):
-            RateLimitedPD.from_bandwidth(FULL, 0.7, 0.7, 0.01, 1.0)
+            RateLimitedPD.from_bandwidth(FULL, wn=0.7, zeta=0.7, rate_max=0.01, period=1.0)
 
     def test_no_warning_below(self):
         with warnings.catch_warnings():
             warnings.simplefilter("error")
-            QuaternionPD.from_bandwidth(FULL, 0.6, 0.7, 1.0)
-            RateLimitedPD.from_bandwidth(FULL, 0.6, 0.7, 0.01, 1.0)
+            QuaternionPD.from_bandwidth(FULL, wn=0.6, zeta=0.7, period=1.0)
+            RateLimitedPD.from_bandwidth(FULL, wn=0.6, zeta=0.7, rate_max=0.01, period=1.0)
 
 
 # ---------------------------------------------------------------------------
@@ -153,7 +153,7 @@ class TestShortestWay:
         # zeta = 1: the linear loop does not overshoot, and the quaternion feedback
         # is softer than linear at large angles (sin(theta/2) <= theta/2), so the
         # error must decrease monotonically.
-        pd = QuaternionPD.from_bandwidth(FULL, 0.05, 1.0, 0.1, gyroscopic=True)
+        pd = QuaternionPD.from_bandwidth(FULL, wn=0.05, zeta=1.0, period=0.1, gyroscopic=True)
         result = simulate(FULL, q0, np.zeros(3), 400.0, controller=pd, wheels=wheels)
         err = result.error_angle
         shortest = min(angle_deg, 360.0 - angle_deg)
@@ -175,7 +175,7 @@ class TestShortestWay:
 # Wie-Lu rate-limited eigenaxis slews
 # ---------------------------------------------------------------------------
 
-OMEGA_MAX = np.radians(1.0)
+RATE_MAX = np.radians(1.0)
 EIGENAXIS = np.array([1.0, -2.0, 0.5]) / np.linalg.norm([1.0, -2.0, 0.5])
 TARGET = quat.from_axis_angle(EIGENAXIS, np.radians(120.0))
 
@@ -183,7 +183,7 @@ TARGET = quat.from_axis_angle(EIGENAXIS, np.radians(120.0))
 def rate_limited(**kw):
     # wn = 0.1 rad/s, zeta = 0.9: unlimited, this loop would reach 4.3 deg/s.
     kw.setdefault("q_start", quat.identity())
-    return RateLimitedPD.from_bandwidth(FULL, 0.1, 0.9, OMEGA_MAX, 0.1, q_ref=TARGET, **kw)
+    return RateLimitedPD.from_bandwidth(FULL, wn=0.1, zeta=0.9, rate_max=RATE_MAX, period=0.1, q_ref=TARGET, **kw)
 
 
 def fly(controller, wheels=None, engine="auto"):
@@ -197,9 +197,9 @@ def off_axis_error(result):
 
 
 def rate_axis_deviation_deg(result):
-    """Largest angle between the body rate and the eigenaxis while |omega| > omega_max / 2 [deg]."""
+    """Largest angle between the body rate and the eigenaxis while |omega| > rate_max / 2 [deg]."""
     w = np.linalg.norm(result.omega, axis=1)
-    fast = w > 0.5 * OMEGA_MAX
+    fast = w > 0.5 * RATE_MAX
     cos = np.abs(result.omega[fast] @ EIGENAXIS) / w[fast]
     return float(np.degrees(np.max(np.arccos(np.clip(cos, -1.0, 1.0)))))
 
@@ -209,11 +209,11 @@ class TestWieLu:
         ctrl = rate_limited()
         e0 = quat.error_quaternion(TARGET, quat.identity())[1:]
         limits = ctrl.saturation_limits(TARGET, quat.identity())
-        np.testing.assert_allclose(limits, ctrl.c / ctrl.k * OMEGA_MAX * np.abs(e0) / np.linalg.norm(e0), rtol=1e-14)
-        # Coast rate -(k/c) sat_L(e0): magnitude omega_max, direction -e0 (the eigenaxis).
+        np.testing.assert_allclose(limits, ctrl.c / ctrl.k * RATE_MAX * np.abs(e0) / np.linalg.norm(e0), rtol=1e-14)
+        # Coast rate -(k/c) sat_L(e0): magnitude rate_max, direction -e0 (the eigenaxis).
         coast = -ctrl.k / ctrl.c * np.clip(e0, -limits, limits)
-        assert np.linalg.norm(coast) == pytest.approx(OMEGA_MAX, rel=1e-14)
-        np.testing.assert_allclose(coast / OMEGA_MAX, EIGENAXIS, atol=1e-14)
+        assert np.linalg.norm(coast) == pytest.approx(RATE_MAX, rel=1e-14)
+        np.testing.assert_allclose(coast / RATE_MAX, EIGENAXIS, atol=1e-14)
         np.testing.assert_array_equal(ctrl.limits, limits)
         # A slew too small to reach the rate limit (here none at all: e(0) is rounding
         # noise) gets the full limit on every axis: plain linear PD, stiff everywhere.
@@ -225,15 +225,15 @@ class TestWieLu:
     def test_120_degree_slew_holds_the_rate_limit_and_the_eigenaxis(self, wheels):
         result = fly(rate_limited(), wheels=wheels)
         w = np.linalg.norm(result.omega, axis=1)
-        # Continuous time: |omega| <= omega_max exactly (RateLimitedPD docstring), and
+        # Continuous time: |omega| <= rate_max exactly (RateLimitedPD docstring), and
         # the sampled law keeps it (convex combination per tick when c T < 1). The only
         # extra is the gyroscopic torque held over a tick, an O(dt) effect mostly
         # normal to omega: 1e-6 relative. Measured: 3e-9 below the limit (wheels:
         # 0.2 % below, the wheel friction drag the PD does not integrate away).
-        assert np.max(w) <= OMEGA_MAX * (1 + 1e-6)
-        # ... and the limit is active: a long coast near omega_max (the unlimited
-        # loop would peak at 4.3 omega_max).
-        assert np.count_nonzero(w > 0.99 * OMEGA_MAX) * 0.1 > 60.0
+        assert np.max(w) <= RATE_MAX * (1 + 1e-6)
+        # ... and the limit is active: a long coast near rate_max (the unlimited
+        # loop would peak at 4.3 rate_max).
+        assert np.count_nonzero(w > 0.99 * RATE_MAX) * 0.1 > 60.0
         # Eigenaxis: the attitude stays on the great circle of the eigenaxis rotation.
         # The residue comes from holding the gyroscopic torque over a tick: 9e-6 here,
         # 1.4e-2 without the gyroscopic term (next test); 1e-4 separates the two.
@@ -249,9 +249,9 @@ class TestWieLu:
         assert rate_axis_deviation_deg(result) > 1.0
 
     def test_an_unlimited_pd_exceeds_the_rate(self):
-        pd = QuaternionPD.from_bandwidth(FULL, 0.1, 0.9, 0.1, q_ref=TARGET, gyroscopic=True)
+        pd = QuaternionPD.from_bandwidth(FULL, wn=0.1, zeta=0.9, period=0.1, q_ref=TARGET, gyroscopic=True)
         result = fly(pd)
-        assert np.max(np.linalg.norm(result.omega, axis=1)) > 4 * OMEGA_MAX
+        assert np.max(np.linalg.norm(result.omega, axis=1)) > 4 * RATE_MAX
 
     def test_compiled_and_python_engines_agree(self):
         fast = fly(rate_limited(), engine="compiled")
@@ -297,10 +297,12 @@ class TestWieLu:
         about_x = quat.from_axis_angle([1.0, 0.0, 0.0], np.radians(90.0))
         disturbed = quat.from_axis_angle([0.0, 1.0, 0.0], np.radians(5.0))
         estimate = Estimate(0.0, disturbed, np.zeros(3))
-        published = RateLimitedPD.from_bandwidth(FULL, 0.1, 0.9, OMEGA_MAX, 0.1, q_start=about_x)
+        published = RateLimitedPD.from_bandwidth(FULL, wn=0.1, zeta=0.9, rate_max=RATE_MAX, period=0.1, q_start=about_x)
         np.testing.assert_allclose(published.limits[1:], 0.0, atol=1e-15)
         np.testing.assert_allclose(published.torque(0.0, estimate), 0.0, atol=1e-15)
-        memoryless = RateLimitedPD.from_bandwidth(FULL, 0.1, 0.9, OMEGA_MAX, 0.1, saturation="norm")
+        memoryless = RateLimitedPD.from_bandwidth(
+            FULL, wn=0.1, zeta=0.9, rate_max=RATE_MAX, period=0.1, saturation="norm"
+        )
         tau = memoryless.torque(0.0, estimate)
         e = quat.error_quaternion(quat.identity(), disturbed)[1:]
         np.testing.assert_allclose(tau, -memoryless.K @ e, rtol=1e-12)  # linear region: plain PD
@@ -323,13 +325,13 @@ class TestWieLu:
         [
             ({"wn": -0.1}, "wn must be strictly positive"),
             ({"wn": [0.1, 0.2, 0.1]}, "wn must be a scalar"),
-            ({"omega_max": 0.0}, "omega_max must be strictly positive"),
+            ({"rate_max": 0.0}, "rate_max must be strictly positive"),
             ({"zeta": np.nan}, "zeta must be finite"),
             ({"saturation": "soft"}, "saturation must be one of"),
             ({"q_ref": [1.0, 1.0, 0.0, 0.0]}, "q_ref must be a unit quaternion"),
         ],
     )
     def test_bad_input_is_rejected_with_a_clear_message(self, kwargs, match):
-        args = {"wn": 0.1, "zeta": 0.9, "omega_max": OMEGA_MAX, "period": 0.1} | kwargs
+        args = {"wn": 0.1, "zeta": 0.9, "rate_max": RATE_MAX, "period": 0.1} | kwargs
         with pytest.raises(ValueError, match=match):
             RateLimitedPD.from_bandwidth(FULL, **args)

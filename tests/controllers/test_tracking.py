@@ -36,7 +36,9 @@ def open_loop_plan(duration=60.0, dt=0.1):
     The torque history is propagated with the accurate integrator, so the
     reference is an exact trajectory of the nominal plant under that torque.
     """
-    pd = QuaternionPD.from_bandwidth(BODY, 0.15, 1.0, dt, q_ref=quat.from_axis_angle([1.0, -0.6, 0.4], np.radians(20)))
+    pd = QuaternionPD.from_bandwidth(
+        BODY, wn=0.15, zeta=1.0, period=dt, q_ref=quat.from_axis_angle([1.0, -0.6, 0.4], np.radians(20))
+    )
     slew = simulate(BODY, quat.identity(), np.zeros(3), duration, controller=pd)
     torque = slew.torque_applied.copy()
     traj = propagate(BODY, quat.identity(), np.zeros(3), slew.t, torque, method="adaptive", rtol=1e-12, atol=1e-14)
@@ -94,7 +96,7 @@ class TestReferenceTrajectory:
 class TestTracking:
     def test_nominal_plan_is_flown_with_negligible_feedback(self):
         ref = open_loop_plan()
-        ctrl = TrackingController(ref, BODY, 0.2, 0.8, 0.1)
+        ctrl = TrackingController(ref, BODY, wn=0.2, zeta=0.8, period=0.1)
         result = simulate(BODY, quat.identity(), np.zeros(3), 60.0, controller=ctrl)
         # The feedforward is exact for the nominal plant; the residual is the
         # slerp/linear interpolation of the reference between nodes (none at
@@ -108,7 +110,7 @@ class TestTracking:
 
     def test_initial_error_and_wheels_converge_onto_the_plan(self):
         ref = open_loop_plan()
-        ctrl = TrackingController(ref, BODY, 0.2, 0.8, 0.1)
+        ctrl = TrackingController(ref, BODY, wn=0.2, zeta=0.8, period=0.1)
         wheels = ReactionWheels.pyramid(0.005, 0.05, 0.8)
         # 1 deg keeps the feedback (2 I wn^2 q_e ~ 0.008 N m) inside the wheel limits.
         q0 = quat.from_axis_angle([0.0, 0.0, 1.0], np.radians(1.0))
@@ -134,7 +136,7 @@ def test_an_optimal_slew_plan_is_flown_with_wheels():
     plan_wheels = ReactionWheels.pyramid(0.005, 0.04, 0.8)  # 80%: authority left for feedback
     qf = quat.from_axis_angle([1.0, 0.0, 0.0], np.radians(60.0))
     plan = plan_slew(BODY, quat.identity(), qf, torque_max=plan_wheels, nodes=30)
-    ctrl = TrackingController(plan.resample(0.1), BODY, 0.3, 0.8, 0.1, feedforward=plan)
+    ctrl = TrackingController(plan.resample(0.1), BODY, wn=0.3, zeta=0.8, period=0.1, feedforward=plan)
     flight = simulate(
         BODY, quat.identity(), np.zeros(3), float(np.ceil(plan.duration)) + 40.0, controller=ctrl, wheels=wheels
     )

@@ -84,7 +84,14 @@ def monte_carlo(
             if f == 1.0:
                 ekf = RateEKF.from_gyro(body, gyro, **kw)
             else:
-                ekf = RateEKF(body, gyro.sigma_v, gyro.sigma_u * f, gyro.period, gyro_name=gyro.name, **kw)
+                ekf = RateEKF(
+                    body,
+                    sigma_v=gyro.sigma_v,
+                    sigma_u=gyro.sigma_u * f,
+                    gyro_period=gyro.period,
+                    gyro_name=gyro.name,
+                    **kw,
+                )
             results[f].append(
                 run_rate_ekf(ekf, t, rates[r] + errors, torque=tq, omega_true=rates[r], bias_true=biases[1:])
             )
@@ -181,7 +188,9 @@ class TestModel:
     def test_jacobian_is_casadis_exact_jacobian_of_the_one_definition(self):
         body = RigidBody([[10.0, 1.2, -0.5], [1.2, 12.0, 0.3], [-0.5, 0.3, 8.0]])
         wheels = ReactionWheels.pyramid(0.005, 0.05, 0.8)
-        ekf = RateEKF(body, 1e-5, 1e-7, 0.1, torque_noise=1e-4, P0=np.full(6, 1e-6), wheels=wheels)
+        ekf = RateEKF(
+            body, sigma_v=1e-5, sigma_u=1e-7, gyro_period=0.1, torque_noise=1e-4, P0=np.full(6, 1e-6), wheels=wheels
+        )
         rng = np.random.default_rng(4)
         for _ in range(5):
             w, h = rng.standard_normal(3) * 0.1, rng.standard_normal(3) * 0.3
@@ -217,7 +226,14 @@ class TestModel:
         h_b = h_a + np.array([0.004, -0.002, 0.001, 0.003])
         w0 = np.array([0.05, -0.03, 0.02])
         ekf = RateEKF(
-            body, 1e-5, 0.0, 0.1, torque_noise=1e-4, P0=np.full(6, 1e-6), x0=np.r_[w0, 0, 0, 0], wheels=wheels
+            body,
+            sigma_v=1e-5,
+            sigma_u=0.0,
+            gyro_period=0.1,
+            torque_noise=1e-4,
+            P0=np.full(6, 1e-6),
+            x0=np.r_[w0, 0, 0, 0],
+            wheels=wheels,
         )
         ekf.step(0.0, None, wheel_momentum=h_a)
         ekf.step(0.1, None, wheel_momentum=h_b)
@@ -252,9 +268,9 @@ class TestRiccati:
         h_w = np.array([0.6, -0.3, 0.9])  # [N m s]: rotates omega at |h|/J ~ 0.23 rad/s
         ekf = RateEKF(
             body,
-            sigma_v,
-            0.0,
-            dt,
+            sigma_v=sigma_v,
+            sigma_u=0.0,
+            gyro_period=dt,
             torque_noise=q,
             P0=np.diag([1e-4, 2e-4, 5e-5]),
             estimate_bias=False,
@@ -832,16 +848,16 @@ class TestBadInput:
     )
     def test_constructor(self, args, kw, match):
         with pytest.raises(ValueError, match=match):
-            RateEKF(BODY, *args, **{**GOOD, **kw})
+            RateEKF(BODY, **dict(zip(("sigma_v", "sigma_u", "gyro_period"), args)), **{**GOOD, **kw})
 
     def test_body_gyro_and_run_arguments(self):
         with pytest.raises(ValueError, match="body must be a single RigidBody"):
-            RateEKF(RigidBody([[1.0, 1.0, 1.0], [2.0, 2.0, 2.0]]), 1e-5, 0.0, 0.1, **GOOD)
+            RateEKF(RigidBody([[1.0, 1.0, 1.0], [2.0, 2.0, 2.0]]), sigma_v=1e-5, sigma_u=0.0, gyro_period=0.1, **GOOD)
         with pytest.raises(ValueError, match=r"gyro must be an attitude\.sensors\.Gyro"):
             RateEKF.from_gyro(BODY, object(), **GOOD)
         with pytest.raises(ValueError, match="sigma_v must be strictly positive"):
             RateEKF.from_gyro(BODY, Gyro(0.0, 0.0, period=0.1), **GOOD)
-        ekf = RateEKF(BODY, 1e-5, 0.0, 0.1, **GOOD)
+        ekf = RateEKF(BODY, sigma_v=1e-5, sigma_u=0.0, gyro_period=0.1, **GOOD)
         with pytest.raises(ValueError, match=r"gyro must have shape \(3, 3\)"):
             run_rate_ekf(ekf, [0.0, 0.1, 0.2], np.zeros((3, 2)))
         with pytest.raises(ValueError, match=r"torque must have shape \(2, 3\)"):
@@ -851,7 +867,7 @@ class TestBadInput:
         with pytest.raises(ValueError, match="t must be finite"):
             ekf.step(np.nan, None)
         wheels = ReactionWheels.orthogonal(0.01, 0.1, 1.0)
-        with_wheels = RateEKF(BODY, 1e-5, 0.0, 0.1, wheels=wheels, **GOOD)
+        with_wheels = RateEKF(BODY, sigma_v=1e-5, sigma_u=0.0, gyro_period=0.1, wheels=wheels, **GOOD)
         with pytest.raises(ValueError, match=r"wheel_momentum must hold one momentum per wheel \(3\)"):
             with_wheels.step(0.1, None, wheel_momentum=np.zeros(4))
         # A non-finite tachometer reading is skipped (the command stands in) and counted.
@@ -931,10 +947,10 @@ class TestGate:
     def test_gate_settings_are_validated(self):
         for bad in (0.0, 1.0, -0.5, np.nan):
             with pytest.raises(ValueError, match="gate_probability must be"):
-                RateEKF(BODY, 1e-5, 0.0, 0.1, gate_probability=bad, **GOOD)
-        assert RateEKF(BODY, 1e-5, 0.0, 0.1, gate_probability=0.999, **GOOD).gate_threshold == pytest.approx(
-            16.266, abs=1e-3
-        )  # chi2.ppf(0.999, 3), tables: 16.27
+                RateEKF(BODY, sigma_v=1e-5, sigma_u=0.0, gyro_period=0.1, gate_probability=bad, **GOOD)
+        assert RateEKF(
+            BODY, sigma_v=1e-5, sigma_u=0.0, gyro_period=0.1, gate_probability=0.999, **GOOD
+        ).gate_threshold == pytest.approx(16.266, abs=1e-3)  # chi2.ppf(0.999, 3), tables: 16.27
 
     def test_engine_logs_the_gate(self):
         ekf, _ = small_filter()

@@ -44,14 +44,14 @@ from estimation.consistency import chi2_band, fraction_inside_band, plot_errors_
 from estimation.mekf import run_mekf
 from estimation.rate_ekf import run_rate_ekf
 
-__all__ = ["CONFIDENCE", "MIN_FRACTION_INSIDE", "estimation_study"]
+__all__ = ["CONFIDENCE", "FRACTION_INSIDE_MIN", "estimation_study"]
 
 #: Confidence of the chi-square band of the average NEES.
 CONFIDENCE = 0.95
 #: Advisory threshold on the fraction of steps inside the band: the NEES of neighbouring steps is
 #: strongly correlated, so even a consistent filter leaves the band for stretches; the MEKF tests use
 #: 0.80 for 64 runs (tests/estimation/mekf/test_filter.py, where it sits below the 5th percentile of 100 campaigns).
-MIN_FRACTION_INSIDE = 0.80
+FRACTION_INSIDE_MIN = 0.80
 
 _DEG_PER_H = math.pi / 180.0 / 3600.0  # [rad/s] in one deg/h
 
@@ -129,7 +129,7 @@ def estimation_study(
         y[r, mask] = tracker.add_noise(q_true[mask], rng)
         q0[r] = quat.multiply(q_true[0], quat.from_rotation_vector(rng.standard_normal(3) * sig_a0))
     # The samples above are interval means (angle increments): the MEKF's gyro model.
-    p0 = assembly.mekf_initial_covariance(sig_a0, sig_b0)
+    p0 = assembly.mekf_initial_covariance(attitude_sigma_rad=sig_a0, bias_sigma_rad_per_s=sig_b0)
     mekf = assembly.mekf(assembly.gyro(config, sampling="mean"), tracker, q0=q_true[0], P0=p0)
     res = run_mekf(mekf, t, g, y, tracker_mask=np.broadcast_to(mask, (runs, n)), q0=q0)
     mekf_nees = res.nees(q_true, bias)

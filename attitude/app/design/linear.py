@@ -74,7 +74,7 @@ def linear_design(config: SpacecraftConfig) -> tuple[dict[str, Any], dict[str, F
     pd = assembly.quaternion_pd(config, body)
     closed = attitude_closed_loop(body, pd)
     loops = loop_gain(body, pd)
-    sampled = [sampled_loop(loop, period) for loop in loops]
+    sampled = [sampled_loop(loop, period=period) for loop in loops]
     sampled_name = f"sampled ({1.0 / period:g} Hz, zero-order hold)"
     rows = [_margin_row("PD", "continuous", a, loop) for a, loop in zip(_AXES, loops)]
     rows += [_margin_row("PD", sampled_name, a, loop) for a, loop in zip(_AXES, sampled)]
@@ -101,13 +101,13 @@ def linear_design(config: SpacecraftConfig) -> tuple[dict[str, Any], dict[str, F
     if designed is not None:
         plant, lqr = designed
         lqr_loops = loop_gain(plant, lqr.K)
-        lqr_sampled = [sampled_loop(loop, period) for loop in lqr_loops]
+        lqr_sampled = [sampled_loop(loop, period=period) for loop in lqr_loops]
         rows += [_margin_row("LQR", "continuous", a, loop) for a, loop in zip(_AXES, lqr_loops)]
         rows += [_margin_row("LQR", sampled_name, a, loop) for a, loop in zip(_AXES, lqr_sampled)]
         out["lqr"] = {
-            "max_angle_deg": _vec(np.degrees(c.lqr.max_angle_rad)),
-            "max_rate_deg_per_s": _vec(np.degrees(c.lqr.max_rate_rad_per_s)),
-            "max_torque_Nm": _vec(c.lqr.max_torque),
+            "angle_max_deg": _vec(np.degrees(c.lqr.angle_max)),
+            "rate_max_deg_per_s": _vec(np.degrees(c.lqr.rate_max)),
+            "torque_max_Nm": _vec(c.lqr.torque_max),
             "K": _mat(lqr.K),
             "poles": _poles(lqr.s_poles),
             "slowest_decay_rate_per_s": _f(lqr.slowest_decay_rate),

@@ -39,7 +39,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from attitude.app.design.body import DEFAULT_SPIN_RATE_DEG_PER_S, body_analysis, body_figures
-from attitude.app.design.estimation import MIN_FRACTION_INSIDE, estimation_study
+from attitude.app.design.estimation import FRACTION_INSIDE_MIN, estimation_study
 from attitude.app.design.linear import linear_design
 from attitude.app.design.slew import check_periods, fly_slew, plan_slews, slew_figures
 from attitude.config import SpacecraftConfig
@@ -154,7 +154,7 @@ def _slew_rows(
 ) -> list[dict[str, Any]]:
     """The slew requirements (time, rate limit, keep-out cones) judged on ``figures`` of a plan or a flight.
 
-    ``figures`` holds ``peak_rate_deg_per_s`` and ``min_separation_deg`` (None: not computed, so failed);
+    ``figures`` holds ``peak_rate_deg_per_s`` and ``separation_min_deg`` (None: not computed, so failed);
     ``source`` ("plan" or "flown") labels the rows.
     """
     req = config.requirements
@@ -162,8 +162,8 @@ def _slew_rows(
         _row(
             "slew_time",
             f"slew time for {angle_deg:.1f} deg ({time_label})",
-            "requirements.slew.max_time_s",
-            req.slew.max_time_s,
+            "requirements.slew.time_max_s",
+            req.slew.time_max_s,
             slew_time_s,
             "s",
             "<=",
@@ -188,7 +188,7 @@ def _slew_rows(
                 f"keep-out '{cone.name}': smallest separation ({source})",
                 f"requirements.keep_out[{i}].half_angle_deg",
                 cone.half_angle_deg,
-                None if figures is None else figures["min_separation_deg"][cone.name],
+                None if figures is None else figures["separation_min_deg"][cone.name],
                 "deg",
                 ">=",
             )
@@ -241,7 +241,7 @@ def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> d
             "largest pointing error after settling (flown)",
             "requirements.pointing_accuracy_deg",
             req.pointing_accuracy_deg,
-            None if flight is None else flight["max_pointing_error_in_window_deg"],
+            None if flight is None else flight["pointing_error_max_in_window_deg"],
             "deg",
             "<=",
         )
@@ -293,7 +293,7 @@ def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> d
                     f"{name}_nees",
                     f"{e['label']}: fraction of steps with the average NEES inside its 95 % band",
                     "",
-                    est["min_fraction_inside"],
+                    est["fraction_inside_min"],
                     e["fraction_inside"],
                     "",
                     ">=",
@@ -444,7 +444,7 @@ def run_design(
     results["estimation"] = est
     figures.update(figs)
     if est is not None:
-        est["min_fraction_inside"] = MIN_FRACTION_INSIDE
+        est["fraction_inside_min"] = FRACTION_INSIDE_MIN
     verdicts = step(6, "requirements", "requirements", lambda: requirement_verdicts(config, results))
     results.update(verdicts)
     captions = _caption_table()

@@ -117,7 +117,7 @@ def _trajectory_summary(name: str, t: Any, q: Any, omega: Any, torque: Any, cone
         "duration_s": _f(t[-1] - t[0]),
         "peak_rate_deg_per_s": _f(np.degrees(np.max(np.linalg.norm(omega, axis=-1)))),
         "peak_torque_mNm": _f(1e3 * np.max(np.linalg.norm(torque, axis=-1))),
-        "min_separation_deg": sep,
+        "separation_min_deg": sep,
     }
 
 
@@ -139,7 +139,7 @@ def plan_slews(
     objective : {"time", "energy"}
         Minimum time, or minimum ``integral |tau|^2 dt`` over ``duration_s``.
     duration_s : float, optional
-        Slew time for "energy" [s] (default ``requirements.slew.max_time_s``).
+        Slew time for "energy" [s] (default ``requirements.slew.time_max_s``).
     """
     body = assembly.rigid_body(config)
     req = config.requirements
@@ -166,7 +166,7 @@ def plan_slews(
         "q_start_BN": _vec(q0),
         "q_target_BN": _vec(qf),
         "objective": objective,
-        "max_time_s": slew.max_time_s,
+        "time_max_s": slew.time_max_s,
         "rate_limit_deg_per_s": slew.rate_max_deg_per_s,
         "plan_torque_fraction": PLAN_TORQUE_FRACTION,
         "plan_torque_percent": 100.0 * PLAN_TORQUE_FRACTION,
@@ -205,11 +205,11 @@ def plan_slews(
     # The eigenaxis time (closed form, instant) bounds what is achievable within a
     # small factor; far beyond the requirement, optimal planning and the flight
     # would only take a long time to confirm the failure.
-    hopeless = eig is not None and objective == "time" and eig.duration > HOPELESS_FACTOR * slew.max_time_s
+    hopeless = eig is not None and objective == "time" and eig.duration > HOPELESS_FACTOR * slew.time_max_s
     if hopeless:
         error = (
             f"the eigenaxis slew takes {eig.duration:.4g} s, more than {HOPELESS_FACTOR:g} x the required "
-            f"{slew.max_time_s:g} s: these wheels cannot make this slew in time (optimal planning and the flight "
+            f"{slew.time_max_s:g} s: these wheels cannot make this slew in time (optimal planning and the flight "
             "were skipped)"
         )
     else:
@@ -221,7 +221,7 @@ def plan_slews(
                 "nodes": nodes,
             }
             if objective == "energy":
-                kwargs["duration"] = slew.max_time_s if duration_s is None else duration_s
+                kwargs["duration"] = slew.time_max_s if duration_s is None else duration_s
             plan = plan_slew(body, q0, qf, objective=objective, starts=PLAN_STARTS, **kwargs)
         except (SlewPlanningError, ValueError) as exc:
             error = (error + "; " if error else "") + f"{type(exc).__name__}: {exc}"
@@ -235,8 +235,8 @@ def plan_slews(
             plan.torque,
             cones,
         )
-        entry["min_separation_deg"] = {
-            c.name: _f(math.degrees(s)) for c, s in zip(cones, np.atleast_1d(plan.min_separation))
+        entry["separation_min_deg"] = {
+            c.name: _f(math.degrees(s)) for c, s in zip(cones, np.atleast_1d(plan.separation_min))
         }
         entry.update(
             {
@@ -382,7 +382,12 @@ def fly_slew(
     sig_a0 = assembly.attitude_sigma0()
     sig_b0 = assembly.gyro_bias_sigma0(config)
     q_hat0 = quat.multiply(q0, quat.from_rotation_vector(rng_init.standard_normal(3) * sig_a0))
-    mekf = assembly.mekf(gyro, tracker, q0=q_hat0, P0=assembly.mekf_initial_covariance(sig_a0, sig_b0))
+    mekf = assembly.mekf(
+        gyro,
+        tracker,
+        q0=q_hat0,
+        P0=assembly.mekf_initial_covariance(attitude_sigma_rad=sig_a0, bias_sigma_rad_per_s=sig_b0),
+    )
     wheels = assembly.reaction_wheels(config)
     r = simulate(
         body,
@@ -425,11 +430,11 @@ def fly_slew(
         "settled_at_s": _f(settled_at),
         "plan_slew_time_s": slew_end,
         "flown_slew_time_s": _f(arrived_at),
-        "max_pointing_error_after_slew_deg": _f(np.max(err_deg[r.t >= slew_end])),
+        "pointing_error_max_after_slew_deg": _f(np.max(err_deg[r.t >= slew_end])),
         "settling_time_after_slew_s": _f(max(0.0, settled_at - slew_end)),
         "pointing_window_start_s": _f(slew_end + req.settling_time_s),
         "pointing_window_end_s": _f(r.t[-1]),
-        "max_pointing_error_in_window_deg": _f(np.max(err_deg[window])),
+        "pointing_error_max_in_window_deg": _f(np.max(err_deg[window])),
         "pointing_error_end_deg": _f(err_deg[-1]),
         "pointing_error_end_arcsec": _f(err_deg[-1] * 3600.0),
         "knowledge_error_rms_in_window_arcsec": _f(np.sqrt(np.mean(knowledge[window] ** 2))),
@@ -441,7 +446,7 @@ def fly_slew(
         "wheel_momentum_limit_Nms": _f(np.min(wheels.momentum_max)),
         "peak_motor_torque_mNm": _f(1e3 * np.max(np.abs(r.motor_torque))),
         "motor_torque_limit_mNm": _f(1e3 * np.min(wheels.torque_max)),
-        "min_separation_deg": {k.name: _f(np.degrees(np.min(k.separation(r.q)))) for k in study.cones},
+        "separation_min_deg": {k.name: _f(np.degrees(np.min(k.separation(r.q)))) for k in study.cones},
         "tracker_updates": None if updates is None else int(np.nanmax(updates)),
         "tracker_blinded_samples": _blinded_samples(tracker, r),
         "wall_time_s": _f(r.info.get("wall_time_s", 0.0)),

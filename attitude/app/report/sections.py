@@ -283,8 +283,8 @@ def _linear(results: dict[str, Any]) -> list[Block]:
         out.append(
             Paragraph(
                 f"Discrete LQR at {fmt(period)} s by Bryson's rule: largest acceptable attitude error "
-                f"{_vec(lqr['max_angle_deg'])} deg, rate error {_vec(lqr['max_rate_deg_per_s'])} deg/s and torque "
-                f"{_vec(lqr['max_torque_Nm'])} N m per axis. Closed-loop poles as s-plane equivalents; the "
+                f"{_vec(lqr['angle_max_deg'])} deg, rate error {_vec(lqr['rate_max_deg_per_s'])} deg/s and torque "
+                f"{_vec(lqr['torque_max_Nm'])} N m per axis. Closed-loop poles as s-plane equivalents; the "
                 f"slowest decays at {fmt(lqr['slowest_decay_rate_per_s'])} 1/s."
             )
         )
@@ -391,13 +391,13 @@ def _slews(results: dict[str, Any]) -> list[Block]:
     def row(label: str, key: str, required: str = "") -> list[str]:
         return [label] + [fmt(None if x is None else x[key]) for x in (plan, eig)] + [required]
 
-    rows.append(row("duration [s]", "duration_s", f"<= {fmt(s['max_time_s'])}"))
+    rows.append(row("duration [s]", "duration_s", f"<= {fmt(s['time_max_s'])}"))
     limit = s["rate_limit_deg_per_s"]
     rows.append(row("peak body rate [deg/s]", "peak_rate_deg_per_s", "" if limit is None else f"<= {fmt(limit)}"))
     rows.append(row("peak torque [mN m]", "peak_torque_mNm"))
     rows.append(row("energy, integral of |torque|^2 [N^2 m^2 s]", "energy_N2m2s"))
     for c in cones:
-        vals = [None if x is None else x["min_separation_deg"][c["name"]] for x in (plan, eig)]
+        vals = [None if x is None else x["separation_min_deg"][c["name"]] for x in (plan, eig)]
         rows.append([f"smallest separation '{c['name']}' [deg]", *map(fmt, vals), f">= {fmt(c['half_angle_deg'])}"])
     out.append(_t(names, rows, "Side by side (the requirements are judged on the flown slew, section 4)"))
     if plan is not None:
@@ -454,15 +454,15 @@ def _closed_loop(results: dict[str, Any]) -> list[Block]:
         ["slew time, planned [s]", fmt(f.get("plan_slew_time_s"))],
         ["slew time, flown (error within the pointing accuracy from then on) [s]", fmt(f.get("flown_slew_time_s"))],
         ["settling time after the end of the slew [s]", _settling_text(f)],
-        ["largest pointing error after the end of the slew [deg]", fmt(f.get("max_pointing_error_after_slew_deg"))],
-        ["largest pointing error after settling [deg]", fmt(f["max_pointing_error_in_window_deg"])],
+        ["largest pointing error after the end of the slew [deg]", fmt(f.get("pointing_error_max_after_slew_deg"))],
+        ["largest pointing error after settling [deg]", fmt(f["pointing_error_max_in_window_deg"])],
         ["pointing error at the end [deg]", fmt(f["pointing_error_end_deg"])],
         ["pointing error at the end [arcsec]", fmt(f["pointing_error_end_arcsec"])],
         ["knowledge error after settling, RMS [arcsec]", fmt(f["knowledge_error_rms_in_window_arcsec"])],
         ["knowledge error after settling, largest [arcsec]", fmt(f["knowledge_error_max_in_window_arcsec"])],
         ["peak body rate [deg/s]", fmt(f["peak_rate_deg_per_s"])],
     ]
-    for name, sep in f["min_separation_deg"].items():
+    for name, sep in f["separation_min_deg"].items():
         rows.append([f"smallest separation '{name}' [deg]", fmt(sep)])
     rows += [
         ["peak wheel speed [rpm]", f"{fmt(f['peak_wheel_speed_rpm'])} (limit {fmt(f['wheel_speed_limit_rpm'])})"],

@@ -50,6 +50,7 @@ from attitude.config import (
     load_config,
     parse_config,
 )
+from attitude.config.schema import RENAMED_KEYS, children
 from attitude.environment.orbit import CircularOrbit
 from attitude.rigid_body import RigidBody
 from attitude.sensors import ARCSEC, Gyro, StarTracker
@@ -105,7 +106,7 @@ def test_default_slew_is_feasible_as_its_comments_say():
     w = slew.rate_max_rad_per_s
     t_rate_limited = theta / w + w / (tau / i_x)
     assert t_rate_limited == pytest.approx(30.8, abs=0.05)
-    assert t_rate_limited < slew.max_time_s
+    assert t_rate_limited < slew.time_max_s
     # A rate-limited slew uses less than the wheels' momentum.
     assert i_x * w < h_env
 
@@ -221,7 +222,7 @@ settling_time_s = 100
 
 [requirements.slew]
 target_q_BN = [0.7071, 0.0, 0.7071, 0.0]
-max_time_s = 300
+time_max_s = 300
 
 [[requirements.keep_out]]
 boresight_B = [0, 0, 1]
@@ -388,8 +389,8 @@ BAD = [
     ),
     (
         "a date where a number is expected",
-        _replace("max_time_s = 120.0", "max_time_s = 2024-06-01"),
-        "requirements.slew.max_time_s",
+        _replace("time_max_s = 120.0", "time_max_s = 2024-06-01"),
+        "requirements.slew.time_max_s",
         "expected a number, got the date/time 2024-06-01",
     ),
     ("quoted number", _replace("period_s = 0.1 ", 'period_s = "0.1" '), "gyro.period_s", "write 0.1 without quotes"),
@@ -511,7 +512,7 @@ BAD = [
     ("sun without a Sun", _drop_table("[environment]"), "requirements.keep_out[0].direction_N", "sun_direction_N"),
     (
         "two slew targets",
-        _replace("max_time_s = 120.0", "max_time_s = 120.0\ntarget_q_BN = [1, 0, 0, 0]"),
+        _replace("time_max_s = 120.0", "time_max_s = 120.0\ntarget_q_BN = [1, 0, 0, 0]"),
         "requirements.slew.angle_deg",
         "not both",
     ),
@@ -534,6 +535,18 @@ BAD = [
         "montecarlo.inertia.half_width_percent",
         "only with distribution = 'uniform'",
     ),
+    (
+        "renamed LQR key",
+        _replace("\nangle_max_deg = 1.0", "\nmax_angle_deg = 1.0"),
+        "control.lqr.max_angle_deg",
+        "control.lqr.max_angle_deg was renamed angle_max_deg (names read quantity, qualifier, unit",
+    ),
+    (
+        "renamed slew key",
+        _replace("\ntime_max_s = 120.0", "\nmax_time_s = 120.0"),
+        "requirements.slew.max_time_s",
+        "requirements.slew.max_time_s was renamed time_max_s (names read quantity, qualifier, unit",
+    ),
     ("negative seed", _replace("seed = 12345", "seed = -1"), "montecarlo.seed", "non-negative integer"),
     ("zero runs", _replace("runs = 20", "runs = 0"), "montecarlo.runs", "positive integer"),
 ]
@@ -551,6 +564,22 @@ def test_bad_file_names_key_and_file(tmp_path, edit, key, fragment):
     assert err.file == str(path)
     assert str(err).startswith(f"{path}: {key}: ")
     assert fragment in str(err)
+
+
+@pytest.mark.parametrize(("old", "new"), list(RENAMED_KEYS.items()))
+def test_renamed_key_names_the_new_key_and_the_rule(old, new):
+    table, _, key = old.rpartition(".")
+    assert new in children(table) and key not in children(table)
+    data = tomllib.loads(DEFAULT_TEXT)
+    section = data
+    for part in table.split("."):
+        section = section[part]
+    section[key] = section.pop(new)
+    with pytest.raises(ConfigError) as info:
+        config_from_dict(data)
+    assert info.value.key == old
+    assert f"{old} was renamed {new} (names read quantity, qualifier, unit" in str(info.value)
+    assert "unknown key" not in str(info.value)
 
 
 @pytest.mark.parametrize(

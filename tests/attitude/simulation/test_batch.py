@@ -41,7 +41,7 @@ Q_START = CONFIG.requirements.slew.q_start()
 Q_TARGET = CONFIG.requirements.slew.q_target()
 THRESHOLD = CONFIG.requirements.pointing_accuracy_rad
 # Controller at 5 Hz on a 10 Hz tick: commands are held for two ticks.
-CONTROLLER = QuaternionPD.from_bandwidth(BODY, 0.3, 0.8, 0.2, q_ref=Q_TARGET, gyroscopic=True)
+CONTROLLER = QuaternionPD.from_bandwidth(BODY, wn=0.3, zeta=0.8, period=0.2, q_ref=Q_TARGET, gyroscopic=True)
 
 
 def _dispersed(n: int, seed: int = 3):

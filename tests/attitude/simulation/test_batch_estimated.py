@@ -35,9 +35,14 @@ BODY = assembly.rigid_body(CONFIG)
 WHEELS = assembly.reaction_wheels(CONFIG)
 Q_START = CONFIG.requirements.slew.q_start()
 CONTROLLER = QuaternionPD.from_bandwidth(
-    BODY, 0.3, 0.8, 0.1, q_ref=quat.multiply(Q_START, quat.from_rotation_vector([0.0, 0.0, 0.2])), gyroscopic=True
+    BODY,
+    wn=0.3,
+    zeta=0.8,
+    period=0.1,
+    q_ref=quat.multiply(Q_START, quat.from_rotation_vector([0.0, 0.0, 0.2])),
+    gyroscopic=True,
 )
-P0 = initial_covariance(math.radians(0.5), math.radians(10.0) / 3600.0)
+P0 = initial_covariance(attitude_sigma=math.radians(0.5), bias_sigma=math.radians(10.0) / 3600.0)
 N_RUNS = 4
 DURATION = 40.0
 

@@ -34,7 +34,7 @@ TARGET = quat.from_axis_angle([1.0, 0.5, 0.0], np.radians(30.0))
 
 
 def pd(**kw):
-    return QuaternionPD.from_bandwidth(BODY, 0.1, 0.7, 0.1, q_ref=TARGET, gyroscopic=True, **kw)
+    return QuaternionPD.from_bandwidth(BODY, wn=0.1, zeta=0.7, period=0.1, q_ref=TARGET, gyroscopic=True, **kw)
 
 
 class TestEngines:

@@ -247,14 +247,14 @@ class TestSmallSatellite:
         traj = fine_resimulation(smallsat_free, Q_ID, np.zeros(3))
         # IPOPT satisfies |omega|^2 <= rate_max^2 to ~1e-9 in nondimensional units (~1e-8 relative).
         assert np.max(np.linalg.norm(traj.omega, axis=-1)) <= RATE_MAX * (1 + 1e-6)
-        assert smallsat_free.max_rate <= RATE_MAX * (1 + 1e-6)
+        assert smallsat_free.peak_rate <= RATE_MAX * (1 + 1e-6)
         assert smallsat_free.final_attitude_error_deg < 0.01
 
     def test_keep_out_cone_is_respected_between_nodes(self, smallsat_cone):
         traj = fine_resimulation(smallsat_cone, Q_ID, np.zeros(3))
         sep = SUN_CONE.separation(quat.normalize(traj.q))
         assert np.degrees(np.min(sep)) > 30.0 - KEEP_OUT_TOLERANCE_DEG
-        assert np.degrees(smallsat_cone.min_separation[0]) > 30.0 - KEEP_OUT_TOLERANCE_DEG
+        assert np.degrees(smallsat_cone.separation_min[0]) > 30.0 - KEEP_OUT_TOLERANCE_DEG
         assert smallsat_cone.final_attitude_error_deg < 0.01
 
     def test_coarse_grid_does_not_cut_the_corner_of_the_cone(self):

@@ -38,7 +38,7 @@ def make_filter(reset="first_order", q0=(1.0, 0.0, 0.0, 0.0), **kwargs):
         gyro,
         tracker,
         q0=q0,
-        P0=initial_covariance(SIG_A0, SIG_B0),
+        P0=initial_covariance(attitude_sigma=SIG_A0, bias_sigma=SIG_B0),
         covariance_reset=reset,
         sampling_check="raise",
         **kwargs,

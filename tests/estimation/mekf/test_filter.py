@@ -51,7 +51,9 @@ SIG_B0 = 10.0 * DEG_PER_H  # initial bias error per axis [rad/s]
 def make_filter(gyro, tracker, q0=(1.0, 0.0, 0.0, 0.0), **kwargs):
     # The campaigns below feed interval-mean rates, what a gyro with sampling="mean" reports: insist on it.
     kwargs.setdefault("sampling_check", "raise")
-    return MEKF.from_sensors(gyro, tracker, q0=q0, P0=initial_covariance(SIG_A0, SIG_B0), **kwargs)
+    return MEKF.from_sensors(
+        gyro, tracker, q0=q0, P0=initial_covariance(attitude_sigma=SIG_A0, bias_sigma=SIG_B0), **kwargs
+    )
 
 
 def increments_rate(q, dt):
@@ -163,7 +165,9 @@ class TestHelpers:
     def test_process_noise_is_the_gyro_model_and_the_van_loan_integral(self):
         gyro = Gyro.preset("mems", period=0.1, sampling="mean")
         for dt in (0.01, 0.1, 2.0):
-            np.testing.assert_array_equal(process_noise(gyro.sigma_v, gyro.sigma_u, dt), gyro.process_noise(dt))
+            np.testing.assert_array_equal(
+                process_noise(sigma_v=gyro.sigma_v, sigma_u=gyro.sigma_u, dt=dt), gyro.process_noise(dt)
+            )
             # Van Loan: Q = int_0^dt Phi(s) G Qc G^T Phi(s)^T ds for the continuous Farrenkopf model at zero rate.
             f = np.zeros((6, 6))
             f[:3, 3:] = -np.eye(3)
@@ -171,10 +175,14 @@ class TestHelpers:
             m = np.block([[-f, qc], [np.zeros((6, 6)), f.T]]) * dt
             e = expm(m)
             van_loan = e[6:, 6:].T @ e[:6, 6:]
-            np.testing.assert_allclose(process_noise(gyro.sigma_v, gyro.sigma_u, dt), van_loan, rtol=1e-12, atol=0)
+            np.testing.assert_allclose(
+                process_noise(sigma_v=gyro.sigma_v, sigma_u=gyro.sigma_u, dt=dt), van_loan, rtol=1e-12, atol=0
+            )
 
     def test_initial_covariance(self):
-        np.testing.assert_array_equal(np.diag(initial_covariance(2.0, 3.0)), [4.0] * 3 + [9.0] * 3)
+        np.testing.assert_array_equal(
+            np.diag(initial_covariance(attitude_sigma=2.0, bias_sigma=3.0)), [4.0] * 3 + [9.0] * 3
+        )
 
 
 @pytest.mark.slow
@@ -187,8 +195,10 @@ def test_mekf_steady_state_matches_closed_form(grade):
     q_true = np.broadcast_to(quat.from_axis_angle([1.0, 1.0, 0.0], 0.3), (t.size, 4))
     g, y, bias, q0 = campaign(t, q_true, gyro, tracker, 10, 16, seed=2024, sig_a0=np.radians(0.01), sig_b0=DEG_PER_H)
     res = run_mekf(make_filter(gyro, tracker, q0=q_true[0]), t, g, y, q0=q0)
-    sigma = steady_state_attitude_sigma(gyro.sigma_v, gyro.sigma_u, tracker.sigma_cross, 1.0)
-    sigma_pre = steady_state_attitude_sigma(gyro.sigma_v, gyro.sigma_u, tracker.sigma_cross, 1.0, when="pre")
+    sigma = steady_state_attitude_sigma(sigma_v=gyro.sigma_v, sigma_u=gyro.sigma_u, sigma_n=tracker.sigma_cross, dt=1.0)
+    sigma_pre = steady_state_attitude_sigma(
+        sigma_v=gyro.sigma_v, sigma_u=gyro.sigma_u, sigma_n=tracker.sigma_cross, dt=1.0, when="pre"
+    )
     late = res.updated[0] & (t >= 400.0)
     # The filter's own covariance at the updates: at zero rate each axis is exactly the closed form's
     # problem. The Riccati transient has decayed by |l|^(2k) < 1e-8 after 400 updates; the estimated
@@ -341,9 +351,9 @@ class TestBadInput:
         kwargs[which] = bad
         with pytest.raises(ValueError, match=which):
             MEKF(
-                kwargs["sigma_v"],
-                kwargs["sigma_u"],
-                np.eye(3) * 1e-9,
+                sigma_v=kwargs["sigma_v"],
+                sigma_u=kwargs["sigma_u"],
+                tracker_covariance=np.eye(3) * 1e-9,
                 period=kwargs["period"],
                 q0=quat.identity(),
                 P0=np.eye(6),
@@ -366,23 +376,23 @@ class TestBadInput:
     )
     def test_tracker_covariance_must_be_symmetric_positive_definite(self, cov, match):
         with pytest.raises(ValueError, match="tracker_covariance") as info:
-            MEKF(2e-5, 3e-7, cov, period=0.1, q0=quat.identity(), P0=np.eye(6))
+            MEKF(sigma_v=2e-5, sigma_u=3e-7, tracker_covariance=cov, period=0.1, q0=quat.identity(), P0=np.eye(6))
         assert info.match(match)
 
     def test_initial_state_checks(self):
         kw = {"period": 0.1, "q0": quat.identity(), "P0": np.eye(6)}
         with pytest.raises(ValueError, match="P0 must be positive definite"):
-            MEKF(2e-5, 3e-7, np.eye(3), **{**kw, "P0": -np.eye(6)})
+            MEKF(sigma_v=2e-5, sigma_u=3e-7, tracker_covariance=np.eye(3), **{**kw, "P0": -np.eye(6)})
         with pytest.raises(ValueError, match="q0 must be a unit quaternion"):
-            MEKF(2e-5, 3e-7, np.eye(3), **{**kw, "q0": [1.0, 0.1, 0.0, 0.0]})
+            MEKF(sigma_v=2e-5, sigma_u=3e-7, tracker_covariance=np.eye(3), **{**kw, "q0": [1.0, 0.1, 0.0, 0.0]})
         with pytest.raises(ValueError, match="bias0"):
-            MEKF(2e-5, 3e-7, np.eye(3), **kw, bias0=[1.0, 2.0])
+            MEKF(sigma_v=2e-5, sigma_u=3e-7, tracker_covariance=np.eye(3), **kw, bias0=[1.0, 2.0])
         with pytest.raises(ValueError, match="covariance_reset"):
-            MEKF(2e-5, 3e-7, np.eye(3), **kw, covariance_reset="exact")
+            MEKF(sigma_v=2e-5, sigma_u=3e-7, tracker_covariance=np.eye(3), **kw, covariance_reset="exact")
         with pytest.raises(ValueError, match="gyro_name"):
-            MEKF(2e-5, 3e-7, np.eye(3), **kw, gyro_name="")
+            MEKF(sigma_v=2e-5, sigma_u=3e-7, tracker_covariance=np.eye(3), **kw, gyro_name="")
         with pytest.raises(ValueError, match="attitude_sigma must be strictly positive"):
-            initial_covariance(0.0, 1.0)
+            initial_covariance(attitude_sigma=0.0, bias_sigma=1.0)
 
     def test_time_must_not_go_backwards_and_state_is_untouched(self):
         f, *_ = small_filter()
@@ -566,12 +576,12 @@ def nees_campaign(truth, seed, **filter_overrides):
     g, y, bias, q0 = campaign(t, q_true, gyro, tracker, 5, N_RUNS, seed)
     kw = {"sigma_v": gyro.sigma_v, "sigma_u": gyro.sigma_u, **filter_overrides}
     f = MEKF(
-        kw["sigma_v"],
-        kw["sigma_u"],
-        tracker.covariance_B,
+        sigma_v=kw["sigma_v"],
+        sigma_u=kw["sigma_u"],
+        tracker_covariance=tracker.covariance_B,
         period=DT,
         q0=q_true[0],
-        P0=initial_covariance(SIG_A0, SIG_B0),
+        P0=initial_covariance(attitude_sigma=SIG_A0, bias_sigma=SIG_B0),
     )
     res = run_mekf(f, t, g, y, q0=q0)
     return res, res.nees(q_true, bias)
@@ -737,7 +747,7 @@ class TestGate:
     @pytest.mark.parametrize("value", [1e3, 1e200])
     def test_an_implausible_gyro_sample_is_rejected_like_a_nan_one(self, value):
         f = make_filter(self.gyro, self.tracker)
-        assert f.max_gyro_rate == pytest.approx(np.pi / DT)
+        assert f.gyro_rate_max == pytest.approx(np.pi / DT)
         g = self.g.copy()
         g[:, 200] = [value, 0.0, 0.0]
         g_nan = self.g.copy()
@@ -759,19 +769,19 @@ class TestGate:
         kw = {"period": 0.1, "q0": quat.identity(), "P0": np.eye(6)}
         for bad in (0.0, 1.0, np.nan):
             with pytest.raises(ValueError, match="gate_probability must be"):
-                MEKF(2e-5, 3e-7, np.eye(3), gate_probability=bad, **kw)
-        with pytest.raises(ValueError, match="max_gyro_rate must be strictly positive"):
-            MEKF(2e-5, 3e-7, np.eye(3), max_gyro_rate=0.0, **kw)
-        assert MEKF(2e-5, 3e-7, np.eye(3), gate_probability=0.999, **kw).gate_threshold == pytest.approx(
-            16.266, abs=1e-3
-        )  # chi2.ppf(0.999, 3), tables: 16.27
+                MEKF(sigma_v=2e-5, sigma_u=3e-7, tracker_covariance=np.eye(3), gate_probability=bad, **kw)
+        with pytest.raises(ValueError, match="gyro_rate_max must be strictly positive"):
+            MEKF(sigma_v=2e-5, sigma_u=3e-7, tracker_covariance=np.eye(3), gyro_rate_max=0.0, **kw)
+        assert MEKF(
+            sigma_v=2e-5, sigma_u=3e-7, tracker_covariance=np.eye(3), gate_probability=0.999, **kw
+        ).gate_threshold == pytest.approx(16.266, abs=1e-3)  # chi2.ppf(0.999, 3), tables: 16.27
 
 
 class TestGyroSampling:
     def test_from_sensors_requires_an_integrating_gyro(self):
         point = Gyro.preset("tactical", period=DT, name="fog")
         tracker = StarTracker.preset("typical", period=0.5)
-        kw = {"q0": quat.identity(), "P0": initial_covariance(SIG_A0, SIG_B0)}
+        kw = {"q0": quat.identity(), "P0": initial_covariance(attitude_sigma=SIG_A0, bias_sigma=SIG_B0)}
         with pytest.raises(ValueError, match=r"gyro\.sampling must be 'mean' for MEKF\.from_sensors") as info:
             MEKF.from_sensors(point, tracker, sampling_check="raise", **kw)
         assert info.match("got 'instantaneous'") and info.match("gyro 'fog'")

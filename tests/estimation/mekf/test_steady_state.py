@@ -29,7 +29,7 @@ from estimation.mekf.steady_state import steady_state_attitude_sigma, steady_sta
 
 def riccati_pre(sigma_v, sigma_u, sigma_n, dt):
     phi = np.array([[1.0, -dt], [0.0, 1.0]])
-    q = process_noise(sigma_v, sigma_u, dt)[[0, 3]][:, [0, 3]]
+    q = process_noise(sigma_v=sigma_v, sigma_u=sigma_u, dt=dt)[[0, 3]][:, [0, 3]]
     return phi, q, np.array([[sigma_n**2]])
 
 
@@ -42,7 +42,7 @@ class TestSteadyState:
     )
     def test_closed_form_solves_the_discrete_riccati_equation(self, lv, lu, ln, ldt):
         sv, su, sn, dt = 10.0**lv, 10.0**lu, 10.0**ln, 10.0**ldt
-        pre, post = steady_state_covariance(sv, su, sn, dt)
+        pre, post = steady_state_covariance(sigma_v=sv, sigma_u=su, sigma_n=sn, dt=dt)
         phi, q, r = riccati_pre(sv, su, sn, dt)
         h = np.array([[1.0, 0.0]])
         s = h @ pre @ h.T + r
@@ -65,10 +65,12 @@ class TestSteadyState:
     def test_matches_scipy_solve_discrete_are(self, sv, su, sn, dt):
         phi, q, r = riccati_pre(sv, su, sn, dt)
         reference = solve_discrete_are(phi.T, np.array([[1.0], [0.0]]), q, r)
-        pre, _ = steady_state_covariance(sv, su, sn, dt)
+        pre, _ = steady_state_covariance(sigma_v=sv, sigma_u=su, sigma_n=sn, dt=dt)
         # solve_discrete_are's own accuracy on these scales (entries spanning ~12 decades) is ~1e-9.
         np.testing.assert_allclose(pre, reference, rtol=1e-7)
-        assert steady_state_attitude_sigma(sv, su, sn, dt, when="pre") == pytest.approx(np.sqrt(reference[0, 0]))
+        assert steady_state_attitude_sigma(sigma_v=sv, sigma_u=su, sigma_n=sn, dt=dt, when="pre") == pytest.approx(
+            np.sqrt(reference[0, 0])
+        )
 
     def test_random_walk_limit(self):
         # sigma_u -> 0: the bias becomes known and the attitude is a random walk observed in noise,
@@ -76,7 +78,7 @@ class TestSteadyState:
         sv, sn, dt = 2e-5, 3e-5, 0.5
         qv, r = sv**2 * dt, sn**2
         a = qv / 2 + np.sqrt(qv**2 / 4 + qv * r)
-        sigma_post = steady_state_attitude_sigma(sv, 1e-16, sn, dt)
+        sigma_post = steady_state_attitude_sigma(sigma_v=sv, sigma_u=1e-16, sigma_n=sn, dt=dt)
         # The S_u = 4e-23 remainder changes sqrt(l1 l2) by ~sqrt(S_u) = 7e-12.
         assert sigma_post**2 == pytest.approx(a * r / (a + r), rel=1e-9)
 
@@ -87,7 +89,7 @@ class TestSteadyState:
         continuous = np.sqrt(np.sqrt(rc) * np.sqrt(sv**2 + 2 * su * np.sqrt(rc)))
         gaps = []
         for dt in (1e-2, 1e-4, 1e-6):
-            sigma = steady_state_attitude_sigma(sv, su, np.sqrt(rc / dt), dt)
+            sigma = steady_state_attitude_sigma(sigma_v=sv, sigma_u=su, sigma_n=np.sqrt(rc / dt), dt=dt)
             gaps.append(abs(sigma / continuous - 1))
         # The discrete solution differs by O(sqrt(dt)) relative; it shrinks ~10x per 100x in dt.
         assert gaps[0] < 0.1
@@ -100,6 +102,6 @@ class TestSteadyState:
             args = [2e-5, 3e-7, 3e-5, 1.0]
             args[i] = bad
             with pytest.raises(ValueError, match=name):
-                steady_state_covariance(*args)
+                steady_state_covariance(**dict(zip(("sigma_v", "sigma_u", "sigma_n", "dt"), args)))
         with pytest.raises(ValueError, match="when"):
-            steady_state_attitude_sigma(2e-5, 3e-7, 3e-5, 1.0, when="prior")
+            steady_state_attitude_sigma(sigma_v=2e-5, sigma_u=3e-7, sigma_n=3e-5, dt=1.0, when="prior")
