@@ -23,7 +23,7 @@ def cpu_time_median(fun: Callable[[], Any], repeats: int = 5) -> dict[str, float
     return {"median_s": statistics.median(samples), "min_s": min(samples), "max_s": max(samples), "repeats": repeats}
 
 
-def peak_memory_mib(fun: Callable[[], Any]) -> float:
+def memory_peak_mib(fun: Callable[[], Any]) -> float:
     """Peak traced allocation [MiB] while ``fun`` runs (numpy buffers are traced)."""
     tracemalloc.start()
     try:

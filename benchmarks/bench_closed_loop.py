@@ -18,9 +18,9 @@ from attitude.simulation.engine import simulate
 from controllers.pd import QuaternionPD
 
 try:
-    from benchmarks._timing import cpu_time_median, peak_memory_mib
+    from benchmarks._timing import cpu_time_median, memory_peak_mib
 except ImportError:  # run as a script from the benchmarks folder
-    from _timing import cpu_time_median, peak_memory_mib
+    from _timing import cpu_time_median, memory_peak_mib
 
 BODY = RigidBody([[10.0, 1.2, -0.5], [1.2, 12.0, 0.3], [-0.5, 0.3, 8.0]])
 WHEELS = ReactionWheels.pyramid(0.005, 0.05, 0.8, viscous_friction=2e-6)
@@ -40,7 +40,7 @@ def pd_with_wheels(duration_s: float = 600.0) -> dict[str, Any]:
         "compiled": {"cpu_s": compiled, "sim_s_per_cpu_s": duration_s / compiled["median_s"]},
         "python_protocol_path": {"cpu_s": python, "sim_s_per_cpu_s": duration_s / python["median_s"]},
         "target_sim_s_per_cpu_s": 9_000,
-        "peak_memory_mib": peak_memory_mib(lambda: run("compiled")),
+        "memory_peak_mib": memory_peak_mib(lambda: run("compiled")),
     }
 
 

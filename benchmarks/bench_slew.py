@@ -142,7 +142,7 @@ def small_satellite(repeats: int = 3) -> dict[str, Any]:
             "eigenaxis_s": plan.eigenaxis_duration,
             "eigenaxis_enters_keep_out": plan.info.get("eigenaxis_enters_keep_out"),
             **_figures(plan),
-            "peak_rate_deg_per_s": math.degrees(plan.peak_rate),
+            "rate_peak_deg_per_s": math.degrees(plan.rate_peak),
         }
         if plan.separation_min.size:
             entry["keep_out_separation_min_deg"] = np.degrees(plan.separation_min).tolist()

@@ -134,10 +134,10 @@ def main() -> None:
     )
     duration = 120.0 if args.quick else 200.0
     slew = simulate(body, quat.identity(), np.zeros(3), duration, controller=slew_ctrl, wheels=wheels)
-    peak_rate = np.degrees(np.max(np.linalg.norm(slew.omega, axis=1)))
+    rate_peak = np.degrees(np.max(np.linalg.norm(slew.omega, axis=1)))
     h = slew.momentum_N
     print("\n5. Nonlinear 60 deg slew, Wie-Lu PD (1 deg/s limit), pyramid wheels")
-    print(f"   peak body rate {peak_rate:.4f} deg/s (limit {RATE_LIMIT_DEG_S})")
+    print(f"   peak body rate {rate_peak:.4f} deg/s (limit {RATE_LIMIT_DEG_S})")
     print(
         f"   settling (0.05 deg) at {slew.settling_time(np.radians(0.05)):.1f} s, final error "
         f"{np.degrees(slew.error_angle[-1]):.2e} deg"

@@ -133,7 +133,7 @@ def main() -> None:
     flight = simulate(body, q_start, np.zeros(3), flight_s, controller=tracker, wheels=wheels)
     during = flight.t <= kept.duration
     sep = np.degrees(np.min(cone.separation(flight.q)))
-    peak_rate = np.degrees(np.max(np.linalg.norm(flight.omega, axis=1)))
+    rate_peak = np.degrees(np.max(np.linalg.norm(flight.omega, axis=1)))
     to_target = quat.error_angle(qf, flight.q)  # after the slew the reference is the target
     final_arcsec = np.degrees(to_target[-1]) * 3600.0
     threshold = np.radians(SETTLE_ARCSEC / 3600.0)
@@ -145,8 +145,8 @@ def main() -> None:
         f"{np.degrees(np.max(flight.error_angle[during & (flight.t > 20.0)])):.4f} deg max after 20 s"
     )
     print(
-        f"   peak |omega| {peak_rate:.4f} deg/s against the {RATE_LIMIT_DEG_S:g} deg/s limit "
-        f"({'within' if peak_rate <= RATE_LIMIT_DEG_S else 'ABOVE'}; planned at {np.degrees(rate_max):.3f} deg/s); "
+        f"   peak |omega| {rate_peak:.4f} deg/s against the {RATE_LIMIT_DEG_S:g} deg/s limit "
+        f"({'within' if rate_peak <= RATE_LIMIT_DEG_S else 'ABOVE'}; planned at {np.degrees(rate_max):.3f} deg/s); "
         f"Sun separation never below {sep:.3f} deg (cone 30 deg)"
     )
     print(

@@ -662,7 +662,7 @@ def monte_carlo_requirements(config: SpacecraftConfig, *, keep_out: bool = True)
         Requirement("settling_time", max=req.slew.time_max_s + req.settling_time_s, name="settling"),
     ]
     if req.slew.rate_max_rad_per_s is not None:
-        out.append(Requirement("peak_rate", max=req.slew.rate_max_rad_per_s, name="rate"))
+        out.append(Requirement("rate_peak", max=req.slew.rate_max_rad_per_s, name="rate"))
     if keep_out:
         for cone in req.keep_out:
             out.append(Requirement(f"keep_out_margin.{cone.name}", min=0.0, name=f"keep_out.{cone.name}"))

@@ -222,8 +222,8 @@ def _cmd_slew(args: argparse.Namespace) -> int:
         print(f"  planning problem: {study.error}")
     labels = [
         ("duration [s]", "duration_s"),
-        ("peak body rate [deg/s]", "peak_rate_deg_per_s"),
-        ("peak torque [mN m]", "peak_torque_mNm"),
+        ("peak body rate [deg/s]", "rate_peak_deg_per_s"),
+        ("peak torque [mN m]", "torque_peak_mNm"),
         ("energy [N^2 m^2 s]", "energy_N2m2s"),
     ]
     table = [["", "optimal plan", "eigenaxis"]]
@@ -292,7 +292,7 @@ def _cmd_physics(args: argparse.Namespace) -> int:
     if gg is None:
         print("Gravity gradient: no [orbit] in the file")
     else:
-        print(f"Gravity gradient at {fmt(gg['altitude_km'])} km: peak torque {fmt(gg['peak_torque_uNm'])} uN m")
+        print(f"Gravity gradient at {fmt(gg['altitude_km'])} km: peak torque {fmt(gg['torque_peak_uNm'])} uN m")
         for o in gg["orientations"]:
             pitch = "stable" if o["pitch_stable"] else "unstable"
             roll_yaw = "stable" if o["roll_yaw_stable"] else "unstable"

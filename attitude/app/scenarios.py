@@ -32,8 +32,8 @@ moving reference a tracking controller follows): ``settling_time`` [s]
 (first time after which the true error angle to the target stays within the
 pointing accuracy, from the start of the run: the arrival time, the design
 report's "flown slew time"; inf if it never does), ``final_pointing_error``
-[rad] (true error angle to the target at the end), ``peak_rate`` [rad/s],
-``peak_wheel_speed`` [rad/s] (relative to the body), ``nees`` (mean
+[rad] (true error angle to the target at the end), ``rate_peak`` [rad/s],
+``wheel_speed_peak`` [rad/s] (relative to the body), ``nees`` (mean
 attitude NEES of the MEKF over the run, 3 degrees of freedom: about 3 for a
 consistent filter; see :class:`ClosedLoopScenario` for what misalignments do
 to it) and ``keep_out_margin.<cone>`` [rad] (smallest angle between
@@ -541,8 +541,8 @@ class _BatchRecorder:
         self.stride = scenario.history_stride
         self.wheels = scenario._wheels
         self.last_outside = np.full(n, -1, dtype=np.int64)
-        self.peak_rate = np.zeros(n)
-        self.peak_speed = np.zeros(n)
+        self.rate_peak = np.zeros(n)
+        self.speed_peak = np.zeros(n)
         self.nees_sum = np.zeros(n)
         self.nees_count = 0
         self.separation_min = {c.name: np.full(n, np.inf) for c in self.cones}
@@ -557,9 +557,9 @@ class _BatchRecorder:
         self.last_outside[to_target > self.accuracy] = k
         self.final_error = to_target
         self.n_ticks = k
-        np.fmax(self.peak_rate, np.linalg.norm(x[:, 4:7], axis=1), out=self.peak_rate)
+        np.fmax(self.rate_peak, np.linalg.norm(x[:, 4:7], axis=1), out=self.rate_peak)
         speeds = self.wheels.wheel_speed(x[:, 7:], x[:, 4:7])
-        np.fmax(self.peak_speed, np.max(np.abs(speeds), axis=1), out=self.peak_speed)
+        np.fmax(self.speed_peak, np.max(np.abs(speeds), axis=1), out=self.speed_peak)
         for cone in self.cones:
             np.fmin(self.separation_min[cone.name], cone.separation(q), out=self.separation_min[cone.name])
         est_error = np.full(x.shape[0], np.nan)
@@ -594,8 +594,8 @@ class _BatchRecorder:
             metrics = {
                 "settling_time": float(settle[r]),
                 "final_pointing_error": float(self.final_error[r]),
-                "peak_rate": float(self.peak_rate[r]),
-                "peak_wheel_speed": float(self.peak_speed[r]),
+                "rate_peak": float(self.rate_peak[r]),
+                "wheel_speed_peak": float(self.speed_peak[r]),
                 "nees": float(self.nees_sum[r] / self.nees_count),
             }
             for cone in self.cones:

@@ -73,8 +73,8 @@ class BatchResult:
     t : ndarray (n,)
         Tick times [s] (metrics use every tick).
     metrics : dict of ndarray (N,)
-        ``settling_time`` [s], ``final_pointing_error`` [rad], ``peak_rate``
-        [rad/s], ``peak_wheel_speed`` [rad/s] (with wheels).
+        ``settling_time`` [s], ``final_pointing_error`` [rad], ``rate_peak``
+        [rad/s], ``wheel_speed_peak`` [rad/s] (with wheels).
     q, omega, h_wheels : ndarray (N, 4), (N, 3), (N, n_wheels)
         Final state.
     diverged_at : ndarray (N,)
@@ -111,10 +111,10 @@ def closed_loop_metrics(result: Any, pointing_threshold: float) -> dict[str, flo
     metrics = {
         "settling_time": float(result.settling_time(pointing_threshold)),
         "final_pointing_error": float(result.error_angle[-1]),
-        "peak_rate": float(np.max(np.linalg.norm(result.omega, axis=-1))),
+        "rate_peak": float(np.max(np.linalg.norm(result.omega, axis=-1))),
     }
     if result.wheel_speed.shape[-1]:
-        metrics["peak_wheel_speed"] = float(np.max(np.abs(result.wheel_speed)))
+        metrics["wheel_speed_peak"] = float(np.max(np.abs(result.wheel_speed)))
     return metrics
 
 
@@ -240,9 +240,9 @@ def simulate_batch(
             note = f"numpy fallback: {exc}"
             warnings.warn(f"simulating the batch without a compiled kernel ({note})", RuntimeWarning, stacklevel=2)
     compile_s = time.perf_counter() - start
-    metrics = {k: np.empty(n) for k in ("settling_time", "final_pointing_error", "peak_rate")}
+    metrics = {k: np.empty(n) for k in ("settling_time", "final_pointing_error", "rate_peak")}
     if wheels is not None:
-        metrics["peak_wheel_speed"] = np.empty(n)
+        metrics["wheel_speed_peak"] = np.empty(n)
     final = np.empty((n, 7 + n_w))
     diverged = np.full(n, np.nan)
     history_t = t[::stride] if stride else np.zeros(0)
@@ -301,12 +301,12 @@ def _compiled_ticks(wheels: Any, controller: Any, n_inputs: int, has_reference: 
 
 def _store(t, acc, err, sl, metrics, diverged) -> None:
     """Final metrics of a chunk from its running metrics (as :meth:`SimulationResult.settling_time`)."""
-    peak_rate, peak_speed, last_above, diverged_at = (np.broadcast_to(a, np.shape(err)) for a in acc)
+    rate_peak, speed_peak, last_above, diverged_at = (np.broadcast_to(a, np.shape(err)) for a in acc)
     settle = settling_time_after(t, np.where(np.isfinite(last_above), last_above, -1))
     alive = ~np.isfinite(diverged_at)
-    values = {"settling_time": settle, "final_pointing_error": err, "peak_rate": peak_rate}
-    if "peak_wheel_speed" in metrics:
-        values["peak_wheel_speed"] = peak_speed
+    values = {"settling_time": settle, "final_pointing_error": err, "rate_peak": rate_peak}
+    if "wheel_speed_peak" in metrics:
+        values["wheel_speed_peak"] = speed_peak
     for name, value in values.items():
         metrics[name][sl] = np.where(alive, value, np.nan)
     diverged[sl] = np.where(alive, np.nan, diverged_at)

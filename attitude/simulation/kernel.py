@@ -21,7 +21,7 @@ compiled functions over the runs: one call advances every run by up to 100
 ticks with no Python work in between.
 
 Tick state per run, ``z = [x (7 + n_w), u (n_u), metrics (4), parameters (15)]``;
-``metrics = [peak_rate, peak_wheel_speed, last_above, diverged_at]``
+``metrics = [rate_peak, wheel_speed_peak, last_above, diverged_at]``
 (``diverged_at`` is +inf while the run is finite); ``parameters`` are the six
 entries of the hub inertia and of its inverse
 (:func:`attitude.rigid_body.symmetric_entries`) and the external torque.
@@ -47,7 +47,7 @@ from attitude.simulation.plant import PlantModel
 __all__ = ["FOLDS", "METRICS", "CompiledHold", "CompiledTicks", "command", "observe"]
 
 #: Order of the running metrics in the tick state.
-METRICS = ("peak_rate", "peak_wheel_speed", "last_above", "diverged_at")
+METRICS = ("rate_peak", "wheel_speed_peak", "last_above", "diverged_at")
 #: Ticks per compiled call (besides single ticks): long folds for speed, short ones to stop at history samples.
 FOLDS = (100, 10)
 
@@ -79,16 +79,16 @@ def observe(model: PlantModel, x: list, q_ref: list | None, threshold: Any, k: A
     w = x[4:7]
     rate = bk.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
     speeds = [] if model.wheels is None else model.wheels.wheel_speed_components(x[7:], w)
-    peak_speed = acc[1]
+    speed_peak = acc[1]
     for s in speeds:
-        peak_speed = bk.fmax(peak_speed, bk.fabs(s))
+        speed_peak = bk.fmax(speed_peak, bk.fabs(s))
     if q_ref is None:
         err = 0.0 * rate
     else:
         err = quat.error_angle_components(q_ref, x[:4])
     last_above = bk.if_else(err > threshold, k + 0.0 * err, acc[2])
     diverged_at = bk.if_else(bk.is_finite(w[0] + w[1] + w[2]), acc[3], bk.fmin(acc[3], t_k))
-    return [bk.fmax(acc[0], rate), peak_speed, last_above, diverged_at], err, speeds
+    return [bk.fmax(acc[0], rate), speed_peak, last_above, diverged_at], err, speeds
 
 
 def command(model: PlantModel, controller: Any, x: list, inputs: list, estimate: list | None = None) -> list:

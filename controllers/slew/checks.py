@@ -94,7 +94,7 @@ def verify(prob: Problem, t: NDArray, torque: NDArray, tolerance: float) -> dict
         "final_attitude_error": att_err,
         "final_rate_error": rate_err,
         "separation_min": sep,
-        "peak_rate": float(np.max(np.linalg.norm(x[:, 4:], axis=1))),
+        "rate_peak": float(np.max(np.linalg.norm(x[:, 4:], axis=1))),
         "nfev": traj.info.get("nfev"),
     }
     rate_tol = tolerance / prob.t_s
@@ -103,8 +103,8 @@ def verify(prob: Problem, t: NDArray, torque: NDArray, tolerance: float) -> dict
         problems.append(f"final attitude error {att_err:.3g} rad > {tolerance:.3g}")
     if rate_err > rate_tol:
         problems.append(f"final rate error {rate_err:.3g} rad/s > {rate_tol:.3g}")
-    if prob.rate_max is not None and check["peak_rate"] > prob.rate_max + rate_tol:
-        problems.append(f"largest rate {check['peak_rate']:.6g} rad/s > rate_max {prob.rate_max:.6g}")
+    if prob.rate_max is not None and check["rate_peak"] > prob.rate_max + rate_tol:
+        problems.append(f"largest rate {check['rate_peak']:.6g} rad/s > rate_max {prob.rate_max:.6g}")
     for i, cone in enumerate(cones):
         if sep[i] < cone.half_angle - tolerance:
             problems.append(f"keep_out[{i}] separation {sep[i]:.6g} rad < half angle {cone.half_angle:.6g}")

@@ -98,7 +98,7 @@ class SlewPlan(ResultIO):
         ``|omega_sim(t_f) - omegaf|`` [rad/s] of the re-simulation.
     separation_min : ndarray (m,)
         Smallest keep-out separation [rad] per cone along the re-simulation.
-    peak_rate : float
+    rate_peak : float
         Largest ``|omega|`` [rad/s] along the re-simulation.
     q_target, omega_target : ndarray
         The requested final attitude and rate [rad/s].
@@ -140,7 +140,7 @@ class SlewPlan(ResultIO):
     final_attitude_error: float
     final_rate_error: float
     separation_min: NDArray[np.float64]
-    peak_rate: float
+    rate_peak: float
     q_target: NDArray[np.float64]
     omega_target: NDArray[np.float64]
     inertia: NDArray[np.float64]

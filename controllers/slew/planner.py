@@ -339,7 +339,7 @@ def plan_slew(
         final_attitude_error=check["final_attitude_error"],
         final_rate_error=check["final_rate_error"],
         separation_min=check["separation_min"],
-        peak_rate=check["peak_rate"],
+        rate_peak=check["rate_peak"],
         q_target=prob.qf.copy(),
         omega_target=prob.omegaf.copy(),
         inertia=prob.body.inertia,

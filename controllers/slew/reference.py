@@ -61,7 +61,7 @@ class EigenaxisSlew(ResultIO):
         Eigenaxis (unit, body components).
     total_angle : float
         Eigenaxis rotation angle [rad], in ``[0, pi]``.
-    peak_rate : float
+    rate_peak : float
         Largest rate [rad/s].
     accel_duration : float
         End of the acceleration arc [s] (the first switch).
@@ -79,7 +79,7 @@ class EigenaxisSlew(ResultIO):
     duration: float
     axis_B: NDArray[np.float64]
     total_angle: float
-    peak_rate: float
+    rate_peak: float
     accel_duration: float
     coast_duration: float
     inertia: NDArray[np.float64]
@@ -106,7 +106,7 @@ class EigenaxisSlew(ResultIO):
             ax.grid(True, alpha=0.3)
         fig.suptitle(
             f"eigenaxis slew: {math.degrees(self.total_angle):.2f} deg in {self.duration:.4g} s "
-            f"(peak {math.degrees(self.peak_rate):.3g} deg/s, coast {self.coast_duration:.4g} s)"
+            f"(peak {math.degrees(self.rate_peak):.3g} deg/s, coast {self.coast_duration:.4g} s)"
         )
         return fig
 
@@ -270,7 +270,7 @@ def eigenaxis_profile(
         "rate": w,
         "torque": torque,
         "duration": total,
-        "peak_rate": w_peak,
+        "rate_peak": w_peak,
         "coast": coast,
         "t_acc": t_acc,
     }
@@ -335,7 +335,7 @@ def eigenaxis_slew(
         duration=float(prof["duration"]),
         axis_B=axis,
         total_angle=float(angle),
-        peak_rate=float(prof["peak_rate"]),
+        rate_peak=float(prof["rate_peak"]),
         accel_duration=float(prof["t_acc"]),
         coast_duration=float(prof["coast"]),
         inertia=body.inertia,

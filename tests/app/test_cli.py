@@ -140,7 +140,7 @@ def check_numbers_in_report(md: str, results: dict) -> None:
     values += [body["flip_period_s"]]
     values += [p["wn_rad_per_s"] for p in lin["pd"]["poles"]]
     values += [m["phase_margin_deg"] for m in lin["margins"]] + [m["delay_margin_s"] for m in lin["margins"]]
-    values += [slews["plan"]["duration_s"], slews["eigenaxis"]["duration_s"], slews["plan"]["peak_torque_mNm"]]
+    values += [slews["plan"]["duration_s"], slews["eigenaxis"]["duration_s"], slews["plan"]["torque_peak_mNm"]]
     values += list(slews["plan"]["separation_min_deg"].values()) + list(
         slews["eigenaxis"]["separation_min_deg"].values()
     )
@@ -148,13 +148,13 @@ def check_numbers_in_report(md: str, results: dict) -> None:
         flight["pointing_error_end_arcsec"],
         flight["pointing_error_max_in_window_deg"],
         flight["knowledge_error_rms_in_window_arcsec"],
-        flight["peak_wheel_speed_rpm"],
+        flight["wheel_speed_peak_rpm"],
     ]
     values += [est["mekf"]["nees_mean"], est["rate_ekf"]["nees_mean"], est["mekf"]["band_low"]]
     values += [est["mekf"]["percent_inside"], est["rate_ekf"]["percent_inside"], lin["rate_Hz"]]
     if body["gravity_gradient"] is not None:
         gg = body["gravity_gradient"]
-        values += [gg["orbit_period_min"], gg["peak_torque_uNm"], gg["orientations"][1]["pitch_libration_period_min"]]
+        values += [gg["orbit_period_min"], gg["torque_peak_uNm"], gg["orientations"][1]["pitch_libration_period_min"]]
     values += [r["achieved"] for r in results["requirements"]] + [r["achieved"] for r in results["checks"]]
     missing = [v for v in values if fmt(v if not isinstance(v, str) else num(v)) not in md]
     assert not missing, f"numbers of results.json missing from report.md: {missing}"
@@ -170,7 +170,7 @@ def check_verdicts(results: dict, config) -> None:
         "pointing_accuracy": (req.pointing_accuracy_deg, flight["pointing_error_max_in_window_deg"]),
     }
     if req.slew.rate_max_deg_per_s is not None:
-        expected["slew_rate"] = (req.slew.rate_max_deg_per_s, flight["peak_rate_deg_per_s"])
+        expected["slew_rate"] = (req.slew.rate_max_deg_per_s, flight["rate_peak_deg_per_s"])
     for i, cone in enumerate(req.keep_out):
         expected[f"keep_out_{i}"] = (cone.half_angle_deg, flight["separation_min_deg"][cone.name])
     rows = {r["id"]: r for r in results["requirements"]}
@@ -381,7 +381,7 @@ def test_slew_about_a_body_axis(capsys):
     assert s["angle_deg"] == pytest.approx(30.0, rel=1e-12)
     np.testing.assert_allclose(s["q_target_BN"], quat.from_axis_angle([0.0, 0.0, 1.0], math.radians(30.0)), atol=1e-15)
     plan, eig = s["plan"], s["eigenaxis"]
-    assert plan["peak_rate_deg_per_s"] <= 2.0 * 0.95 * (1 + 1e-6)  # planned at 95 % of the limit
+    assert plan["rate_peak_deg_per_s"] <= 2.0 * 0.95 * (1 + 1e-6)  # planned at 95 % of the limit
     assert plan["open_loop_final_error_deg"] < 1e-2
     rows = {r["id"]: r for r in res["requirements"]}
     assert rows["slew_time"]["achieved"] == plan["duration_s"]
@@ -574,7 +574,7 @@ def test_design_slew_time_is_judged_on_the_flown_slew_within_the_wheel_momentum(
     results = json.loads((out / "results.json").read_text())
     flight = results["closed_loop"]
     # The wheels stay within their momentum (5 % for the feedback on top of the 80 % planned).
-    assert flight["peak_wheel_momentum_Nms"] <= 0.1 * 1.05
+    assert flight["wheel_momentum_peak_Nms"] <= 0.1 * 1.05
     # The flown arrival comes after the planned end (the pointing accuracy is 0.1 deg) ...
     assert flight["flown_slew_time_s"] >= flight["plan_slew_time_s"] - 30.0
     row = next(r for r in results["requirements"] if r["id"] == "slew_time")

@@ -385,13 +385,13 @@ def tumbling_mc():
     return gyro, p0, monte_carlo(gyro, 50, 300.0, p0, W_TUMBLE, seed=7, sigma_u_factors=SIGMA_U_FACTORS)
 
 
-def slew_torque(t, duration=60.0, peak_rate_deg=3.0, axis=(1.0, 1.0, 0.5)):
+def slew_torque(t, duration=60.0, rate_peak_deg=3.0, axis=(1.0, 1.0, 0.5)):
     """A smooth rest-to-rest-like torque: angular acceleration alpha sin(2 pi t / T) about ``axis`` for T s.
 
     ``torque[k]`` is held over the interval ending at ``t[k]``, so it is evaluated at the interval's middle.
     """
     axis = np.asarray(axis) / np.linalg.norm(axis)
-    alpha = np.radians(peak_rate_deg) * np.pi / duration  # peak rate = alpha T / pi
+    alpha = np.radians(rate_peak_deg) * np.pi / duration  # peak rate = alpha T / pi
     dt = t[1] - t[0]
     tm = t - dt / 2
     acc = np.where((tm > 0) & (tm < duration), alpha * np.sin(2 * np.pi * tm / duration), 0.0)

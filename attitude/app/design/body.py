@@ -171,7 +171,7 @@ def body_analysis(config: SpacecraftConfig, spin_rate_deg_per_s: float = DEFAULT
             "orbit_period_s": _f(orbit.period),
             "orbit_period_min": _f(orbit.period / 60.0),
             "mean_motion_rad_per_s": _f(n),
-            "peak_torque_uNm": _f(1.5 * n * n * (m[2] - m[0]) * 1e6),
+            "torque_peak_uNm": _f(1.5 * n * n * (m[2] - m[0]) * 1e6),
             "orientations": [
                 _gg_entry(mounted, orbit, "as mounted (body x, y, z along roll, pitch, yaw)"),
                 _gg_entry(lagrange, orbit, "major axis on the orbit normal, minor axis to nadir"),

@@ -154,7 +154,7 @@ def _slew_rows(
 ) -> list[dict[str, Any]]:
     """The slew requirements (time, rate limit, keep-out cones) judged on ``figures`` of a plan or a flight.
 
-    ``figures`` holds ``peak_rate_deg_per_s`` and ``separation_min_deg`` (None: not computed, so failed);
+    ``figures`` holds ``rate_peak_deg_per_s`` and ``separation_min_deg`` (None: not computed, so failed);
     ``source`` ("plan" or "flown") labels the rows.
     """
     req = config.requirements
@@ -176,7 +176,7 @@ def _slew_rows(
                 f"largest body rate ({source})",
                 "requirements.slew.rate_max_deg_per_s",
                 req.slew.rate_max_deg_per_s,
-                None if figures is None else figures["peak_rate_deg_per_s"],
+                None if figures is None else figures["rate_peak_deg_per_s"],
                 "deg/s",
                 "<=",
             )
@@ -279,7 +279,7 @@ def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> d
                 "peak wheel momentum below the wheel limit",
                 "wheels.momentum_max_Nms",
                 flight["wheel_momentum_limit_Nms"],
-                flight["peak_wheel_momentum_Nms"],
+                flight["wheel_momentum_peak_Nms"],
                 "N m s",
                 "<=",
             )

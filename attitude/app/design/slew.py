@@ -115,8 +115,8 @@ def _trajectory_summary(name: str, t: Any, q: Any, omega: Any, torque: Any, cone
     return {
         "name": name,
         "duration_s": _f(t[-1] - t[0]),
-        "peak_rate_deg_per_s": _f(np.degrees(np.max(np.linalg.norm(omega, axis=-1)))),
-        "peak_torque_mNm": _f(1e3 * np.max(np.linalg.norm(torque, axis=-1))),
+        "rate_peak_deg_per_s": _f(np.degrees(np.max(np.linalg.norm(omega, axis=-1)))),
+        "torque_peak_mNm": _f(1e3 * np.max(np.linalg.norm(torque, axis=-1))),
         "separation_min_deg": sep,
     }
 
@@ -439,12 +439,12 @@ def fly_slew(
         "pointing_error_end_arcsec": _f(err_deg[-1] * 3600.0),
         "knowledge_error_rms_in_window_arcsec": _f(np.sqrt(np.mean(knowledge[window] ** 2))),
         "knowledge_error_max_in_window_arcsec": _f(np.max(knowledge[window])),
-        "peak_rate_deg_per_s": _f(np.degrees(np.max(np.linalg.norm(r.omega, axis=1)))),
-        "peak_wheel_speed_rpm": _f(np.max(np.abs(r.wheel_speed)) * 30.0 / math.pi),
+        "rate_peak_deg_per_s": _f(np.degrees(np.max(np.linalg.norm(r.omega, axis=1)))),
+        "wheel_speed_peak_rpm": _f(np.max(np.abs(r.wheel_speed)) * 30.0 / math.pi),
         "wheel_speed_limit_rpm": _f(np.min(speed_limit_rpm)),
-        "peak_wheel_momentum_Nms": _f(np.max(np.abs(r.h_wheels))),
+        "wheel_momentum_peak_Nms": _f(np.max(np.abs(r.h_wheels))),
         "wheel_momentum_limit_Nms": _f(np.min(wheels.momentum_max)),
-        "peak_motor_torque_mNm": _f(1e3 * np.max(np.abs(r.motor_torque))),
+        "motor_torque_peak_mNm": _f(1e3 * np.max(np.abs(r.motor_torque))),
         "motor_torque_limit_mNm": _f(1e3 * np.min(wheels.torque_max)),
         "separation_min_deg": {k.name: _f(np.degrees(np.min(k.separation(r.q)))) for k in study.cones},
         "tracker_updates": None if updates is None else int(np.nanmax(updates)),

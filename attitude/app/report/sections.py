@@ -209,7 +209,7 @@ def _body(results: dict[str, Any]) -> list[Block]:
             Paragraph(
                 f"Gravity gradient on the circular orbit at {fmt(gg['altitude_km'])} km (orbit period "
                 f"{fmt(gg['orbit_period_min'])} min): the largest gravity-gradient torque on this body is "
-                f"{fmt(gg['peak_torque_uNm'])} uN m (3 n^2 (I3 - I1) / 2, at 45 deg from the principal axes). "
+                f"{fmt(gg['torque_peak_uNm'])} uN m (3 n^2 (I3 - I1) / 2, at 45 deg from the principal axes). "
                 "Stability of the nadir-pointing attitude (linearised about the LVLH frame):"
             )
         )
@@ -393,8 +393,8 @@ def _slews(results: dict[str, Any]) -> list[Block]:
 
     rows.append(row("duration [s]", "duration_s", f"<= {fmt(s['time_max_s'])}"))
     limit = s["rate_limit_deg_per_s"]
-    rows.append(row("peak body rate [deg/s]", "peak_rate_deg_per_s", "" if limit is None else f"<= {fmt(limit)}"))
-    rows.append(row("peak torque [mN m]", "peak_torque_mNm"))
+    rows.append(row("peak body rate [deg/s]", "rate_peak_deg_per_s", "" if limit is None else f"<= {fmt(limit)}"))
+    rows.append(row("peak torque [mN m]", "torque_peak_mNm"))
     rows.append(row("energy, integral of |torque|^2 [N^2 m^2 s]", "energy_N2m2s"))
     for c in cones:
         vals = [None if x is None else x["separation_min_deg"][c["name"]] for x in (plan, eig)]
@@ -460,17 +460,17 @@ def _closed_loop(results: dict[str, Any]) -> list[Block]:
         ["pointing error at the end [arcsec]", fmt(f["pointing_error_end_arcsec"])],
         ["knowledge error after settling, RMS [arcsec]", fmt(f["knowledge_error_rms_in_window_arcsec"])],
         ["knowledge error after settling, largest [arcsec]", fmt(f["knowledge_error_max_in_window_arcsec"])],
-        ["peak body rate [deg/s]", fmt(f["peak_rate_deg_per_s"])],
+        ["peak body rate [deg/s]", fmt(f["rate_peak_deg_per_s"])],
     ]
     for name, sep in f["separation_min_deg"].items():
         rows.append([f"smallest separation '{name}' [deg]", fmt(sep)])
     rows += [
-        ["peak wheel speed [rpm]", f"{fmt(f['peak_wheel_speed_rpm'])} (limit {fmt(f['wheel_speed_limit_rpm'])})"],
+        ["peak wheel speed [rpm]", f"{fmt(f['wheel_speed_peak_rpm'])} (limit {fmt(f['wheel_speed_limit_rpm'])})"],
         [
             "peak wheel momentum [N m s]",
-            f"{fmt(f['peak_wheel_momentum_Nms'])} (limit {fmt(f['wheel_momentum_limit_Nms'])})",
+            f"{fmt(f['wheel_momentum_peak_Nms'])} (limit {fmt(f['wheel_momentum_limit_Nms'])})",
         ],
-        ["peak motor torque [mN m]", f"{fmt(f['peak_motor_torque_mNm'])} (limit {fmt(f['motor_torque_limit_mNm'])})"],
+        ["peak motor torque [mN m]", f"{fmt(f['motor_torque_peak_mNm'])} (limit {fmt(f['motor_torque_limit_mNm'])})"],
         [
             "star-tracker updates (blinded samples)",
             f"{fmt(f['tracker_updates'])} ({fmt(f['tracker_blinded_samples'])})",

@@ -490,7 +490,7 @@ def test_vectorised_pd_wheels_agrees_with_the_per_run_engine():
     per_run = run_campaign(campaign, workers=1)
     batch = run_campaign(campaign, vectorized=True)
     chunked = run_campaign(campaign, vectorized=True, runs_per_task=4, workers=2)
-    for m in ("final_pointing_error", "peak_rate", "peak_wheel_speed"):
+    for m in ("final_pointing_error", "rate_peak", "wheel_speed_peak"):
         # Same definitions, numpy per component vs casadi per run: rounding only (measured ~1e-17).
         np.testing.assert_allclose(batch.metrics[m], per_run.metrics[m], rtol=1e-9, atol=1e-15)
     np.testing.assert_array_equal(batch.metrics["settling_time"], per_run.metrics["settling_time"])
@@ -503,7 +503,7 @@ def test_config_campaign_writes_table_statistics_and_figures(tmp_path):
     # The eigenaxis guidance allows a 20 s run (the planned slew needs slew + settling: tests/app/test_scenarios.py).
     result = run_campaign_from_config(CONFIG, runs=3, workers=1, out_dir=tmp_path, duration=20.0, guidance="eigenaxis")
     assert np.all(result.status == "ok")
-    assert {"settling_time", "nees", "peak_wheel_speed", "keep_out_margin.sun on star tracker"} <= set(result.metrics)
+    assert {"settling_time", "nees", "wheel_speed_peak", "keep_out_margin.sun on star tracker"} <= set(result.metrics)
     assert result.histories[0]["t"][-1] == pytest.approx(20.0)
     figures = sorted(p.name for p in (tmp_path / "figures").glob("*.png"))
     assert "histograms.png" in figures and "envelope_error_angle.png" in figures
@@ -597,7 +597,7 @@ def test_fraction_of_spins_that_flip_within_a_time_matches_the_closed_form():
 def test_the_summary_speaks_review_units():
     class Pointing:
         def __call__(self, params, rng):
-            return {"final_pointing_error": math.radians(0.01 + 0.001 * rng.standard_normal()), "peak_rate": 0.1}
+            return {"final_pointing_error": math.radians(0.01 + 0.001 * rng.standard_normal()), "rate_peak": 0.1}
 
     rule = Requirement("final_pointing_error", max=math.radians(0.05), name="pointing")
     result = run_campaign(Campaign(Pointing(), {}, runs=20, seed=3, requirements=[rule]), workers=1)
@@ -606,4 +606,4 @@ def test_the_summary_speaks_review_units():
     assert "requirement pointing (final_pointing_error <= 0.05 deg): 20/20 passed" in text
     median = np.degrees(np.median(result.metrics["final_pointing_error"]))
     assert f"final_pointing_error [deg]: median {median:.4g}" in text
-    assert "peak_rate [deg/s]: median 5.73" in text  # 0.1 rad/s
+    assert "rate_peak [deg/s]: median 5.73" in text  # 0.1 rad/s

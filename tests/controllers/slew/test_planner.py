@@ -247,7 +247,7 @@ class TestSmallSatellite:
         traj = fine_resimulation(smallsat_free, Q_ID, np.zeros(3))
         # IPOPT satisfies |omega|^2 <= rate_max^2 to ~1e-9 in nondimensional units (~1e-8 relative).
         assert np.max(np.linalg.norm(traj.omega, axis=-1)) <= RATE_MAX * (1 + 1e-6)
-        assert smallsat_free.peak_rate <= RATE_MAX * (1 + 1e-6)
+        assert smallsat_free.rate_peak <= RATE_MAX * (1 + 1e-6)
         assert smallsat_free.final_attitude_error_deg < 0.01
 
     def test_keep_out_cone_is_respected_between_nodes(self, smallsat_cone):
@@ -440,7 +440,7 @@ class TestEigenaxisReference:
         alpha = tau / 12.0
         assert eig.duration == pytest.approx(phi / rate + rate / alpha, rel=1e-12)
         assert eig.coast_duration == pytest.approx(phi / rate - rate / alpha, rel=1e-12)
-        assert eig.peak_rate == rate
+        assert eig.rate_peak == rate
 
     def test_gyroscopic_profile_obeys_euler_and_stays_in_the_set(self):
         qf = quat.from_axis_angle([1.0, 2.0, 3.0], math.radians(120.0))
