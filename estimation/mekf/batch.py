@@ -153,8 +153,23 @@ class MEKFBatch:
         self._init(mekf, *initial_states(mekf, int(n_runs), q0, bias0))
 
     @classmethod
-    def _unchecked(cls, mekf: MEKF, qs: NDArray[np.float64], bs: NDArray[np.float64]) -> MEKFBatch:
-        """A batch from validated (N, 4) attitudes and (N, 3) biases, used as given (no renormalisation)."""
+    def from_states(cls, mekf: MEKF, qs: NDArray[np.float64], bs: NDArray[np.float64]) -> MEKFBatch:
+        """A batch from validated (N, 4) attitudes and (N, 3) biases, used as given (no renormalisation).
+
+        Parameters
+        ----------
+        mekf : MEKF
+            Settings and covariance (not modified).
+        qs : ndarray (N, 4)
+            Initial attitude estimates ``q_BN``, checked by :func:`initial_states`.
+        bs : ndarray (N, 3)
+            Initial gyro bias estimates [rad/s], checked likewise.
+
+        Returns
+        -------
+        MEKFBatch
+            The batch.
+        """
         self = cls.__new__(cls)
         self._init(mekf, qs, bs)
         return self
@@ -164,9 +179,9 @@ class MEKFBatch:
         self.n_runs = runs
         self._q = np.array(qs, dtype=np.float64)
         self._b = np.array(bs, dtype=np.float64)
-        self._P = np.broadcast_to(mekf._kf.P, (runs, 6, 6)).copy()
+        self._P = np.broadcast_to(mekf.P, (runs, 6, 6)).copy()
         self._R = mekf.tracker_covariance
-        held = mekf._last_gyro
+        held = mekf.held_gyro
         self._last = np.zeros((runs, 3)) if held is None else np.broadcast_to(held, (runs, 3)).copy()
         self._t: float | None = mekf.t
         self._sv2 = mekf.sigma_v**2
@@ -299,7 +314,7 @@ class MEKFBatch:
                 )
         elif mask is not None:
             raise ValueError("mask was given without tracker samples (pass tracker (N, 4) with it)")
-        self._step(tk, g, y, m)
+        self.step_unchecked(tk, g, y, m)
         return self._q.copy(), self._last - self._b
 
     def _clear_step_outputs(self) -> None:
@@ -313,14 +328,26 @@ class MEKFBatch:
         self.gyro_nan = np.zeros(n, dtype=bool)
         self.gyro_rejected = np.zeros(n, dtype=bool)
 
-    def _step(
+    def step_unchecked(
         self,
         tk: float,
         g: NDArray[np.float64] | None,
         y: NDArray[np.float64] | None,
         mask: NDArray[np.bool_] | None,
     ) -> None:
-        """The batch equations for one step (no checks: :meth:`step` and :func:`run_mekf` validate)."""
+        """The batch equations for one step, without the checks of :meth:`step` (:func:`run_mekf` validates).
+
+        Parameters
+        ----------
+        tk : float
+            Step time [s].
+        g : ndarray (N, 3) or None
+            Gyro samples [rad/s] (NaN rows: missing).
+        y : ndarray (N, 4) or None
+            Tracker quaternions (rows used where ``mask``).
+        mask : ndarray of bool (N,) or None
+            True where the tracker sampled.
+        """
         self._clear_step_outputs()
         q, b, P, R = self._q, self._b, self._P, self._R
         # Gyro: NaN rows and rows above gyro_rate_max are skipped, the last valid rate is held.

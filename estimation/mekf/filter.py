@@ -538,6 +538,49 @@ class MEKF:
         return dict(self._counts)
 
     @property
+    def held_gyro(self) -> NDArray[np.float64] | None:
+        """The last valid gyro sample [rad/s] (3,), held over missing ones (a copy; None before the first)."""
+        return None if self._last_gyro is None else self._last_gyro.copy()
+
+    @property
+    def last_innovation(self) -> NDArray[np.float64]:
+        """Innovation [rad] (3,) of the tracker sample tested at the last step, applied or gated (NaN: none)."""
+        return self._last_innovation.copy()
+
+    @property
+    def last_innovation_covariance(self) -> NDArray[np.float64]:
+        """Innovation covariance ``S`` [rad^2] (3, 3) of that sample (NaN: none)."""
+        return self._last_S.copy()
+
+    @property
+    def last_nis(self) -> float:
+        """NIS of that sample (NaN: none)."""
+        return float(self._last_nis)
+
+    def with_state(self, q: ArrayLike, bias: ArrayLike) -> MEKF:
+        """An independent copy started from another attitude and bias estimate (covariance and settings kept).
+
+        Parameters
+        ----------
+        q : array_like (4,)
+            Attitude estimate ``q_BN``, unit norm (used as given).
+        bias : array_like (3,)
+            Gyro bias estimate [rad/s].
+
+        Returns
+        -------
+        MEKF
+            The copy; this filter is not modified.
+        """
+        q = np.array(q, dtype=np.float64)
+        bias = np.array(bias, dtype=np.float64)
+        if q.shape != (4,) or bias.shape != (3,):
+            raise ValueError(f"q must have shape (4,) and bias (3,), got {q.shape} and {bias.shape}")
+        other = self.copy()
+        other._q, other._b = q, bias
+        return other
+
+    @property
     def nis_history(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Times [s] and NIS values of every tracker sample tested so far (applied or gated)."""
         return np.array(self._nis_t), np.array(self._nis)

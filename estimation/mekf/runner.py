@@ -343,28 +343,27 @@ def _run_steps(mekf, t, g, y, mask, qs, bs) -> dict[str, NDArray]:
     runs, n = g.shape[:2]
     out = _empty_histories(runs, n)
     for r in range(runs):
-        f = mekf.copy()
-        f._q = qs[r].copy()
-        f._b = np.array(bs[r], dtype=np.float64)
+        f = mekf.with_state(qs[r], bs[r])
         for k in range(n):
             gk = g[r, k]
             out["gyro_nan"][r, k] = not np.all(np.isfinite(gk))
             tracker = y[r, k] if mask[r, k] else None
             if tracker is not None and not np.all(np.isfinite(tracker)):
                 out["tracker_nan"][r, k] = True
-            before = (f._counts["updates"], f._counts["tracker_gated"], f._counts["gyro_rejected"])
+            before = f.counts
             est = f.step(float(t[k]), gk, tracker)
+            after = f.counts
             out["q"][r, k] = est.q
-            out["bias"][r, k] = f._b
+            out["bias"][r, k] = f.bias
             out["omega"][r, k] = est.omega
-            out["P"][r, k] = f._kf.P
-            out["gyro_rejected"][r, k] = f._counts["gyro_rejected"] > before[2]
-            applied = f._counts["updates"] > before[0]
-            if applied or f._counts["tracker_gated"] > before[1]:
+            out["P"][r, k] = f.P
+            out["gyro_rejected"][r, k] = after["gyro_rejected"] > before["gyro_rejected"]
+            applied = after["updates"] > before["updates"]
+            if applied or after["tracker_gated"] > before["tracker_gated"]:
                 out["updated"][r, k] = applied
-                out["innovation"][r, k] = f._last_innovation
-                out["innovation_covariance"][r, k] = f._last_S
-                out["nis"][r, k] = f._last_nis
+                out["innovation"][r, k] = f.last_innovation
+                out["innovation_covariance"][r, k] = f.last_innovation_covariance
+                out["nis"][r, k] = f.last_nis
     return out
 
 
@@ -372,13 +371,13 @@ def _run_vectorized(mekf, t, g, y, mask, qs, bs) -> dict[str, NDArray]:
     """:meth:`MEKFBatch.step` over the recorded histories (the one definition of the batch equations)."""
     runs, n = g.shape[:2]
     out = _empty_histories(runs, n)
-    batch = MEKFBatch._unchecked(mekf, qs, bs)
+    batch = MEKFBatch.from_states(mekf, qs, bs)
     for k in range(n):
-        batch._step(float(t[k]), g[:, k], y[:, k], mask[:, k])
-        out["q"][:, k] = batch._q
-        out["bias"][:, k] = batch._b
-        out["omega"][:, k] = batch._last - batch._b
-        out["P"][:, k] = batch._P
+        batch.step_unchecked(float(t[k]), g[:, k], y[:, k], mask[:, k])
+        out["q"][:, k] = batch.q
+        out["bias"][:, k] = batch.bias
+        out["omega"][:, k] = batch.omega
+        out["P"][:, k] = batch.P
         out["innovation"][:, k] = batch.innovation
         out["innovation_covariance"][:, k] = batch.innovation_covariance
         out["nis"][:, k] = batch.nis
