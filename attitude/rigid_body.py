@@ -539,9 +539,11 @@ def skew(v: ArrayLike) -> NDArray[np.float64]:
         a hot-path helper of the filters and sensor models).
     """
     v = np.asarray(v, dtype=np.float64)
-    z = np.zeros(v.shape[:-1])
-    x, y, w = v[..., 0], v[..., 1], v[..., 2]
-    return np.stack([np.stack([z, -w, y], -1), np.stack([w, z, -x], -1), np.stack([-y, x, z], -1)], -2)
+    out = np.zeros((*v.shape[:-1], 3, 3))
+    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
+    return out
 
 
 def symmetric_entries(matrix: ArrayLike) -> NDArray[np.float64]:
