@@ -28,7 +28,11 @@ from attitude import RigidBody
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
 from attitude.propagate import propagate
-from controllers.slew.planner import PUBLISHED_BILIMORIA_WIE, InfeasibleSlewError, KeepOutCone, SlewPlan, plan_slew
+from controllers.slew.keep_out import KeepOutCone
+from controllers.slew.plan import SlewPlan
+from controllers.slew.planner import plan_slew
+from controllers.slew.problem import InfeasibleSlewError
+from controllers.slew.reference import PUBLISHED_BILIMORIA_WIE
 
 try:
     from benchmarks._timing import cpu_time_median

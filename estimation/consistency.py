@@ -30,6 +30,7 @@ of returning a meaningless number. The tests check that both agree.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -48,6 +49,7 @@ __all__ = [
     "average_nis",
     "chi2_band",
     "fraction_inside_band",
+    "gate_threshold",
     "nees",
     "nis",
     "nis_health",
@@ -176,6 +178,29 @@ def chi2_band(dof: int, n_runs: int = 1, confidence: float = 0.95) -> tuple[floa
     a = 1.0 - _check_confidence(confidence)
     lo, hi = stats.chi2.ppf([a / 2.0, 1.0 - a / 2.0], dof * n_runs) / n_runs
     return float(lo), float(hi)
+
+
+def gate_threshold(gate_probability: float | None, dof: int) -> float:
+    """The innovation gate: the NIS below which a measurement of ``dof`` components is applied.
+
+    ``chi2.ppf(gate_probability, dof)``: a consistent filter rejects a good
+    sample with probability ``1 - gate_probability``.
+
+    Parameters
+    ----------
+    gate_probability : float or None
+        Probability in (0, 1) that a good sample passes (checked by the caller); None disables the gate.
+    dof : int
+        Components of the measurement.
+
+    Returns
+    -------
+    float
+        The NIS threshold (inf when disabled).
+    """
+    if gate_probability is None:
+        return math.inf
+    return float(stats.chi2.ppf(gate_probability, dof))
 
 
 def average_nees(errors: ArrayLike, covariances: ArrayLike, axis: int = 0) -> NDArray[np.float64]:

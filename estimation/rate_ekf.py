@@ -31,7 +31,7 @@ from attitude.integrators import rk4_step
 from attitude.results import ResultIO
 from attitude.rigid_body import RigidBody, split_components
 from attitude.sensors import Gyro
-from attitude.simulation.engine import Estimate
+from attitude.simulation.protocols import Estimate
 from attitude.validation import (
     as_float_array,
     check_covariance,
@@ -40,7 +40,15 @@ from attitude.validation import (
     positive_scalar,
     scalar_time,
 )
-from estimation.consistency import GATE_PROBABILITY, NIS_CAP, nees, nis_health, plot_errors_with_bounds
+from estimation.consistency import (
+    GATE_PROBABILITY,
+    NIS_CAP,
+    chi2_band,
+    gate_threshold,
+    nees,
+    nis_health,
+    plot_errors_with_bounds,
+)
 
 __all__ = ["NOISE_MODELS", "RateEKF", "RateEKFResult", "StepReport", "run_rate_ekf"]
 
@@ -410,16 +418,14 @@ class RateEKF:
         self.nis_window = _count(nis_window, "nis_window")
         #: Per-step NIS threshold ``chi2.ppf(nis_confidence, 3)``.
         self.nis_threshold = float(stats.chi2.ppf(self.nis_confidence, _DIM_Z))
-        a = 1.0 - self.health_confidence
-        lo, hi = stats.chi2.ppf([a / 2.0, 1.0 - a / 2.0], _DIM_Z * self.nis_window) / self.nis_window
         #: Band of the mean NIS of a window (``chi2_band(3, nis_window, health_confidence)``).
-        self.nis_window_band = (float(lo), float(hi))
+        self.nis_window_band = chi2_band(_DIM_Z, self.nis_window, self.health_confidence)
         if gate_probability is None:
             self.gate_probability = None
             self.gate_threshold = math.inf
         else:
             self.gate_probability = _open_unit(gate_probability, "gate_probability")
-            self.gate_threshold = float(stats.chi2.ppf(self.gate_probability, _DIM_Z))
+            self.gate_threshold = gate_threshold(self.gate_probability, _DIM_Z)
         self._recent_nis: deque[float] = deque(maxlen=self.nis_window)
         self._run = 0
         self.n_updates = 0

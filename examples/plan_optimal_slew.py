@@ -35,7 +35,10 @@ from attitude import RigidBody
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
 from attitude.simulation.engine import SimulationResult, simulate
-from controllers.slew.planner import PUBLISHED_BILIMORIA_WIE, KeepOutCone, SlewPlan, eigenaxis_slew, plan_slew
+from controllers.slew.keep_out import KeepOutCone
+from controllers.slew.plan import SlewPlan
+from controllers.slew.planner import plan_slew
+from controllers.slew.reference import PUBLISHED_BILIMORIA_WIE, eigenaxis_slew
 from controllers.tracking import TrackingController
 
 INERTIA = np.array([[12.0, 0.4, -0.3], [0.4, 10.5, 0.2], [-0.3, 0.2, 8.5]])  # kg m^2

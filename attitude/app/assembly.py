@@ -35,12 +35,12 @@ from attitude.config import build
 from attitude.config.model import Dispersion, KeepOutConfig, SpacecraftConfig
 from attitude.environment.orbit import CircularOrbit
 from attitude.linearize import linearize
-from attitude.montecarlo.campaign import Requirement
+from attitude.montecarlo.results import Requirement
 from attitude.rigid_body import RigidBody
 from attitude.sensors import GYRO_PRESETS, Gyro, StarTracker
 from controllers.lqr import LQRDesign, bryson_weights, design_lqr
 from controllers.pd import QuaternionPD, RateLimitedPD
-from controllers.slew.planner import KeepOutCone
+from controllers.slew.keep_out import KeepOutCone
 from controllers.tracking import ReferenceTrajectory, TrackingController
 from estimation.mekf import MEKF, initial_covariance
 from estimation.rate_ekf import RateEKF

@@ -306,7 +306,7 @@ def _cmd_physics(args: argparse.Namespace) -> int:
 
 def _cmd_montecarlo(args: argparse.Namespace) -> int:
     from attitude.app.scenarios import ScenarioError, run_campaign_from_config
-    from controllers.slew.planner import SlewPlanningError
+    from controllers.slew.problem import SlewPlanningError
 
     config = _load(args.file)
     if args.workers is not None and args.scheduler is not None:

@@ -56,15 +56,18 @@ from attitude import quaternion as quat
 from attitude.app import assembly
 from attitude.app.design.slew import SlewStudy, plan_slews
 from attitude.config import SpacecraftConfig, load_config
-from attitude.montecarlo.campaign import Campaign, CampaignResult, Requirement, RunOutput, run_campaign, usable_cpus
+from attitude.montecarlo.campaign import Campaign, run_campaign, usable_cpus
 from attitude.montecarlo.dispersions import dispersions_from_config
+from attitude.montecarlo.executors import RunOutput
+from attitude.montecarlo.results import CampaignResult, Requirement
 from attitude.rigid_body import RigidBody
 from attitude.rng import NormalStreams
 from attitude.sensors import Gyro, GyroBatch
 from attitude.simulation.batch import closed_loop_metrics, simulate_batch
 from attitude.simulation.batch_estimated import simulate_batch_estimated
-from attitude.simulation.engine import Truth, settling_time_after, simulate
-from controllers.slew.planner import SlewPlanningError
+from attitude.simulation.engine import settling_time_after, simulate
+from attitude.simulation.protocols import Truth
+from controllers.slew.problem import SlewPlanningError
 from controllers.tracking import ReferenceTrajectory, TrackingController
 from estimation.consistency import nees
 from estimation.mekf import MEKF, MEKFBatch

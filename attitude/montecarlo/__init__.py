@@ -1,13 +1,6 @@
 """Monte Carlo campaigns: the campaign, dispersions, executors, results, statistics and plots."""
 
-from attitude.montecarlo.campaign import (
-    Campaign,
-    CampaignResult,
-    Requirement,
-    RunOutput,
-    run_campaign,
-    usable_cpus,
-)
+from attitude.montecarlo.campaign import Campaign, run_campaign, usable_cpus
 from attitude.montecarlo.dispersions import (
     AttitudeDispersion,
     Dispersion,
@@ -23,6 +16,8 @@ from attitude.montecarlo.dispersions import (
     run_seed_sequence,
     scenario_generator,
 )
+from attitude.montecarlo.executors import RunOutput
+from attitude.montecarlo.results import CampaignResult, Requirement
 from attitude.montecarlo.statistics import (
     DEFAULT_PERCENTILES,
     percentiles,

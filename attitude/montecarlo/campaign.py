@@ -93,7 +93,11 @@ from attitude.montecarlo.executors import (
 )
 from attitude.montecarlo.results import CampaignResult, Requirement
 
-__all__ = ["Campaign", "CampaignResult", "Requirement", "RunOutput", "run_campaign", "usable_cpus"]
+__all__ = [
+    "Campaign",
+    "run_campaign",
+    "usable_cpus",
+]
 
 
 @dataclass(frozen=True)

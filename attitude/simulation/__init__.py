@@ -9,19 +9,26 @@ from attitude.simulation.batch import (
 from attitude.simulation.batch_estimated import (
     simulate_batch_estimated,
 )
-from attitude.simulation.engine import (
+from attitude.simulation.engine import SimulationDivergedError, SimulationResult, settling_time_after, simulate
+from attitude.simulation.protocols import (
+    BatchEstimator,
+    CompiledController,
+    Controller,
     Estimate,
-    SimulationDivergedError,
-    SimulationResult,
+    Estimator,
+    Sensor,
     Truth,
-    settling_time_after,
-    simulate,
 )
 
 __all__ = [
     "BATCH_CHUNK",
+    "BatchEstimator",
     "BatchResult",
+    "CompiledController",
+    "Controller",
     "Estimate",
+    "Estimator",
+    "Sensor",
     "SimulationDivergedError",
     "SimulationResult",
     "Truth",

@@ -56,6 +56,7 @@ from attitude.simulation.codegen import CompilationError
 from attitude.simulation.engine import settling_time_after, ticks_per_period, whole_ticks
 from attitude.simulation.kernel import METRICS, CompiledTicks, command, observe
 from attitude.simulation.plant import PlantModel
+from attitude.simulation.protocols import CompiledController
 from attitude.validation import as_float_array, check_positive
 
 __all__ = ["BATCH_CHUNK", "BatchResult", "closed_loop_metrics", "simulate_batch"]
@@ -134,7 +135,7 @@ def simulate_batch(
     omega0: ArrayLike,
     duration: float,
     *,
-    controller: Any,
+    controller: CompiledController,
     wheels: ReactionWheels | None = None,
     h_wheels0: ArrayLike | None = None,
     dt: float | None = None,

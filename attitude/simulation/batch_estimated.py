@@ -10,7 +10,7 @@ time, in the order of the single-run engine's Python path
    alone (:class:`attitude.sensors.GyroBatch`,
    :meth:`attitude.sensors.StarTracker.measure_batch`);
 2. the estimator steps with the samples (``estimator.step(t, gyro, tracker,
-   mask) -> (q_hat, omega_hat)``, e.g. :class:`estimation.mekf.filter.MEKFBatch`);
+   mask) -> (q_hat, omega_hat)``, e.g. :class:`estimation.mekf.MEKFBatch`);
 3. ``observer(k, t, x, q_hat, omega_hat, updated)`` sees the tick (metrics
    are the caller's: this module does not know what a requirement is);
 4. at controller samples, the control law's ``torque_components`` on the
@@ -47,6 +47,7 @@ from attitude.simulation.codegen import CompilationError
 from attitude.simulation.engine import ticks_per_period, whole_ticks
 from attitude.simulation.kernel import CompiledHold, command
 from attitude.simulation.plant import PlantModel
+from attitude.simulation.protocols import BatchEstimator, CompiledController
 from attitude.validation import as_float_array, check_positive
 
 __all__ = ["simulate_batch_estimated"]
@@ -60,11 +61,11 @@ def simulate_batch_estimated(
     omega0: ArrayLike,
     duration: float,
     *,
-    controller: Any,
+    controller: CompiledController,
     wheels: Any,
     gyro: GyroBatch,
     tracker: StarTracker,
-    estimator: Any,
+    estimator: BatchEstimator,
     streams: NormalStreams,
     tracker_mounting: ArrayLike | None = None,
     dt: float | None = None,

@@ -48,10 +48,8 @@ if TYPE_CHECKING:
     import matplotlib.figure
 
 __all__ = [
-    "Estimate",
     "SimulationDivergedError",
     "SimulationResult",
-    "Truth",
     "settling_time_after",
     "simulate",
 ]

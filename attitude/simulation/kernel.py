@@ -43,6 +43,7 @@ from attitude import quaternion as quat
 from attitude.rigid_body import ParametricBody, split_components
 from attitude.simulation.codegen import compile_functions
 from attitude.simulation.plant import PlantModel
+from attitude.simulation.protocols import CompiledController
 
 __all__ = ["FOLDS", "METRICS", "CompiledHold", "CompiledTicks", "command", "observe"]
 
@@ -91,7 +92,9 @@ def observe(model: PlantModel, x: list, q_ref: list | None, threshold: Any, k: A
     return [bk.fmax(acc[0], rate), speed_peak, last_above, diverged_at], err, speeds
 
 
-def command(model: PlantModel, controller: Any, x: list, inputs: list, estimate: list | None = None) -> list:
+def command(
+    model: PlantModel, controller: CompiledController, x: list, inputs: list, estimate: list | None = None
+) -> list:
     """Motor torques (or the body torque without wheels) of the control law.
 
     As the single-run engine: the law sees ``estimate`` (``[q (4), omega
@@ -100,7 +103,7 @@ def command(model: PlantModel, controller: Any, x: list, inputs: list, estimate:
 
     Parameters
     ----------
-    model : _PlantModel
+    model : PlantModel
         The plant (body and wheels).
     controller : object
         A controller with ``torque_components``.
@@ -138,7 +141,9 @@ class CompiledTicks:
         Without a working C compiler.
     """
 
-    def __init__(self, wheels: Any, controller: Any, n_inputs: int, has_reference: bool, substeps: int) -> None:
+    def __init__(
+        self, wheels: Any, controller: CompiledController, n_inputs: int, has_reference: bool, substeps: int
+    ) -> None:
         self.n_w = 0 if wheels is None else wheels.n_wheels
         self.n_x = 7 + self.n_w
         self.n_u = self.n_w if wheels is not None else 3

@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 __all__ = [
+    "BatchEstimator",
     "CompiledController",
     "Controller",
     "Disturbance",
@@ -219,6 +220,43 @@ class Estimator(Protocol):
         -------
         Estimate
             What the controller will see.
+        """
+        ...
+
+
+@runtime_checkable
+class BatchEstimator(Protocol):
+    """N estimators stepped together by :func:`attitude.simulation.simulate_batch_estimated`.
+
+    :class:`estimation.mekf.MEKFBatch` meets it.
+    """
+
+    period: float
+
+    def step(
+        self,
+        t: float,
+        gyro: NDArray[np.float64] | None,
+        tracker: NDArray[np.float64] | None = None,
+        mask: NDArray[np.bool_] | None = None,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """One estimator step for all runs.
+
+        Parameters
+        ----------
+        t : float
+            Step time [s].
+        gyro : ndarray (N, 3) or None
+            The runs' gyro samples [rad/s].
+        tracker : ndarray (N, 4), optional
+            The runs' star-tracker quaternions (rows used where ``mask``).
+        mask : ndarray of bool (N,), optional
+            True where the tracker sampled.
+
+        Returns
+        -------
+        tuple of ndarray
+            ``(q_hat (N, 4), omega_hat (N, 3) [rad/s])``.
         """
         ...
 

@@ -1,17 +1,11 @@
 """Optimal slew planning with casadi/IPOPT, eigenaxis references and keep-out cones."""
 
-from controllers.slew.planner import (
-    IPOPT_DEFAULTS,
-    PUBLISHED_BILIMORIA_WIE,
-    EigenaxisSlew,
-    InfeasibleSlewError,
-    KeepOutCone,
-    SlewPlan,
-    SlewPlanningError,
-    eigenaxis_slew,
-    momentum_rate_limit,
-    plan_slew,
-)
+from controllers.slew.keep_out import KeepOutCone
+from controllers.slew.plan import SlewPlan
+from controllers.slew.planner import plan_slew
+from controllers.slew.problem import InfeasibleSlewError, SlewPlanningError, momentum_rate_limit
+from controllers.slew.reference import PUBLISHED_BILIMORIA_WIE, EigenaxisSlew, eigenaxis_slew
+from controllers.slew.transcription import IPOPT_DEFAULTS
 
 __all__ = [
     "IPOPT_DEFAULTS",

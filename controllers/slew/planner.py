@@ -47,26 +47,14 @@ from controllers.slew.keep_out import KeepOutCone
 from controllers.slew.plan import SlewPlan, cone_arrays
 from controllers.slew.problem import (
     OBJECTIVES,
-    InfeasibleSlewError,
-    SlewPlanningError,
     check_count,
-    momentum_rate_limit,
     validate,
 )
-from controllers.slew.reference import PUBLISHED_BILIMORIA_WIE, EigenaxisSlew, axis_angle, eigenaxis_slew
+from controllers.slew.reference import axis_angle
 from controllers.slew.refine import REFINEMENT_SLACK, drop_empty, refine_phases
-from controllers.slew.transcription import IPOPT_DEFAULTS, solve_grid
+from controllers.slew.transcription import solve_grid
 
 __all__ = [
-    "IPOPT_DEFAULTS",
-    "PUBLISHED_BILIMORIA_WIE",
-    "EigenaxisSlew",
-    "InfeasibleSlewError",
-    "KeepOutCone",
-    "SlewPlan",
-    "SlewPlanningError",
-    "eigenaxis_slew",
-    "momentum_rate_limit",
     "plan_slew",
 ]
 

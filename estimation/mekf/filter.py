@@ -26,14 +26,13 @@ from typing import Any
 import numpy as np
 from filterpy.kalman import KalmanFilter
 from numpy.typing import ArrayLike, NDArray
-from scipy import stats
 
 from attitude import quaternion as quat
 from attitude.rigid_body import skew
 from attitude.sensors import Gyro, StarTracker, farrenkopf_process_noise
-from attitude.simulation.engine import Estimate
+from attitude.simulation.protocols import Estimate
 from attitude.validation import as_float_array, check_covariance, check_positive, positive_scalar
-from estimation.consistency import GATE_PROBABILITY, NIS_CAP, NisHealth, nis_health
+from estimation.consistency import GATE_PROBABILITY, NIS_CAP, NisHealth, gate_threshold, nis_health
 
 __all__ = [
     "MEASUREMENT_MATRIX",
@@ -410,7 +409,7 @@ class MEKF:
             if gp.ndim != 0 or not 0.0 < float(gp) < 1.0:
                 raise ValueError(f"gate_probability must be a scalar in (0, 1) or None, got {gp.tolist()!r}")
             self.gate_probability = float(gp)
-            self.gate_threshold = float(stats.chi2.ppf(self.gate_probability, 3))
+            self.gate_threshold = gate_threshold(self.gate_probability, 3)
         #: Largest accepted gyro component [rad/s].
         self.gyro_rate_max = (
             math.pi / self.period if gyro_rate_max is None else positive_scalar(gyro_rate_max, "gyro_rate_max")

@@ -16,7 +16,7 @@ What each group checks against:
   Applications to Tracking and Navigation*, 2001, sec. 5.4, as in :mod:`estimation.consistency`).
 * Agreement between independent implementations: the per-run scenario against the vectorised campaign
   (:func:`attitude.simulation.batch_estimated.simulate_batch_estimated` with
-  :class:`estimation.mekf.filter.MEKFBatch`; rounding-level agreement) and against itself across chunk
+  :class:`estimation.mekf.MEKFBatch`; rounding-level agreement) and against itself across chunk
   sizes and a pickle round trip (bit for bit); the tabulated reference against the
   :class:`controllers.tracking.TrackingController` sampled per tick (bit for bit).
 * Covariance bookkeeping: the consider-misalignment inflation equals the file's dispersion squared
@@ -42,8 +42,8 @@ from attitude.app.scenarios import (
     requirements_from_config,
 )
 from attitude.config import default_config
-from attitude.montecarlo.campaign import RunOutput
-from controllers.slew.planner import SlewPlanningError
+from attitude.montecarlo.executors import RunOutput
+from controllers.slew.problem import SlewPlanningError
 
 CONFIG = default_config()
 REQ = CONFIG.requirements

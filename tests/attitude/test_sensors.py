@@ -25,7 +25,8 @@ from attitude.sensors import (
     rrw_from_sigma_u,
     rrw_to_sigma_u,
 )
-from attitude.simulation.engine import Truth, simulate
+from attitude.simulation.engine import simulate
+from attitude.simulation.protocols import Truth
 
 DEG = np.pi / 180.0
 

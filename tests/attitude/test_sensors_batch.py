@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from attitude import quaternion as quat
 from attitude.rng import NormalStreams
 from attitude.sensors import Gyro, GyroBatch, StarTracker
-from attitude.simulation.engine import Truth
+from attitude.simulation.protocols import Truth
 
 DEG = np.pi / 180.0
 SEEDS = [11, 12, 13, 14, 15]

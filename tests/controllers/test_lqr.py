@@ -35,7 +35,8 @@ from attitude import RigidBody
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
 from attitude.linearize import linearize, principal_spin
-from attitude.simulation.engine import Estimate, simulate
+from attitude.simulation.engine import simulate
+from attitude.simulation.protocols import Estimate
 from controllers.lqr import LQRController, LQRDesign, bryson_weights, design_lqr
 
 BODY = RigidBody([[10.0, 1.2, -0.5], [1.2, 12.0, 0.3], [-0.5, 0.3, 8.0]])

@@ -16,7 +16,7 @@ What each group checks against:
 * Rate-limited eigenaxis slews: the Wie-Lu law (B. Wie and J. Lu, "Feedback control logic for
   spacecraft eigenaxis rotations under slew rate and control constraints", *J. Guidance,
   Control, and Dynamics* 18(6), 1995; Wie, *Space Vehicle Dynamics and Control*, 2nd ed., 2008):
-  the saturation limits give the coast rate ``omega_max`` along the eigenaxis, a 120 deg slew
+  the saturation limits give the coast rate ``rate_max`` along the eigenaxis, a 120 deg slew
   holds the rate limit and stays on the eigenaxis great circle, which it loses without
   gyroscopic compensation; an unlimited PD exceeds the rate. The norm-saturation variant is the
   toolkit's own (no published source): it flies the same eigenaxis slew and keeps stiffness on
@@ -35,7 +35,8 @@ import pytest
 from attitude import RigidBody
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
-from attitude.simulation.engine import Estimate, simulate
+from attitude.simulation.engine import simulate
+from attitude.simulation.protocols import Estimate
 from controllers.analysis import attitude_closed_loop
 from controllers.pd import QuaternionPD, RateLimitedPD
 

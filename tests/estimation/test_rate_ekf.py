@@ -25,7 +25,8 @@ from attitude import RigidBody
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
 from attitude.sensors import Gyro, GyroSamplingWarning, StarTracker
-from attitude.simulation.engine import Estimate, simulate
+from attitude.simulation.engine import simulate
+from attitude.simulation.protocols import Estimate
 from estimation.consistency import average_nees, average_nis, chi2_band, fraction_inside_band, nees
 from estimation.rate_ekf import RateEKF, RateEKFResult, _van_loan, run_rate_ekf
 

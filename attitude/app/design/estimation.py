@@ -14,7 +14,7 @@ quantisation), which neither filter models, are left out: the check
 isolates the noise model the filters are built on. (The closed loop of
 section 4 flies the full gyro model.)
 
-* MEKF (:func:`estimation.mekf.filter.run_mekf`, batched numpy path): each gyro
+* MEKF (:func:`estimation.mekf.run_mekf`, batched numpy path): each gyro
   sample is the mean rate over the interval ending at it, taken from the
   true attitude increment (what the filter assumes), plus the errors; the
   tracker samples every ``period / gyro period`` steps, except while the Sun

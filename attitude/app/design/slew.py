@@ -37,8 +37,9 @@ from attitude.config import ConfigError, SpacecraftConfig
 from attitude.plain import plain_float as _f
 from attitude.plain import plain_vector as _vec
 from attitude.simulation.engine import SimulationResult, simulate
-from controllers.slew.planner import SlewPlanningError, eigenaxis_slew, momentum_rate_limit, plan_slew
-from controllers.slew.reference import axis_angle
+from controllers.slew.planner import plan_slew
+from controllers.slew.problem import SlewPlanningError, momentum_rate_limit
+from controllers.slew.reference import axis_angle, eigenaxis_slew
 
 __all__ = [
     "KEEP_OUT_MARGIN_DEG",

@@ -53,7 +53,7 @@ from attitude.app.scenarios import (
     run_campaign_from_config,
 )
 from attitude.config import default_config
-from attitude.montecarlo.campaign import Campaign, CampaignResult, Requirement, RunOutput, run_campaign
+from attitude.montecarlo.campaign import Campaign, run_campaign
 from attitude.montecarlo.dispersions import (
     AttitudeDispersion,
     InertiaDispersion,
@@ -65,9 +65,9 @@ from attitude.montecarlo.dispersions import (
     draw_parameters,
     run_seed_sequence,
 )
-from attitude.montecarlo.executors import Progress
+from attitude.montecarlo.executors import Progress, RunOutput
 from attitude.montecarlo.plots import save_figures
-from attitude.montecarlo.results import EXECUTION_COLUMNS
+from attitude.montecarlo.results import EXECUTION_COLUMNS, CampaignResult, Requirement
 from attitude.montecarlo.statistics import (
     percentiles,
     runs_for_zero_failures,

@@ -86,7 +86,7 @@ class _Mounted:
         self.tracker, self.name, self.period, self.dq = tracker, tracker.name, tracker.period, dq
 
     def measure(self, t, truth, rng):
-        from attitude.simulation.engine import Truth
+        from attitude.simulation.protocols import Truth
 
         return self.tracker.measure(t, Truth(truth.t, quat.multiply(truth.q, self.dq), truth.omega, None), rng)
 

@@ -25,7 +25,8 @@ import pytest
 from attitude import RigidBody
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
-from attitude.simulation.engine import Estimate, SimulationResult, simulate
+from attitude.simulation.engine import SimulationResult, simulate
+from attitude.simulation.protocols import Estimate
 from controllers.pd import QuaternionPD
 
 BODY = RigidBody([[10.0, 1.2, -0.5], [1.2, 12.0, 0.3], [-0.5, 0.3, 8.0]])

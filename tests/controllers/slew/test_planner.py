@@ -42,17 +42,11 @@ from attitude import RigidBody
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
 from attitude.propagate import propagate
-from controllers.slew.planner import (
-    PUBLISHED_BILIMORIA_WIE,
-    EigenaxisSlew,
-    InfeasibleSlewError,
-    KeepOutCone,
-    SlewPlan,
-    SlewPlanningError,
-    eigenaxis_slew,
-    momentum_rate_limit,
-    plan_slew,
-)
+from controllers.slew.keep_out import KeepOutCone
+from controllers.slew.plan import SlewPlan
+from controllers.slew.planner import plan_slew
+from controllers.slew.problem import InfeasibleSlewError, SlewPlanningError, momentum_rate_limit
+from controllers.slew.reference import PUBLISHED_BILIMORIA_WIE, EigenaxisSlew, eigenaxis_slew
 
 # Bilimoria and Wie (1993): unit inertia, |u_i| <= 1, rest to rest, 180 deg about body x.
 UNIT = RigidBody([1.0, 1.0, 1.0])

@@ -34,7 +34,8 @@ from attitude import quaternion as quat
 from attitude.propagate import propagate
 from attitude.rigid_body import RigidBody, skew
 from attitude.sensors import ARCSEC, Gyro, GyroSamplingWarning, StarTracker
-from attitude.simulation.engine import Estimate, simulate
+from attitude.simulation.engine import simulate
+from attitude.simulation.protocols import Estimate
 from estimation.consistency import chi2_band, fraction_inside_band
 from estimation.mekf import filter as mk
 from estimation.mekf.filter import MEKF, initial_covariance, process_noise, transition_matrix
