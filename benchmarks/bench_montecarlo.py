@@ -181,7 +181,7 @@ def pd_wheels(per_run_runs: int = 20, vectorised_runs: int = 1000, repeats: int 
 def _measure_numpy_backend(scenario: PDWheelsScenario, dispersions: dict, runs: int = 1000) -> dict[str, Any]:
     """The same campaign's simulation on the numpy back end (no compiler), fewer simulated seconds."""
     params = [Campaign(scenario, dispersions, runs=runs, seed=1).parameters(r) for r in range(runs)]
-    initial = [scenario._initial(p) for p in params]
+    initial = [scenario.initial_state(p) for p in params]
     body = RigidBody(np.stack([np.asarray(i[0], dtype=float) for i in initial]))
     q0, omega0 = (np.stack([np.asarray(i[k], dtype=float) for i in initial]) for k in (1, 2))
     duration = 60.0

@@ -31,29 +31,30 @@ from pathlib import Path
 
 import numpy as np
 
-from attitude import RigidBody
+from attitude import ReactionWheels, RigidBody, simulate
 from attitude import quaternion as quat
-from attitude.actuators import ReactionWheels
 from attitude.linearize import linearize
-from attitude.simulation.engine import simulate
-from controllers.analysis import (
+from controllers import (
+    LQRController,
+    QuaternionPD,
+    RateLimitedPD,
     attitude_closed_loop,
+    bryson_weights,
+    design_lqr,
     loop_gain,
     margins,
     plot_bode,
     plot_step,
     sample_time_study,
     sampled_loop,
-    sweep_margins,
 )
-from controllers.lqr import LQRController, bryson_weights, design_lqr
-from controllers.pd import QuaternionPD, RateLimitedPD
+from controllers.analysis import sweep_margins
 
 INERTIA = np.array([[12.0, 0.4, -0.3], [0.4, 10.5, 0.2], [-0.3, 0.2, 8.5]])  # kg m^2
 PERIOD_S = 0.1  # 10 Hz controller
-WN_RAD_S = 0.2  # PD natural frequency per axis
+WN_RAD_PER_S = 0.2  # PD natural frequency per axis
 ZETA = 0.8
-RATE_LIMIT_DEG_S = 1.0
+RATE_MAX_DEG_PER_S = 1.0
 COMPUTATION_DELAY_S = 0.02
 
 
@@ -77,7 +78,7 @@ def main() -> None:
     print(f"   exact vs one-sided finite differences: max |dA| = {np.max(np.abs(plant.A - plant_fd.A)):.1e}")
 
     # 2. PD from wn and zeta --------------------------------------------------------
-    pd = QuaternionPD.from_bandwidth(body, wn=WN_RAD_S, zeta=ZETA, period=PERIOD_S, gyroscopic=True)
+    pd = QuaternionPD.from_bandwidth(body, wn=WN_RAD_PER_S, zeta=ZETA, period=PERIOD_S, gyroscopic=True)
     closed = attitude_closed_loop(body, pd)
     poles = np.linalg.eigvals(closed.A)
     wn_cl = np.abs(poles)
@@ -130,14 +131,14 @@ def main() -> None:
     # 5. Nonlinear proof ------------------------------------------------------------------
     target = quat.from_axis_angle([1.0, 1.0, 0.5], np.radians(60.0))
     slew_ctrl = RateLimitedPD.from_bandwidth(
-        body, wn=WN_RAD_S, zeta=ZETA, rate_max=np.radians(RATE_LIMIT_DEG_S), period=PERIOD_S, q_ref=target
+        body, wn=WN_RAD_PER_S, zeta=ZETA, rate_max=np.radians(RATE_MAX_DEG_PER_S), period=PERIOD_S, q_ref=target
     )
     duration = 120.0 if args.quick else 200.0
     slew = simulate(body, quat.identity(), np.zeros(3), duration, controller=slew_ctrl, wheels=wheels)
     rate_peak = np.degrees(np.max(np.linalg.norm(slew.omega, axis=1)))
     h = slew.momentum_N
     print("\n5. Nonlinear 60 deg slew, Wie-Lu PD (1 deg/s limit), pyramid wheels")
-    print(f"   peak body rate {rate_peak:.4f} deg/s (limit {RATE_LIMIT_DEG_S})")
+    print(f"   peak body rate {rate_peak:.4f} deg/s (limit {RATE_MAX_DEG_PER_S})")
     print(
         f"   settling (0.05 deg) at {slew.settling_time(np.radians(0.05)):.1f} s, final error "
         f"{np.degrees(slew.error_angle[-1]):.2e} deg"

@@ -108,16 +108,23 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from attitude import RigidBody
+from attitude import Gyro, ReactionWheels, RigidBody, StarTracker, simulate
 from attitude import quaternion as quat
-from attitude.actuators import ReactionWheels
 from attitude.propagate import propagate
-from attitude.sensors import ARCSEC, Gyro, StarTracker, arw_from_sigma_v
-from attitude.simulation.engine import simulate
-from controllers.pd import QuaternionPD
-from estimation.consistency import chi2_band, fraction_inside_band, nees, plot_errors_with_bounds, plot_nees
-from estimation.mekf import MEKF, run_mekf, steady_state_attitude_sigma
-from estimation.rate_ekf import RateEKF, run_rate_ekf
+from attitude.sensors import ARCSEC, arw_from_sigma_v
+from controllers import QuaternionPD
+from estimation import (
+    MEKF,
+    RateEKF,
+    chi2_band,
+    nees,
+    plot_errors_with_bounds,
+    plot_nees,
+    run_mekf,
+    run_rate_ekf,
+    steady_state_attitude_sigma,
+)
+from estimation.consistency import fraction_inside_band
 
 #: Small satellite, body axes, wheels included [kg m^2] (illustrative; principal moments ~6, 9, 11).
 INERTIA = np.array([[6.0, 0.3, -0.2], [0.3, 9.0, 0.15], [-0.2, 0.15, 11.0]])

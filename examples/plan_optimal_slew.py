@@ -31,20 +31,15 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from attitude import RigidBody
+from attitude import ReactionWheels, RigidBody, SimulationResult, simulate
 from attitude import quaternion as quat
-from attitude.actuators import ReactionWheels
-from attitude.simulation.engine import SimulationResult, simulate
-from controllers.slew.keep_out import KeepOutCone
-from controllers.slew.plan import SlewPlan
-from controllers.slew.planner import plan_slew
-from controllers.slew.reference import PUBLISHED_BILIMORIA_WIE, eigenaxis_slew
-from controllers.tracking import TrackingController
+from controllers import KeepOutCone, SlewPlan, TrackingController, eigenaxis_slew, plan_slew
+from controllers.slew import PUBLISHED_BILIMORIA_WIE
 
 INERTIA = np.array([[12.0, 0.4, -0.3], [0.4, 10.5, 0.2], [-0.3, 0.2, 8.5]])  # kg m^2
 WHEEL_TORQUE_NM = 0.02
 PLAN_MARGIN = 0.8  # fraction of the wheel torque the plan may use
-RATE_LIMIT_DEG_S = 1.0
+RATE_MAX_DEG_PER_S = 1.0
 PLAN_RATE_MARGIN = 0.95  # fraction of the rate limit the plan may use
 SETTLE_ARCSEC = 1.0  # pointing threshold for the settling time after the slew
 
@@ -91,7 +86,7 @@ def main() -> None:
     sun_N = np.array([0.0, -np.sin(np.radians(45.0)), np.cos(np.radians(45.0))]) + np.array([0.25, 0.0, 0.0])
     sun_N = sun_N / np.linalg.norm(sun_N)
     cone = KeepOutCone.from_degrees([0.0, 0.0, 1.0], sun_N, 30.0, name="star tracker / Sun")
-    rate_limit = np.radians(RATE_LIMIT_DEG_S)
+    rate_limit = np.radians(RATE_MAX_DEG_PER_S)
     rate_max = PLAN_RATE_MARGIN * rate_limit
     common = {"torque_max": plan_wheels, "rate_max": rate_max, "nodes": nodes}
     free = plan_slew(body, q0, qf, **common)
@@ -100,7 +95,7 @@ def main() -> None:
     energy = plan_slew(body, q0, qf, objective="energy", duration=1.3 * kept.duration, keep_out=[cone], **common)
     print(
         f"\n2. Microsatellite: 90 deg about x, 4-wheel pyramid ({PLAN_MARGIN:.0%} torque), "
-        f"{RATE_LIMIT_DEG_S:g} deg/s limit (planned at {PLAN_RATE_MARGIN:.0%}), 30 deg Sun cone"
+        f"{RATE_MAX_DEG_PER_S:g} deg/s limit (planned at {PLAN_RATE_MARGIN:.0%}), 30 deg Sun cone"
     )
     print("   plan                   time [s]   peak rate [deg/s]   peak |torque| [mN m]   Sun separation [deg]")
     rows = [
@@ -148,8 +143,8 @@ def main() -> None:
         f"{np.degrees(np.max(flight.error_angle[during & (flight.t > 20.0)])):.4f} deg max after 20 s"
     )
     print(
-        f"   peak |omega| {rate_peak:.4f} deg/s against the {RATE_LIMIT_DEG_S:g} deg/s limit "
-        f"({'within' if rate_peak <= RATE_LIMIT_DEG_S else 'ABOVE'}; planned at {np.degrees(rate_max):.3f} deg/s); "
+        f"   peak |omega| {rate_peak:.4f} deg/s against the {RATE_MAX_DEG_PER_S:g} deg/s limit "
+        f"({'within' if rate_peak <= RATE_MAX_DEG_PER_S else 'ABOVE'}; planned at {np.degrees(rate_max):.3f} deg/s); "
         f"Sun separation never below {sep:.3f} deg (cone 30 deg)"
     )
     print(

@@ -32,6 +32,14 @@ PHYSICS_MODULES = (
     "attitude.environment",
     "attitude.sensors",
     "attitude.simulation",
+    "attitude.simulation.batch",
+    "attitude.simulation.batch_estimated",
+    "attitude.simulation.kernel",
+    "attitude.simulation.codegen",
+    "attitude.environment.orbit",
+    "attitude.environment.gravity_gradient",
+    "attitude.rng",
+    "attitude.validation",
 )
 
 

@@ -10,7 +10,7 @@ tracking controller, LQR), the estimators (MEKF and rate EKF) with their
 initial covariances and the tuning derived from the gyro, the keep-out cones
 of the required slew and the Monte Carlo pass/fail rules of
 ``[requirements]``. No other module calls those constructors on file data
-(``tests/app/test_assembly.py`` checks it), so the design and the scenarios
+(``tests/attitude/app/test_assembly.py`` checks it), so the design and the scenarios
 cannot drift apart.
 
 The conversion of one table into its ground-floor object (file units to

@@ -3,7 +3,7 @@
 from controllers.slew.keep_out import KeepOutCone
 from controllers.slew.plan import SlewPlan
 from controllers.slew.planner import plan_slew
-from controllers.slew.problem import InfeasibleSlewError, SlewPlanningError, momentum_rate_limit
+from controllers.slew.problem import InfeasibleSlewError, SlewPlanningError, momentum_rate_max
 from controllers.slew.reference import PUBLISHED_BILIMORIA_WIE, EigenaxisSlew, eigenaxis_slew
 from controllers.slew.transcription import IPOPT_DEFAULTS
 
@@ -16,6 +16,6 @@ __all__ = [
     "SlewPlan",
     "SlewPlanningError",
     "eigenaxis_slew",
-    "momentum_rate_limit",
+    "momentum_rate_max",
     "plan_slew",
 ]

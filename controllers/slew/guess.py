@@ -41,7 +41,7 @@ def base_guess(prob: Problem, n: int, duration_s: float | None) -> tuple[NDArray
     inertia_s = prob.body_s.inertia
     eig = None
     try:
-        eig = eigenaxis_profile(inertia_s, prob.rows_s, axis, angle, prob.rate_max_s, 401)
+        eig = eigenaxis_profile(inertia_s, prob.rows_s, axis, angle, prob.rate_max_scaled, 401)
     except ValueError:
         eig = None
     if duration_s is None:

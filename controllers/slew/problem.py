@@ -28,7 +28,7 @@ __all__ = [
     "SlewPlanningError",
     "TorqueSet",
     "check_count",
-    "momentum_rate_limit",
+    "momentum_rate_max",
     "validate",
     "vector3",
 ]
@@ -223,7 +223,7 @@ class Problem:
         return np.concatenate([self.q0, self.omega0 * self.t_s])
 
     @property
-    def rate_max_s(self) -> float | None:
+    def rate_max_scaled(self) -> float | None:
         """Rate limit in units of 1/T_s."""
         return None if self.rate_max is None else self.rate_max * self.t_s
 
@@ -322,7 +322,7 @@ def validate(
     )
 
 
-def momentum_rate_limit(body: RigidBody, wheels: ReactionWheels, axis: ArrayLike | None = None) -> float:
+def momentum_rate_max(body: RigidBody, wheels: ReactionWheels, axis: ArrayLike | None = None) -> float:
     """Largest body rate [rad/s] whose wheel momentum stays inside ``wheels.momentum_max``.
 
     A rest-to-rest slew that starts with zero wheel momentum conserves the

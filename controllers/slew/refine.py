@@ -108,11 +108,11 @@ def _row_segments(t: NDArray, s: NDArray) -> list[tuple[float, float, int]]:
     return segs
 
 
-def _rate_limit_edges(prob: Problem, t: NDArray, X: NDArray) -> list[float]:
+def _rate_max_edges(prob: Problem, t: NDArray, X: NDArray) -> list[float]:
     """Start and end times of the runs of nodes at the rate limit spanning at least one interval."""
-    if prob.rate_max_s is None:
+    if prob.rate_max_scaled is None:
         return []
-    at_limit = np.linalg.norm(X[4:], axis=0) >= prob.rate_max_s * (1.0 - SATURATION_TOLERANCE)
+    at_limit = np.linalg.norm(X[4:], axis=0) >= prob.rate_max_scaled * (1.0 - SATURATION_TOLERANCE)
     edges = []
     k = 0
     while k < at_limit.size:
@@ -193,7 +193,7 @@ def refine_phases(
     # Ends of arcs at the rate limit (coasts), unless a torque switch lies within about an interval.
     switches = [b for b in bounds if 0.0 < b < total]
     h_max = float(np.max(grid.H))
-    for b in _rate_limit_edges(prob, t, grid.X):
+    for b in _rate_max_edges(prob, t, grid.X):
         if all(abs(b - e) > 1.5 * h_max for e in switches):
             bounds.add(b)
     bounds = sorted(bounds)

@@ -84,8 +84,8 @@ def interval_function(prob: Problem) -> IntervalFunction:
     defect = states[-1] - x_next
     points = [*states[:-1], x_next]
     g = []
-    if prob.rate_max_s is not None:
-        g += [ca.sumsqr(p[4:]) - prob.rate_max_s**2 for p in points[1:]]
+    if prob.rate_max_scaled is not None:
+        g += [ca.sumsqr(p[4:]) - prob.rate_max_scaled**2 for p in points[1:]]
     first_drop: tuple[int, ...] = ()
     last_drop: tuple[int, ...] = ()
     start = end = ca.SX(0, 1)

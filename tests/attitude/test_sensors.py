@@ -4,6 +4,15 @@ Statistical checks run at fixed seeds, so they are deterministic; each
 tolerance is a stated multiple (4 to 5) of the sampling standard deviation
 of the estimate, so a correct model passes with a wide margin and a model
 that is wrong by the size of the alternatives discussed fails.
+
+References: the gyro model and its discrete statistics are Farrenkopf's
+(R. L. Farrenkopf, "Analytic steady-state accuracy solutions for two common
+spacecraft attitude estimators", J. Guidance and Control 1(4), 1978;
+Markley and Crassidis, *Fundamentals of Spacecraft Attitude Determination
+and Control*, 2014, sec. 6.2.2); the datasheet conversions (angle random
+walk, rate random walk, bias instability and the Allan-deviation floor)
+follow IEEE Std 952-1997, Annex C. The star-tracker noise is checked against
+its own covariance (cross-boresight and roll sigmas).
 """
 
 import numpy as np

@@ -69,16 +69,16 @@ def _gg_entry(moments: np.ndarray, orbit: Any, label: str) -> dict[str, Any]:
         "roll_yaw_stable": bool(gg.roll_yaw_stable),
         "stable": bool(gg.stable),
         "pitch_libration_period_s": None,
-        "pitch_libration_period_min": None,
+        "pitch_libration_period_minutes": None,
         "roll_yaw_periods_s": None,
-        "roll_yaw_periods_min": None,
+        "roll_yaw_periods_minutes": None,
     }
     if gg.pitch_frequency:
         entry["pitch_libration_period_s"] = 2 * math.pi / gg.pitch_frequency
-        entry["pitch_libration_period_min"] = entry["pitch_libration_period_s"] / 60.0
+        entry["pitch_libration_period_minutes"] = entry["pitch_libration_period_s"] / 60.0
     if gg.roll_yaw_frequencies:
         entry["roll_yaw_periods_s"] = [2 * math.pi / w for w in gg.roll_yaw_frequencies]
-        entry["roll_yaw_periods_min"] = [p / 60.0 for p in entry["roll_yaw_periods_s"]]
+        entry["roll_yaw_periods_minutes"] = [p / 60.0 for p in entry["roll_yaw_periods_s"]]
     return entry
 
 
@@ -169,7 +169,7 @@ def body_analysis(config: SpacecraftConfig, spin_rate_deg_per_s: float = DEFAULT
         out["gravity_gradient"] = {
             "altitude_km": _f(orbit.altitude_m / 1000.0),
             "orbit_period_s": _f(orbit.period),
-            "orbit_period_min": _f(orbit.period / 60.0),
+            "orbit_period_minutes": _f(orbit.period / 60.0),
             "mean_motion_rad_per_s": _f(n),
             "torque_peak_uNm": _f(1.5 * n * n * (m[2] - m[0]) * 1e6),
             "orientations": [

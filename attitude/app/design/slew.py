@@ -38,7 +38,7 @@ from attitude.plain import plain_float as _f
 from attitude.plain import plain_vector as _vec
 from attitude.simulation.engine import SimulationResult, simulate
 from controllers.slew.planner import plan_slew
-from controllers.slew.problem import SlewPlanningError, momentum_rate_limit
+from controllers.slew.problem import SlewPlanningError, momentum_rate_max
 from controllers.slew.reference import axis_angle, eigenaxis_slew
 
 __all__ = [
@@ -64,7 +64,7 @@ PLAN_RATE_FRACTION = 0.85
 PLAN_STARTS = 2
 #: ... and each keep-out cone widened by this much [deg] (less when the start or end attitude is closer).
 KEEP_OUT_MARGIN_DEG = 0.5
-#: ... and this fraction of the wheels' momentum capacity (controllers.slew.planner.momentum_rate_limit): the
+#: ... and this fraction of the wheels' momentum capacity (controllers.slew.planner.momentum_rate_max): the
 #: wheels hold -I omega during a rest-to-rest slew, plus what the feedback corrections add.
 PLAN_MOMENTUM_FRACTION = 0.8
 
@@ -152,8 +152,8 @@ def plan_slews(
     # inside PLAN_MOMENTUM_FRACTION of momentum_max on any path (the optimal plan), and the exact
     # momentum-limited rate along the eigenaxis for the eigenaxis slew.
     wheels = assembly.reaction_wheels(config)
-    rate_h = PLAN_MOMENTUM_FRACTION * momentum_rate_limit(body, wheels)
-    rate_h_axis = PLAN_MOMENTUM_FRACTION * momentum_rate_limit(body, wheels, axis_angle(q0, qf)[0])
+    rate_h = PLAN_MOMENTUM_FRACTION * momentum_rate_max(body, wheels)
+    rate_h_axis = PLAN_MOMENTUM_FRACTION * momentum_rate_max(body, wheels, axis_angle(q0, qf)[0])
     rate_plan = rate_h if rate_max is None else min(rate_max, rate_h)
     rate_eig = rate_h_axis if rate_max is None else min(rate_max, rate_h_axis)
     cones = list(req.keep_out)
@@ -168,17 +168,17 @@ def plan_slews(
         "q_target_BN": _vec(qf),
         "objective": objective,
         "time_max_s": slew.time_max_s,
-        "rate_limit_deg_per_s": slew.rate_max_deg_per_s,
+        "rate_max_deg_per_s": slew.rate_max_deg_per_s,
         "plan_torque_fraction": PLAN_TORQUE_FRACTION,
         "plan_torque_percent": 100.0 * PLAN_TORQUE_FRACTION,
         "plan_rate_fraction": PLAN_RATE_FRACTION,
         "plan_rate_percent": 100.0 * PLAN_RATE_FRACTION,
-        "plan_rate_limit_deg_per_s": None if rate_max is None else _f(math.degrees(rate_max)),
+        "plan_rate_max_deg_per_s": None if rate_max is None else _f(math.degrees(rate_max)),
         "plan_momentum_fraction": PLAN_MOMENTUM_FRACTION,
-        "momentum_rate_limit_deg_per_s": _f(math.degrees(rate_h)),
-        "momentum_rate_limit_eigenaxis_deg_per_s": _f(math.degrees(rate_h_axis)),
-        "planner_rate_limit_deg_per_s": _f(math.degrees(rate_plan)),
-        "eigenaxis_rate_limit_deg_per_s": _f(math.degrees(rate_eig)),
+        "momentum_rate_max_deg_per_s": _f(math.degrees(rate_h)),
+        "momentum_rate_max_eigenaxis_deg_per_s": _f(math.degrees(rate_h_axis)),
+        "planner_rate_max_deg_per_s": _f(math.degrees(rate_plan)),
+        "eigenaxis_rate_max_deg_per_s": _f(math.degrees(rate_eig)),
         "torque_envelope_mNm": _vec(1e3 * plan_wheels.torque_envelope()),
         "keep_out": [
             {
@@ -289,7 +289,7 @@ def slew_figures(study: SlewStudy) -> dict[str, Figure]:
         ax_w.plot(traj.t, np.degrees(np.linalg.norm(traj.omega, axis=1)), style, label=name)
         for c in study.cones:
             ax_s.plot(traj.t, np.degrees(c.separation(traj.q)), style, label=f"{name}: {c.name}")
-    rate = study.summary["plan_rate_limit_deg_per_s"]
+    rate = study.summary["plan_rate_max_deg_per_s"]
     if rate is not None:
         ax_w.axhline(rate / PLAN_RATE_FRACTION, color="tab:red", lw=0.8, ls=":", label="required rate limit")
     ax_w.set_ylabel("|body rate| [deg/s]")

@@ -208,7 +208,7 @@ def _body(results: dict[str, Any]) -> list[Block]:
         out.append(
             Paragraph(
                 f"Gravity gradient on the circular orbit at {fmt(gg['altitude_km'])} km (orbit period "
-                f"{fmt(gg['orbit_period_min'])} min): the largest gravity-gradient torque on this body is "
+                f"{fmt(gg['orbit_period_minutes'])} min): the largest gravity-gradient torque on this body is "
                 f"{fmt(gg['torque_peak_uNm'])} uN m (3 n^2 (I3 - I1) / 2, at 45 deg from the principal axes). "
                 "Stability of the nadir-pointing attitude (linearised about the LVLH frame):"
             )
@@ -223,8 +223,8 @@ def _body(results: dict[str, Any]) -> list[Block]:
                     o["region"],
                     "stable" if o["pitch_stable"] else "unstable",
                     "stable" if o["roll_yaw_stable"] else "unstable",
-                    fmt(o["pitch_libration_period_min"]),
-                    "n/a" if ry is None else ", ".join(fmt(p) for p in o["roll_yaw_periods_min"]),
+                    fmt(o["pitch_libration_period_minutes"]),
+                    "n/a" if ry is None else ", ".join(fmt(p) for p in o["roll_yaw_periods_minutes"]),
                 ]
             )
         out.append(
@@ -349,7 +349,7 @@ def _slews(results: dict[str, Any]) -> list[Block]:
     s = results["slews"]
     plan, eig = s["plan"], s["eigenaxis"]
     cones = s["keep_out"]
-    rate = s["plan_rate_limit_deg_per_s"]
+    rate = s["plan_rate_max_deg_per_s"]
     text = (
         f"The required slew: {fmt(s['angle_deg'])} deg from q_BN = {_vec(s['q_start_BN'])} to "
         f"{_vec(s['q_target_BN'])}. Both are planned with {fmt(s['plan_torque_percent'])} % of the wheels' "
@@ -358,12 +358,12 @@ def _slews(results: dict[str, Any]) -> list[Block]:
     if rate is not None:
         text += f" and {fmt(s['plan_rate_percent'])} % of the rate limit ({fmt(rate)} deg/s)"
     text += ", leaving the feedback authority on top of the feedforward."
-    if s.get("momentum_rate_limit_deg_per_s") is not None:
+    if s.get("momentum_rate_max_deg_per_s") is not None:
         text += (
             f" The wheels hold -I omega during the slew, so both are also rate-limited to keep the wheel momentum "
             f"within {fmt(100.0 * s['plan_momentum_fraction'])} % of its limit: "
-            f"{fmt(s['planner_rate_limit_deg_per_s'])} deg/s for the optimal plan (any direction) and "
-            f"{fmt(s['eigenaxis_rate_limit_deg_per_s'])} deg/s along the eigenaxis."
+            f"{fmt(s['planner_rate_max_deg_per_s'])} deg/s for the optimal plan (any direction) and "
+            f"{fmt(s['eigenaxis_rate_max_deg_per_s'])} deg/s along the eigenaxis."
         )
     if cones and plan is None:
         text += (
@@ -392,7 +392,7 @@ def _slews(results: dict[str, Any]) -> list[Block]:
         return [label] + [fmt(None if x is None else x[key]) for x in (plan, eig)] + [required]
 
     rows.append(row("duration [s]", "duration_s", f"<= {fmt(s['time_max_s'])}"))
-    limit = s["rate_limit_deg_per_s"]
+    limit = s["rate_max_deg_per_s"]
     rows.append(row("peak body rate [deg/s]", "rate_peak_deg_per_s", "" if limit is None else f"<= {fmt(limit)}"))
     rows.append(row("peak torque [mN m]", "torque_peak_mNm"))
     rows.append(row("energy, integral of |torque|^2 [N^2 m^2 s]", "energy_N2m2s"))

@@ -45,7 +45,7 @@ from attitude.propagate import propagate
 from controllers.slew.keep_out import KeepOutCone
 from controllers.slew.plan import SlewPlan
 from controllers.slew.planner import plan_slew
-from controllers.slew.problem import InfeasibleSlewError, SlewPlanningError, momentum_rate_limit
+from controllers.slew.problem import InfeasibleSlewError, SlewPlanningError, momentum_rate_max
 from controllers.slew.reference import PUBLISHED_BILIMORIA_WIE, EigenaxisSlew, eigenaxis_slew
 
 # Bilimoria and Wie (1993): unit inertia, |u_i| <= 1, rest to rest, 180 deg about body x.
@@ -407,14 +407,14 @@ class TestReactionWheels:
         free = plan_slew(body, Q_ID, qf, torque_max=wheels, nodes=30)
         h_free = np.abs(np.asarray(free.omega) @ (wheels.allocation @ body.inertia).T)
         assert np.max(h_free) > 0.1  # without the envelope the plan needs more than the wheels hold
-        rate = momentum_rate_limit(body, wheels)
+        rate = momentum_rate_max(body, wheels)
         plan = plan_slew(body, Q_ID, qf, torque_max=wheels, rate_max=rate, nodes=30)
         dense = plan.resample(plan.duration / 2000.0)  # re-simulation of the plan between the nodes
         h = np.abs(dense.omega @ (wheels.allocation @ body.inertia).T)  # |A^+ I omega| per wheel
         # IPOPT meets |omega| <= rate_max to ~1e-8 relative; the dense re-simulation adds the
         # inter-sub-step overshoot (~1e-4 relative at 30 nodes): 1e-3 covers both.
         assert np.max(h) <= 0.1 * (1 + 1e-3)
-        eig = eigenaxis_slew(body, Q_ID, qf, torque_max=wheels, rate_max=momentum_rate_limit(body, wheels, [0, 0, 1]))
+        eig = eigenaxis_slew(body, Q_ID, qf, torque_max=wheels, rate_max=momentum_rate_max(body, wheels, [0, 0, 1]))
         h_eig = np.abs(eig.omega @ (wheels.allocation @ body.inertia).T)
         assert np.max(h_eig) <= 0.1 * (1 + 1e-9)
         assert np.max(h_eig) > 0.1 * (1 - 1e-6)  # exact along the axis: some wheel reaches its limit

@@ -164,7 +164,7 @@ class TestAgainstFilterpySteps:
                 scale = np.sqrt(np.outer(np.diag(P), np.diag(P)))
                 assert np.all(np.abs(got["P"][r, k] - P) <= 1e-12 * scale), (r, k)
                 if not np.isnan(got["nis"][r, k]):
-                    np.testing.assert_allclose(got["innovation"][r, k], one._last_innovation, rtol=0, atol=1e-14)
+                    np.testing.assert_allclose(got["innovation"][r, k], one.last_innovation, rtol=0, atol=1e-14)
                     assert got["nis"][r, k] == pytest.approx(one.log()["nis"], rel=1e-9, abs=1e-9)
             counts = one.counts
             assert int(got["updated"][r].sum()) == counts["updates"]

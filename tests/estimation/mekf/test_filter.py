@@ -16,6 +16,14 @@ errors of :meth:`attitude.sensors.Gyro.sample_errors`; tracker samples come
 from :meth:`attitude.sensors.StarTracker.add_noise`. Each run has its own
 ``SeedSequence.spawn`` child, its own initial attitude and bias errors drawn
 from ``P0``.
+
+References: the filter is the MEKF of Markley and Crassidis (*Fundamentals
+of Spacecraft Attitude Determination and Control*, 2014, ch. 6) and
+Crassidis and Junkins (*Optimal Estimation of Dynamic Systems*, 2nd ed.,
+sec. 7.2); the steady-state attitude sigma is Farrenkopf's closed form (J.
+Guidance and Control 1(4), 1978); NEES and NIS bands are those of
+Bar-Shalom, Li and Kirubarajan (*Estimation with Applications to Tracking
+and Navigation*, 2001, sec. 5.4).
 """
 
 from __future__ import annotations

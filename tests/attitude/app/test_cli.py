@@ -63,7 +63,7 @@ from attitude.app.design.run import DesignOptions
 from attitude.app.report.sections import SECTIONS, fmt
 from attitude.config import default_config, default_config_text, load_config
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 SECOND = ROOT / "tests" / "data" / "second_spacecraft.toml"
 #: Upper bound of one design process [s]: the full default design takes about 30 s on 2 cores.
 DESIGN_TIMEOUT_S = 300
@@ -154,7 +154,11 @@ def check_numbers_in_report(md: str, results: dict) -> None:
     values += [est["mekf"]["percent_inside"], est["rate_ekf"]["percent_inside"], lin["rate_Hz"]]
     if body["gravity_gradient"] is not None:
         gg = body["gravity_gradient"]
-        values += [gg["orbit_period_min"], gg["torque_peak_uNm"], gg["orientations"][1]["pitch_libration_period_min"]]
+        values += [
+            gg["orbit_period_minutes"],
+            gg["torque_peak_uNm"],
+            gg["orientations"][1]["pitch_libration_period_minutes"],
+        ]
     values += [r["achieved"] for r in results["requirements"]] + [r["achieved"] for r in results["checks"]]
     missing = [v for v in values if fmt(v if not isinstance(v, str) else num(v)) not in md]
     assert not missing, f"numbers of results.json missing from report.md: {missing}"
