@@ -500,7 +500,8 @@ def test_vectorised_pd_wheels_agrees_with_the_per_run_engine():
 
 
 def test_config_campaign_writes_table_statistics_and_figures(tmp_path):
-    # The eigenaxis guidance allows a 20 s run (the planned slew needs slew + settling: tests/attitude/app/test_scenarios.py).
+    # The eigenaxis guidance allows a 20 s run (the planned slew needs slew + settling:
+    # tests/attitude/app/test_scenarios.py).
     result = run_campaign_from_config(CONFIG, runs=3, workers=1, out_dir=tmp_path, duration=20.0, guidance="eigenaxis")
     assert np.all(result.status == "ok")
     assert {"settling_time", "nees", "wheel_speed_peak", "keep_out_margin.sun on star tracker"} <= set(result.metrics)
