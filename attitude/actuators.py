@@ -95,10 +95,10 @@ class ReactionWheels:
     def __init__(
         self,
         axes_B: ArrayLike,
+        *,
         spin_inertia: ArrayLike,
         torque_max: ArrayLike,
         momentum_max: ArrayLike,
-        *,
         viscous_friction: ArrayLike = 0.0,
         coulomb_friction: ArrayLike = 0.0,
         coulomb_smoothing_speed: float = 1.0,
@@ -148,7 +148,7 @@ class ReactionWheels:
     # -- construction helpers -------------------------------------------------
 
     @classmethod
-    def orthogonal(cls, spin_inertia: ArrayLike, torque_max: ArrayLike, momentum_max: ArrayLike, **kw: Any) -> Self:
+    def orthogonal(cls, *, spin_inertia: ArrayLike, torque_max: ArrayLike, momentum_max: ArrayLike, **kw: Any) -> Self:
         """Three wheels on the body x, y and z axes.
 
         Parameters
@@ -173,15 +173,15 @@ class ReactionWheels:
         ValueError
             As :class:`ReactionWheels` for invalid parameters.
         """
-        return cls(np.eye(3), spin_inertia, torque_max, momentum_max, **kw)
+        return cls(np.eye(3), spin_inertia=spin_inertia, torque_max=torque_max, momentum_max=momentum_max, **kw)
 
     @classmethod
     def pyramid(
         cls,
+        *,
         spin_inertia: ArrayLike,
         torque_max: ArrayLike,
         momentum_max: ArrayLike,
-        *,
         elevation_deg: float = 35.26438968275466,
         **kw: Any,
     ) -> Self:
@@ -223,7 +223,7 @@ class ReactionWheels:
             raise ValueError(f"elevation_deg must lie strictly between 0 and 90 degrees, got {elevation_deg}")
         az = np.radians([45.0, 135.0, 225.0, 315.0])
         axes = np.column_stack([np.cos(b) * np.cos(az), np.cos(b) * np.sin(az), np.full(4, np.sin(b))])
-        return cls(axes, spin_inertia, torque_max, momentum_max, **kw)
+        return cls(axes, spin_inertia=spin_inertia, torque_max=torque_max, momentum_max=momentum_max, **kw)
 
     def __repr__(self) -> str:
         return (

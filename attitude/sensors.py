@@ -378,8 +378,8 @@ class Gyro:
     @classmethod
     def from_datasheet(
         cls,
-        arw_deg_per_sqrt_h: float,
         *,
+        arw_deg_per_sqrt_h: float,
         period: float,
         rrw_deg_per_h_per_sqrt_h: float | None = None,
         bias_instability_deg_per_h: float | None = None,
@@ -1170,9 +1170,9 @@ class StarTracker:
     @classmethod
     def from_datasheet(
         cls,
+        *,
         cross_boresight_arcsec: float,
         roll_arcsec: float,
-        *,
         period: float,
         boresight_B: ArrayLike = (0.0, 0.0, 1.0),
         sun_direction_N: ArrayLike | Callable[[float], ArrayLike] | None = None,

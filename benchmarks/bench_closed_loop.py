@@ -23,7 +23,7 @@ except ImportError:  # run as a script from the benchmarks folder
     from _timing import cpu_time_median, memory_peak_mib
 
 BODY = RigidBody([[10.0, 1.2, -0.5], [1.2, 12.0, 0.3], [-0.5, 0.3, 8.0]])
-WHEELS = ReactionWheels.pyramid(0.005, 0.05, 0.8, viscous_friction=2e-6)
+WHEELS = ReactionWheels.pyramid(spin_inertia=0.005, torque_max=0.05, momentum_max=0.8, viscous_friction=2e-6)
 
 
 def pd_with_wheels(duration_s: float = 600.0) -> dict[str, Any]:

@@ -31,7 +31,7 @@ except ImportError:  # run as a script from the benchmarks folder
 N_STEPS = 3000
 BODY = RigidBody([4.0, 8.0, 10.0])
 FULL = RigidBody([[10.0, 1.2, -0.5], [1.2, 12.0, 0.3], [-0.5, 0.3, 8.0]])
-WHEELS = ReactionWheels.pyramid(0.005, 0.05, 0.8)
+WHEELS = ReactionWheels.pyramid(spin_inertia=0.005, torque_max=0.05, momentum_max=0.8)
 
 
 def _history(seed: int = 1) -> tuple[np.ndarray, np.ndarray]:

@@ -67,7 +67,7 @@ def main() -> None:
     start = time.perf_counter()
 
     body = RigidBody(INERTIA)
-    wheels = ReactionWheels.pyramid(0.005, 0.02, 0.5, viscous_friction=1e-6)
+    wheels = ReactionWheels.pyramid(spin_inertia=0.005, torque_max=0.02, momentum_max=0.5, viscous_friction=1e-6)
     print(f"Spacecraft: principal moments {np.round(body.principal_axes().moments, 3)} kg m^2")
     print(f"Wheels: 4-wheel pyramid, body torque envelope {np.round(1e3 * wheels.torque_envelope(), 2)} mN m per axis")
 

@@ -499,7 +499,7 @@ def fly_slew(
         rng.standard_normal(3) * TURN_ON_BIAS_DEG_H, sampling="mean" if sampling == "mean" else "instantaneous"
     )
     target = quat.from_axis_angle(SLEW_AXIS, np.radians(SLEW_DEG))
-    wheels = ReactionWheels.pyramid(0.005, 0.02, 0.5, viscous_friction=1e-6)
+    wheels = ReactionWheels.pyramid(spin_inertia=0.005, torque_max=0.02, momentum_max=0.5, viscous_friction=1e-6)
     pd = QuaternionPD.from_bandwidth(body, wn=PD_WN, zeta=PD_ZETA, period=GYRO_PERIOD, q_ref=target, gyroscopic=True)
     q_start = quat.identity()
     # The point-sampling case is the deliberate mismatch this section shows: tell from_sensors so.
@@ -569,7 +569,7 @@ def fly_slew_rate_ekf(body: RigidBody, tracker: StarTracker, duration: float, se
     rng = np.random.default_rng(seed)
     gyro = BiasLoggingGyro(datasheet_gyro(rng.standard_normal(3) * TURN_ON_BIAS_DEG_H))
     target = quat.from_axis_angle(SLEW_AXIS, np.radians(SLEW_DEG))
-    wheels = ReactionWheels.pyramid(0.005, 0.02, 0.5, viscous_friction=1e-6)
+    wheels = ReactionWheels.pyramid(spin_inertia=0.005, torque_max=0.02, momentum_max=0.5, viscous_friction=1e-6)
     pd = QuaternionPD.from_bandwidth(body, wn=PD_WN, zeta=PD_ZETA, period=GYRO_PERIOD, q_ref=target, gyroscopic=True)
     q_start = quat.identity()
     # At rest at t = 0 (rate known to 0.01 deg/s); turn-on bias from the datasheet repeatability.

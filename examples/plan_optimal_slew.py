@@ -78,8 +78,8 @@ def main() -> None:
 
     # 2. Microsatellite slew with a Sun keep-out -------------------------------------
     body = RigidBody(INERTIA)
-    wheels = ReactionWheels.pyramid(0.005, WHEEL_TORQUE_NM, 0.5)
-    plan_wheels = ReactionWheels.pyramid(0.005, PLAN_MARGIN * WHEEL_TORQUE_NM, 0.5)
+    wheels = ReactionWheels.pyramid(spin_inertia=0.005, torque_max=WHEEL_TORQUE_NM, momentum_max=0.5)
+    plan_wheels = ReactionWheels.pyramid(spin_inertia=0.005, torque_max=PLAN_MARGIN * WHEEL_TORQUE_NM, momentum_max=0.5)
     q0 = quat.identity()
     qf = quat.from_axis_angle([1.0, 0.0, 0.0], np.radians(90.0))
     # The star tracker (+z body) sweeps from +z_N towards -y_N; the Sun sits just off that arc.

@@ -63,15 +63,16 @@ def reaction_wheels(wheels: WheelsConfig) -> ReactionWheels:
         "null_space_gain": wheels.null_space_gain_per_s,
         "bias_momentum": np.array(wheels.bias_momentum_Nms, dtype=np.float64),
     }
-    limits = (wheels.spin_inertia_kg_m2, wheels.torque_max_Nm, wheels.momentum_max_Nms)
-    args = tuple(np.array(v, dtype=np.float64) for v in limits)
+    kw["spin_inertia"] = np.array(wheels.spin_inertia_kg_m2, dtype=np.float64)
+    kw["torque_max"] = np.array(wheels.torque_max_Nm, dtype=np.float64)
+    kw["momentum_max"] = np.array(wheels.momentum_max_Nms, dtype=np.float64)
     if wheels.layout == "pyramid":
         if wheels.elevation_deg is not None:
             kw["elevation_deg"] = wheels.elevation_deg
-        return ReactionWheels.pyramid(*args, **kw)
+        return ReactionWheels.pyramid(**kw)
     if wheels.layout == "orthogonal":
-        return ReactionWheels.orthogonal(*args, **kw)
-    return ReactionWheels(np.array(wheels.axes_B, dtype=np.float64), *args, **kw)
+        return ReactionWheels.orthogonal(**kw)
+    return ReactionWheels(np.array(wheels.axes_B, dtype=np.float64), **kw)
 
 
 def gyro_figures(gyro_config: GyroConfig) -> dict[str, Any]:
@@ -123,7 +124,7 @@ def gyro(gyro_config: GyroConfig, sampling: str = "instantaneous", figures: Mapp
     if gyro_config.preset is not None:
         return Gyro.preset(gyro_config.preset, period=gyro_config.period_s, sampling=sampling, **figures)
     arw = figures.pop("arw_deg_per_sqrt_h")
-    return Gyro.from_datasheet(arw, period=gyro_config.period_s, sampling=sampling, **figures)
+    return Gyro.from_datasheet(arw_deg_per_sqrt_h=arw, period=gyro_config.period_s, sampling=sampling, **figures)
 
 
 def star_tracker(tracker: StarTrackerConfig, sun_direction_N: Sequence[float] | None = None) -> StarTracker:

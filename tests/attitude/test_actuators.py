@@ -33,7 +33,7 @@ SPACECRAFT = RigidBody([[10.0, 1.2, -0.5], [1.2, 12.0, 0.3], [-0.5, 0.3, 8.0]])
 
 def pyramid(**kw):
     # A small-satellite wheel: J = 0.005 kg m^2, 0.02 N m, 0.5 N m s (~1000 rad/s).
-    return ReactionWheels.pyramid(0.005, 0.02, 0.5, **kw)
+    return ReactionWheels.pyramid(spin_inertia=0.005, torque_max=0.02, momentum_max=0.5, **kw)
 
 
 class TestGeometryAndValidation:
@@ -84,7 +84,7 @@ class TestAllocation:
         assert cosine == pytest.approx(1.0, abs=1e-12)
 
     def test_wheel_at_its_speed_limit_refuses_to_spin_faster(self):
-        wheels = ReactionWheels.orthogonal(0.01, 0.1, 1.0)
+        wheels = ReactionWheels.orthogonal(spin_inertia=0.01, torque_max=0.1, momentum_max=1.0)
         h = np.array([1.0, 0.0, -1.0])  # wheels 1 and 3 at +/- the limit, body at rest
         u = wheels.allocate([-0.05, -0.05, 0.05], h, np.zeros(3))
         # Command -tau_x would need +u_1 (faster), +tau_z would need -u_3 (faster).
@@ -144,7 +144,7 @@ class TestMomentumExchange:
         assert n == 4
 
     def test_hub_body_removes_the_spin_axis_inertia(self):
-        wheels = ReactionWheels.orthogonal(0.01, 0.1, 1.0)
+        wheels = ReactionWheels.orthogonal(spin_inertia=0.01, torque_max=0.1, momentum_max=1.0)
         hub = wheels.hub_body(SPACECRAFT)
         np.testing.assert_allclose(SPACECRAFT.inertia - hub.inertia, 0.01 * np.eye(3), atol=1e-15)
 
@@ -166,6 +166,6 @@ def test_a_wheel_at_its_speed_limit_is_bypassed_and_the_torque_keeps_its_directi
 
 
 def test_three_orthogonal_wheels_cannot_bypass_and_cut_instead():
-    wheels = ReactionWheels.orthogonal(0.01, 0.1, 1.0)
+    wheels = ReactionWheels.orthogonal(spin_inertia=0.01, torque_max=0.1, momentum_max=1.0)
     u = wheels.allocate([-0.05, 0.02, 0.0], [1.0, 0.0, 0.0], np.zeros(3))
     np.testing.assert_allclose(u, [0.0, -0.02, 0.0], atol=1e-18)

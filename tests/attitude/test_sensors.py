@@ -82,7 +82,7 @@ class TestConversions:
 
     def test_from_datasheet_applies_every_conversion(self):
         g = Gyro.from_datasheet(
-            0.15,
+            arw_deg_per_sqrt_h=0.15,
             period=0.05,
             rrw_deg_per_h_per_sqrt_h=1.0,
             bias_deg_per_h=[36.0, -36.0, 0.0],
@@ -348,7 +348,9 @@ class TestStarTracker:
     N = 20_000
 
     def tracker(self, **kw):
-        return StarTracker.from_datasheet(6.0, 40.0, period=0.2, boresight_B=self.BORESIGHT, **kw)
+        return StarTracker.from_datasheet(
+            cross_boresight_arcsec=6.0, roll_arcsec=40.0, period=0.2, boresight_B=self.BORESIGHT, **kw
+        )
 
     def errors_B(self, tracker, rng):
         q_true = quat.random(self.N, rng=rng)
@@ -611,5 +613,5 @@ class TestMeanRateSampling:
     def test_sampling_is_validated_and_passed_by_the_datasheet_constructor(self):
         with pytest.raises(ValueError, match="sampling must be one of"):
             Gyro(1e-5, period=0.1, sampling="average")
-        assert Gyro.from_datasheet(0.07, period=0.1, sampling="mean").sampling == "mean"
+        assert Gyro.from_datasheet(arw_deg_per_sqrt_h=0.07, period=0.1, sampling="mean").sampling == "mean"
         assert Gyro.preset("tactical", sampling="mean").sampling == "mean"

@@ -277,7 +277,9 @@ class TestStarTrackerBatch:
             },
             "none": {},
         }[sun]
-        tracker = StarTracker.from_datasheet(6.0, 40.0, period=0.2, boresight_B=[0.2, -0.3, 1.0], **kwargs)
+        tracker = StarTracker.from_datasheet(
+            cross_boresight_arcsec=6.0, roll_arcsec=40.0, period=0.2, boresight_B=[0.2, -0.3, 1.0], **kwargs
+        )
         q, _ = tumbling(5, 150, 0.2, seed=9)
         t = 0.2 * np.arange(150)
         streams = NormalStreams(generators(), block=10)

@@ -259,7 +259,7 @@ class TestController:
 
     def test_compiled_and_python_paths_agree(self):
         ctrl = LQRController(self.DESIGN, q_ref=TARGET)
-        wheels = ReactionWheels.pyramid(0.005, 0.05, 0.8)
+        wheels = ReactionWheels.pyramid(spin_inertia=0.005, torque_max=0.05, momentum_max=0.8)
         w0 = np.array([0.01, -0.02, 0.005])
         fast = simulate(BODY, quat.identity(), w0, 30.0, controller=ctrl, wheels=wheels)
         slow = simulate(BODY, quat.identity(), w0, 30.0, controller=ctrl, wheels=wheels, engine="python")
@@ -330,7 +330,7 @@ class TestNonlinearClosedLoop:
     def test_discrete_lqr_with_reaction_wheels(self):
         design = design_lqr(linearize(BODY), Q=Q_B, R=R_B, period=0.1)
         ctrl = LQRController(design, q_ref=TARGET)
-        wheels = ReactionWheels.pyramid(0.005, 0.05, 0.8)
+        wheels = ReactionWheels.pyramid(spin_inertia=0.005, torque_max=0.05, momentum_max=0.8)
         q0 = quat.multiply(TARGET, quat.from_axis_angle(AXIS, np.radians(20.0)))
         w0 = np.array([0.004, -0.003, 0.002])  # non-zero total momentum (0.049 N m s)
         result = simulate(BODY, q0, w0, 120.0, controller=ctrl, wheels=wheels)

@@ -42,7 +42,7 @@ from controllers.pd import QuaternionPD, RateLimitedPD
 
 DIAGONAL = RigidBody([10.0, 12.0, 8.0])
 FULL = RigidBody([[10.0, 1.2, -0.5], [1.2, 12.0, 0.3], [-0.5, 0.3, 8.0]])
-WHEELS = ReactionWheels.pyramid(0.005, 0.05, 0.8, viscous_friction=2e-6)
+WHEELS = ReactionWheels.pyramid(spin_inertia=0.005, torque_max=0.05, momentum_max=0.8, viscous_friction=2e-6)
 WN = np.array([0.1, 0.15, 0.2])
 ZETA = np.array([0.7, 0.8, 0.6])
 

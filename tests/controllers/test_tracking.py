@@ -111,7 +111,7 @@ class TestTracking:
     def test_initial_error_and_wheels_converge_onto_the_plan(self):
         ref = open_loop_plan()
         ctrl = TrackingController(ref, BODY, wn=0.2, zeta=0.8, period=0.1)
-        wheels = ReactionWheels.pyramid(0.005, 0.05, 0.8)
+        wheels = ReactionWheels.pyramid(spin_inertia=0.005, torque_max=0.05, momentum_max=0.8)
         # 1 deg keeps the feedback (2 I wn^2 q_e ~ 0.008 N m) inside the wheel limits.
         q0 = quat.from_axis_angle([0.0, 0.0, 1.0], np.radians(1.0))
         fast = simulate(BODY, q0, np.zeros(3), 80.0, controller=ctrl, wheels=wheels)
@@ -132,8 +132,10 @@ class TestTracking:
 def test_an_optimal_slew_plan_is_flown_with_wheels():
     from controllers.slew.planner import plan_slew
 
-    wheels = ReactionWheels.pyramid(0.005, 0.05, 0.8)
-    plan_wheels = ReactionWheels.pyramid(0.005, 0.04, 0.8)  # 80%: authority left for feedback
+    wheels = ReactionWheels.pyramid(spin_inertia=0.005, torque_max=0.05, momentum_max=0.8)
+    plan_wheels = ReactionWheels.pyramid(
+        spin_inertia=0.005, torque_max=0.04, momentum_max=0.8
+    )  # 80%: authority left for feedback
     qf = quat.from_axis_angle([1.0, 0.0, 0.0], np.radians(60.0))
     plan = plan_slew(BODY, quat.identity(), qf, torque_max=plan_wheels, nodes=30)
     ctrl = TrackingController(plan.resample(0.1), BODY, wn=0.3, zeta=0.8, period=0.1, feedforward=plan)

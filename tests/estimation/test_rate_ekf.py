@@ -164,7 +164,7 @@ def consistency_figures(mc, k0, n_runs, *, min_nees_fraction, bias_k0=None):
 
 
 def sphere_with_wheels(j=5.0, spin_inertia=0.01):
-    wheels = ReactionWheels.orthogonal(spin_inertia, 0.1, 2.0)
+    wheels = ReactionWheels.orthogonal(spin_inertia=spin_inertia, torque_max=0.1, momentum_max=2.0)
     return RigidBody([j, j, j]), wheels
 
 
@@ -196,7 +196,7 @@ class TestModel:
 
     def test_jacobian_is_casadis_exact_jacobian_of_the_one_definition(self):
         body = RigidBody([[10.0, 1.2, -0.5], [1.2, 12.0, 0.3], [-0.5, 0.3, 8.0]])
-        wheels = ReactionWheels.pyramid(0.005, 0.05, 0.8)
+        wheels = ReactionWheels.pyramid(spin_inertia=0.005, torque_max=0.05, momentum_max=0.8)
         ekf = RateEKF(
             body, sigma_v=1e-5, sigma_u=1e-7, gyro_period=0.1, torque_noise=1e-4, P0=np.full(6, 1e-6), wheels=wheels
         )
@@ -230,7 +230,7 @@ class TestModel:
     def test_prediction_with_wheels_matches_an_adaptive_integration(self):
         # Hub body with momentum changing linearly over the interval: the filter's RK4 mean against DOP853.
         body = RigidBody([[10.0, 1.2, -0.5], [1.2, 12.0, 0.3], [-0.5, 0.3, 8.0]])
-        wheels = ReactionWheels.pyramid(0.005, 0.05, 0.8)
+        wheels = ReactionWheels.pyramid(spin_inertia=0.005, torque_max=0.05, momentum_max=0.8)
         h_a = np.array([0.1, -0.2, 0.05, 0.3])
         h_b = h_a + np.array([0.004, -0.002, 0.001, 0.003])
         w0 = np.array([0.05, -0.03, 0.02])
@@ -738,7 +738,7 @@ class TestEngine:
 
     def test_with_reaction_wheels_the_tachometers_give_the_torque(self):
         # Saturating wheels (torque_max well below the PD's demand at 30 deg): the command is not the torque.
-        wheels = ReactionWheels.pyramid(0.005, 0.005, 0.8, viscous_friction=2e-6)
+        wheels = ReactionWheels.pyramid(spin_inertia=0.005, torque_max=0.005, momentum_max=0.8, viscous_friction=2e-6)
         result, _, ekf = closed_loop(3, duration=60.0, wheels=wheels)
         assert np.abs(result.torque_command - result.torque_applied).max() > 0.01  # saturation happened
         err = result.omega - result.estimate_omega
@@ -875,7 +875,7 @@ class TestBadInput:
             run_rate_ekf(ekf, [0.0, 0.1], np.zeros((2, 3)), gyro_available=[1, 0])
         with pytest.raises(ValueError, match="t must be finite"):
             ekf.step(np.nan, None)
-        wheels = ReactionWheels.orthogonal(0.01, 0.1, 1.0)
+        wheels = ReactionWheels.orthogonal(spin_inertia=0.01, torque_max=0.1, momentum_max=1.0)
         with_wheels = RateEKF(BODY, sigma_v=1e-5, sigma_u=0.0, gyro_period=0.1, wheels=wheels, **GOOD)
         with pytest.raises(ValueError, match=r"wheel_momentum must hold one momentum per wheel \(3\)"):
             with_wheels.step(0.1, None, wheel_momentum=np.zeros(4))

@@ -30,7 +30,7 @@ from attitude.simulation.protocols import Estimate
 from controllers.pd import QuaternionPD
 
 BODY = RigidBody([[10.0, 1.2, -0.5], [1.2, 12.0, 0.3], [-0.5, 0.3, 8.0]])
-WHEELS = ReactionWheels.pyramid(0.005, 0.05, 0.8, viscous_friction=2e-6)
+WHEELS = ReactionWheels.pyramid(spin_inertia=0.005, torque_max=0.05, momentum_max=0.8, viscous_friction=2e-6)
 TARGET = quat.from_axis_angle([1.0, 0.5, 0.0], np.radians(30.0))
 
 
@@ -199,7 +199,10 @@ class TestMoreBadInput:
         [
             ({"disturbance": np.zeros((2, 3))}, r"disturbance must be a constant torque of shape \(3,\)"),
             ({"wheels": "rw"}, "wheels must be a ReactionWheels"),
-            ({"wheels": ReactionWheels.orthogonal(20.0, 0.1, 1.0)}, "spin_inertia is too large"),
+            (
+                {"wheels": ReactionWheels.orthogonal(spin_inertia=20.0, torque_max=0.1, momentum_max=1.0)},
+                "spin_inertia is too large",
+            ),
         ],
     )
     def test_bad_plant_arguments(self, kwargs, match):
