@@ -21,6 +21,7 @@ __all__ = [
     "BatchEstimator",
     "CompiledController",
     "Controller",
+    "DipoleController",
     "Disturbance",
     "Estimate",
     "Estimator",
@@ -43,12 +44,24 @@ class Truth:
         Body rate [rad/s].
     h_wheels : ndarray (n,)
         Wheel spin-axis momenta [N m s] (empty without wheels).
+    magnetic_field_B : ndarray (3,) or None
+        Geomagnetic field at the spacecraft in body axes [T]; None when the run
+        flies no orbit environment.
+    sun_B : ndarray (3,) or None
+        Unit vector from the spacecraft to the Sun in body axes; None without
+        an orbit environment.
+    illumination : float or None
+        Fraction of the solar disk seen (1 full sun, 0 umbra); None without
+        an orbit environment.
     """
 
     t: float
     q: NDArray[np.float64]
     omega: NDArray[np.float64]
     h_wheels: NDArray[np.float64]
+    magnetic_field_B: NDArray[np.float64] | None = None
+    sun_B: NDArray[np.float64] | None = None
+    illumination: float | None = None
 
 
 @dataclass(frozen=True)
@@ -257,6 +270,40 @@ class BatchEstimator(Protocol):
         -------
         tuple of ndarray
             ``(q_hat (N, 4), omega_hat (N, 3) [rad/s])``.
+        """
+        ...
+
+
+@runtime_checkable
+class DipoleController(Protocol):
+    """A magnetic law commanding the magnetorquers' dipole every ``period`` seconds.
+
+    It runs beside the torque :class:`Controller` (B-dot detumbling, momentum
+    unloading). Optional ``log() -> dict`` of floats or arrays logged at each
+    sample.
+    """
+
+    period: float
+    """Sample period [s], a whole multiple of the engine tick."""
+
+    def dipole(self, t: float, measurements: Mapping[str, Any]) -> NDArray[np.float64]:
+        """Commanded magnetic dipole in body axes at time ``t``.
+
+        Parameters
+        ----------
+        t : float
+            Sample time [s].
+        measurements : mapping
+            Newest sample per sensor name (e.g. ``"magnetometer"``, (3,) [T]; None
+            when it did not sample at ``t``), ``"wheel_momentum_B"`` (the wheels'
+            momentum relative to the body in body axes, (3,) [N m s]) and, only when
+            the engine is asked to hand the law the truth, ``"magnetic_field_B"``
+            (3,) [T].
+
+        Returns
+        -------
+        ndarray (3,)
+            Commanded dipole [A m^2] in body axes (the magnetorquers saturate it).
         """
         ...
 
