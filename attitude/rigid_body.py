@@ -143,6 +143,21 @@ class _EulerEquations:
     _I: list[list[Any]]
     _I_inv: list[list[Any]]
 
+    def inertia_times_components(self, v: Components) -> Components:
+        """The product ``I v`` on components (numpy or casadi).
+
+        Parameters
+        ----------
+        v : list of 3 numpy arrays or casadi scalars
+            A vector in body components (e.g. a body rate [rad/s] or a position [m]).
+
+        Returns
+        -------
+        list of 3
+            ``I v`` in body components, same backend as ``v``.
+        """
+        return _matvec(self._I, v)
+
     def omega_dot_components(
         self, omega: Components, torque: Components | None, h: Components | None = None
     ) -> Components:

@@ -24,7 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 from attitude import quaternion as quat
 from attitude.backend import cross
 from attitude.environment.orbit import MU_EARTH, CircularOrbit, check_mu
-from attitude.rigid_body import Components, RigidBody
+from attitude.rigid_body import Components, ParametricBody, RigidBody
 from attitude.validation import as_float_array, check_positive, check_vector, describe, scalar_angle
 
 __all__ = [
@@ -46,26 +46,15 @@ TorqueFunction = Callable[[float, NDArray[np.float64], NDArray[np.float64]], NDA
 # ---------------------------------------------------------------------------
 
 
-def _inertia_entries(body: RigidBody) -> list[list[Any]]:
-    """Nested 3x3 list of the inertia entries (floats or batch arrays); None marks entries zero everywhere."""
-    tensor = body.inertia
-    rows = []
-    for i in range(3):
-        row = []
-        for j in range(3):
-            e = tensor[..., i, j]
-            row.append(None if np.all(e == 0.0) else (float(e) if e.ndim == 0 else e))
-        rows.append(row)
-    return rows
-
-
 def _check_body(body: Any, name: str = "body") -> RigidBody:
     if not isinstance(body, RigidBody):
         raise ValueError(f"{name} must be a RigidBody, got {type(body).__name__}")
     return body
 
 
-def gravity_gradient_torque_components(body: RigidBody, r_components: Components, mu: float = MU_EARTH) -> Components:
+def gravity_gradient_torque_components(
+    body: RigidBody | ParametricBody, r_components: Components, mu: float = MU_EARTH
+) -> Components:
     """Gravity-gradient torque on components, ``3 mu |r|^-5 (r x I r)`` [N m].
 
     Backend-neutral like :mod:`attitude.rigid_body`: only ``+ - *`` and ``**``
@@ -74,9 +63,10 @@ def gravity_gradient_torque_components(body: RigidBody, r_components: Components
 
     Parameters
     ----------
-    body : RigidBody
+    body : RigidBody or ParametricBody
         The body (its inertia tensor in body components [kg m^2]); a batch of
-        bodies only with numpy components.
+        bodies only with numpy components; a :class:`ParametricBody` (inertia
+        entries as casadi symbols) in the compiled kernels.
     r_components : list of 3 numpy arrays or casadi scalars
         Position of the centre of mass relative to the planet's centre, in
         body components [m]. Must not be zero (not checked on symbols).
@@ -89,23 +79,18 @@ def gravity_gradient_torque_components(body: RigidBody, r_components: Components
         Torque about the centre of mass in body components [N m], same
         backend as ``r_components``.
     """
-    body = _check_body(body)
+    if not isinstance(body, ParametricBody):
+        body = _check_body(body)
     mu = check_mu(mu)
     if len(r_components) != 3:
         raise ValueError(f"r_components must hold 3 components (x, y, z) in m, got {len(r_components)}")
     symbolic = any(isinstance(c, (ca.SX, ca.MX, ca.DM)) for c in r_components)
-    if symbolic and body.batch_shape:
+    if symbolic and isinstance(body, RigidBody) and body.batch_shape:
         raise ValueError("casadi evaluation needs a single body, not a batch of inertias")
     x, y, z = r_components
     r2 = x * x + y * y + z * z
     scale = 3.0 * mu * r2**-2.5
-    i_r = []
-    for row in _inertia_entries(body):
-        acc = None
-        for e, rj in zip(row, r_components):
-            if e is not None:
-                acc = e * rj if acc is None else acc + e * rj
-        i_r.append(acc if acc is not None else 0.0 * x)
+    i_r = body.inertia_times_components(list(r_components))
     return [scale * c for c in cross(list(r_components), i_r)]
 
 
