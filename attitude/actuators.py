@@ -42,11 +42,13 @@ __all__ = ["MAGNETORQUER_SATURATION", "RANK_TOLERANCE", "Magnetorquers", "Reacti
 RANK_TOLERANCE = 1e-6
 
 
-def _per_wheel(value: ArrayLike, n: int, name: str, *, allow_zero: bool = False) -> NDArray[np.float64]:
-    """Check a scalar or per-wheel parameter and broadcast it to shape ``(n,)``."""
+def _per_wheel(
+    value: ArrayLike, n: int, name: str, *, allow_zero: bool = False, item: str = "wheel"
+) -> NDArray[np.float64]:
+    """Check a scalar or per-``item`` (wheel, rod) parameter and broadcast it to shape ``(n,)``."""
     arr = check_positive(value, name, allow_zero=allow_zero)
     if arr.ndim > 1 or (arr.ndim == 1 and arr.size not in (1, n)):
-        raise ValueError(f"{name} must be a scalar or one value per wheel ({n}), got shape {arr.shape}")
+        raise ValueError(f"{name} must be a scalar or one value per {item} ({n}), got shape {arr.shape}")
     return np.broadcast_to(arr, (n,)).astype(np.float64)
 
 
@@ -599,8 +601,10 @@ class Magnetorquers:
             raise ValueError(f"saturation must be one of {MAGNETORQUER_SATURATION}, got {saturation!r}")
         self.axes_B = axes / lengths[:, None]
         self.n_rods = self.axes_B.shape[0]
-        self.dipole_max_Am2 = _per_wheel(dipole_max_Am2, self.n_rods, "dipole_max_Am2")
-        self.quantum_Am2 = None if quantum_Am2 is None else _per_wheel(quantum_Am2, self.n_rods, "quantum_Am2")
+        self.dipole_max_Am2 = _per_wheel(dipole_max_Am2, self.n_rods, "dipole_max_Am2", item="rod")
+        self.quantum_Am2 = (
+            None if quantum_Am2 is None else _per_wheel(quantum_Am2, self.n_rods, "quantum_Am2", item="rod")
+        )
         self.saturation = saturation
         #: ``A^+`` (n x 3): minimum-norm rod dipoles for a body dipole.
         self.allocation = np.linalg.pinv(self.axes_B.T)
@@ -740,10 +744,6 @@ class Magnetorquers:
         u = self.command_components([m[..., k] for k in range(3)])
         return np.stack(np.broadcast_arrays(*u), axis=-1)
 
-    def _rods(self, per_rod: ArrayLike) -> NDArray[np.float64]:
-        u = check_vector(per_rod, "per_rod", self.n_rods)
-        return u
-
     def dipole_B(self, per_rod: ArrayLike) -> NDArray[np.float64]:
         """Body dipole ``m = sum_i m_i a_i`` (..., 3) [A m^2] for rod dipoles (..., n).
 
@@ -762,7 +762,7 @@ class Magnetorquers:
         ValueError
             If ``per_rod`` holds NaN/inf or its last axis is not ``n``.
         """
-        u = self._rods(per_rod)
+        u = check_vector(per_rod, "per_rod", self.n_rods)
         out = self.dipole_components([u[..., i] for i in range(self.n_rods)])
         return np.stack(np.broadcast_arrays(*out), axis=-1)
 
@@ -786,7 +786,7 @@ class Magnetorquers:
         ValueError
             If an input holds NaN/inf or has the wrong last dimension.
         """
-        u = self._rods(per_rod)
+        u = check_vector(per_rod, "per_rod", self.n_rods)
         b = check_vector(field_B, "field_B", 3)
         out = self.torque_components([u[..., i] for i in range(self.n_rods)], [b[..., k] for k in range(3)])
         return np.stack(np.broadcast_arrays(*out), axis=-1)
