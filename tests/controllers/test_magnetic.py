@@ -160,9 +160,9 @@ def test_bdot_first_sample_gives_no_command_and_missing_samples_hold_it():
 
 
 def test_unloading_torque_is_minus_k_times_the_momentum_across_the_field():
-    # m = k (dh x B)/|B|^2 => m x B = k [dh |B|^2 - B (B . dh)] / |B|^2 ... with the sign of
-    # (a x b) x c = b (a . c) - a (b . c): m x B = -k (dh - (dh . b) b) (Camillo and Markley 1980;
-    # Markley and Crassidis 2014 sec. 7.5).
+    # m = k (dh x B)/|B|^2; with (a x b) x c = b (a . c) - a (b . c):
+    # m x B = k [B (dh . B) - dh |B|^2] / |B|^2 = -k (dh - (dh . b) b) = -k dh_perp
+    # (Camillo and Markley 1980; Markley and Crassidis 2014 sec. 7.5).
     k = 2e-3
     target = np.array([0.0, 0.01, 0.0])
     law = CrossProductUnloading(k, period=1.0, target_momentum_B=target)
