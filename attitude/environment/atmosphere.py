@@ -285,7 +285,7 @@ class NRLMSIS:
         """
         try:
             import pymsis
-        except ImportError as exc:  # pragma: no cover - pymsis is installed in the test environment
+        except ImportError as exc:
             raise ImportError("NRLMSIS needs the optional pymsis package: pip install attitude-toolkit[msis]") from exc
         r_E, times, shape = _earth_fixed_positions(r_N, epoch, t)
         latitude, longitude, altitude = _altitudes_above_ground(r_E)
