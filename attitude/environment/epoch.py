@@ -13,7 +13,7 @@ is ignored (< 0.5 arcsec).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -56,7 +56,7 @@ class Epoch:
             raise ValueError(
                 f"utc must be timezone-aware (e.g. tzinfo=datetime.timezone.utc), got naive {self.utc.isoformat()!r}"
             )
-        object.__setattr__(self, "utc", self.utc.astimezone(timezone.utc))
+        object.__setattr__(self, "utc", self.utc.astimezone(UTC))
 
     @classmethod
     def from_iso(cls, text: str) -> Epoch:
@@ -158,4 +158,4 @@ def ecef_to_N(gmst: ArrayLike) -> NDArray[np.float64]:
 
 
 #: An arbitrary default epoch (the March 2026 equinox day, noon UTC) for runs that do not give one.
-DEFAULT_EPOCH = Epoch(datetime(2026, 3, 20, 12, 0, tzinfo=timezone.utc))
+DEFAULT_EPOCH = Epoch(datetime(2026, 3, 20, 12, 0, tzinfo=UTC))

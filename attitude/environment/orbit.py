@@ -18,7 +18,6 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-
 from sgp4.api import SGP4_ERRORS, Satrec
 from sgp4.conveniences import sat_epoch_datetime
 from sgp4.earth_gravity import wgs72
@@ -101,6 +100,11 @@ class ConstantRate(np.ndarray):
     This read-only array is both: used as an array it is the vector (arithmetic
     on it gives plain arrays), called with times ``t`` of shape ``(...)`` it
     returns the vector repeated, shape ``(..., 3)``.
+
+    Parameters
+    ----------
+    value : array_like, shape (3,)
+        The angular velocity [rad/s].
     """
 
     def __new__(cls, value: ArrayLike) -> ConstantRate:
@@ -379,19 +383,59 @@ class Orbit(Protocol):
         ...
 
     def position_N(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Position from the Earth's centre in N [m], shape ``(..., 3)``."""
+        """Position from the Earth's centre in N [m].
+
+        Parameters
+        ----------
+        t : array_like, shape (...)
+            Time since the epoch [s].
+
+        Returns
+        -------
+        ndarray, shape (..., 3)
+        """
         ...
 
     def velocity_N(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Inertial velocity in N [m/s], shape ``(..., 3)``."""
+        """Inertial velocity in N [m/s].
+
+        Parameters
+        ----------
+        t : array_like, shape (...)
+            Time since the epoch [s].
+
+        Returns
+        -------
+        ndarray, shape (..., 3)
+        """
         ...
 
     def q_LN(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Attitude of the LVLH frame relative to N, shape ``(..., 4)``."""
+        """Attitude of the LVLH frame relative to N.
+
+        Parameters
+        ----------
+        t : array_like, shape (...)
+            Time since the epoch [s].
+
+        Returns
+        -------
+        ndarray, shape (..., 4)
+        """
         ...
 
     def omega_LN_L(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Angular velocity of L relative to N in L [rad/s], shape ``(..., 3)``."""
+        """Angular velocity of L relative to N in L [rad/s].
+
+        Parameters
+        ----------
+        t : array_like, shape (...)
+            Time since the epoch [s].
+
+        Returns
+        -------
+        ndarray, shape (..., 3)
+        """
         ...
 
     def describe(self) -> str:
@@ -634,9 +678,7 @@ class KeplerOrbit:
         hp = float(check_positive(perigee_altitude_m, "perigee_altitude_m"))
         ha = float(check_positive(apogee_altitude_m, "apogee_altitude_m"))
         if ha < hp:
-            raise ValueError(
-                f"apogee_altitude_m must be >= perigee_altitude_m = {hp!r} m, got {ha!r} m"
-            )
+            raise ValueError(f"apogee_altitude_m must be >= perigee_altitude_m = {hp!r} m, got {ha!r} m")
         planet = float(check_positive(central_body_radius_m, "central_body_radius_m", allow_zero=True))
         rp, ra = planet + hp, planet + ha
         return cls(
@@ -852,8 +894,7 @@ class TLEOrbit:
             k = int(np.flatnonzero(errors)[0])
             code = int(errors[k])
             raise ValueError(
-                f"t = {float(flat[k])!r} s after the TLE epoch: sgp4 error {code}: "
-                f"{SGP4_ERRORS.get(code, 'unknown')}"
+                f"t = {float(flat[k])!r} s after the TLE epoch: sgp4 error {code}: {SGP4_ERRORS.get(code, 'unknown')}"
             )
         return r.reshape(*t.shape, 3) * _KM, v.reshape(*t.shape, 3) * _KM
 

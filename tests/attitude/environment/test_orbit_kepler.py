@@ -149,9 +149,15 @@ def test_circular_omega_LN_L_stays_a_constant_vector():
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
-        ({"semi_major_axis_m": 8e6, "eccentricity": 1.2}, r"eccentricity must be in \[0, 1\) for a closed orbit, got 1.2"),
+        (
+            {"semi_major_axis_m": 8e6, "eccentricity": 1.2},
+            r"eccentricity must be in \[0, 1\) for a closed orbit, got 1.2",
+        ),
         ({"semi_major_axis_m": 8e6, "eccentricity": -0.1}, r"eccentricity must be in \[0, 1\).*-0.1"),
-        ({"semi_major_axis_m": 8e6, "eccentricity": 0.3}, r"semi_major_axis_m and eccentricity.*perigee altitude -778137"),
+        (
+            {"semi_major_axis_m": 8e6, "eccentricity": 0.3},
+            r"semi_major_axis_m and eccentricity.*perigee altitude -778137",
+        ),
         ({"semi_major_axis_m": -8e6}, "semi_major_axis_m"),
         ({"semi_major_axis_m": 8e6, "inclination": 4.0}, r"inclination must be in \[0, pi\]"),
         ({"semi_major_axis_m": 8e6, "epoch": "2026"}, "epoch must be an attitude.environment.epoch.Epoch"),

@@ -41,7 +41,9 @@ def erfa_apparent_sun(jd_utc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         heliocentric, barycentric = erfa.epv00(2400000.5, tt2)
         sun = -heliocentric[0]
         velocity_c = barycentric[1] / c_au_per_day
-        apparent = erfa.ab(sun / np.linalg.norm(sun), velocity_c, np.linalg.norm(sun), np.sqrt(1 - velocity_c @ velocity_c))
+        apparent = erfa.ab(
+            sun / np.linalg.norm(sun), velocity_c, np.linalg.norm(sun), np.sqrt(1 - velocity_c @ velocity_c)
+        )
         directions.append(erfa.pmat06(2400000.5, tt2) @ apparent)
         distances.append(np.linalg.norm(sun))
     return np.array(directions), np.array(distances)

@@ -11,7 +11,7 @@ before 60 minutes (sgp4 error 6).
 
 from __future__ import annotations
 
-from datetime import datetime, timedelta, timezone
+from datetime import UTC, datetime, timedelta
 
 import numpy as np
 import pytest
@@ -48,7 +48,7 @@ def test_00005_against_the_published_verification_output():
 def test_epoch_and_mean_motion_come_from_the_tle():
     orbit = TLEOrbit(LINE1, LINE2)
     # Epoch field 00179.78495062: day 179.78495062 of 2000 (day 1 = 1 January).
-    expected = datetime(2000, 1, 1, tzinfo=timezone.utc) + timedelta(days=178.78495062)
+    expected = datetime(2000, 1, 1, tzinfo=UTC) + timedelta(days=178.78495062)
     # sgp4 rounds the epoch to the microsecond; the TLE gives it to 1e-8 day (0.9 ms).
     assert abs((orbit.epoch.utc - expected).total_seconds()) <= 1e-6
     # Mean motion field 10.82419157 rev/day, exact to the float conversion.
@@ -73,7 +73,9 @@ def test_lvlh_frame_and_rate_of_the_sgp4_state():
 def test_decayed_satellite_raises_naming_the_time_and_sgp4s_message():
     orbit = TLEOrbit(*DECAYING)
     orbit.position_N(600.0)  # still flying at 10 minutes
-    with pytest.raises(ValueError, match=r"t = 3600.0 s after the TLE epoch: sgp4 error 6: mrt is less than 1.0.*decayed"):
+    with pytest.raises(
+        ValueError, match=r"t = 3600.0 s after the TLE epoch: sgp4 error 6: mrt is less than 1.0.*decayed"
+    ):
         orbit.position_N([600.0, 3600.0])
 
 
@@ -82,7 +84,11 @@ def test_decayed_satellite_raises_naming_the_time_and_sgp4s_message():
     [
         ("1 garbage", LINE2, "line1 does not parse as a TLE line: TLE format error"),
         (LINE1, LINE2[:40], "line2 does not parse as a TLE line: TLE format error"),
-        (LINE1[:-1] + "5", LINE2, "line1 fails its TLE checksum: TLE line gives its checksum as 5 but in fact tallies to 3"),
+        (
+            LINE1[:-1] + "5",
+            LINE2,
+            "line1 fails its TLE checksum: TLE line gives its checksum as 5 but in fact tallies to 3",
+        ),
         (LINE2, LINE1, "line1 must be the first TLE line, starting with '1 '"),
         (LINE1, None, "line2 must be a str"),
     ],
