@@ -189,6 +189,7 @@ class BDotController:
             raise ValueError(f"law must be one of {BDOT_LAWS}, got {law!r}")
         self.law = law
         self.magnetorquers = _torquers(magnetorquers, dipole_max_Am2)
+        self.use_truth_field = bool(use_truth_field)
         self.field_key = "magnetic_field_B" if use_truth_field else sensor
         self.reset()
 
@@ -317,6 +318,7 @@ class CrossProductUnloading:
             raise ValueError(f"target_momentum_B must have shape (3,) [N m s], got shape {target.shape}")
         self.target_momentum_B = target.copy()
         self.magnetorquers = _torquers(magnetorquers, dipole_max_Am2)
+        self.use_truth_field = bool(use_truth_field)
         self.field_key = "magnetic_field_B" if use_truth_field else sensor
         self._dipole = np.zeros(3)
 

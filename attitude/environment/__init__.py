@@ -1,5 +1,7 @@
-"""The space environment at the spacecraft: epochs, orbits, the Sun and the shadow, and the disturbance torques."""
+"""The space environment at the spacecraft: epochs, orbits, the Sun and the shadow, the geomagnetic field, the
+atmosphere, the surface model and the disturbance torques, and the momentum they ask of the wheels."""
 
+from attitude.environment.atmosphere import NRLMSIS, ExponentialAtmosphere, geodetic_coordinates
 from attitude.environment.epoch import DEFAULT_EPOCH, Epoch, ecef_to_N
 from attitude.environment.gravity_gradient import (
     GravityGradientStability,
@@ -11,6 +13,8 @@ from attitude.environment.gravity_gradient import (
     linearize_gravity_gradient,
     lvlh_relative_dynamics,
 )
+from attitude.environment.magnetic_field import IGRF, IGRF_REFERENCE_RADIUS_M, MU0_OVER_4PI, TiltedDipole
+from attitude.environment.momentum_budget import MomentumBuildUp, held_attitude_momentum
 from attitude.environment.orbit import (
     MU_EARTH,
     R_EARTH,
@@ -21,6 +25,14 @@ from attitude.environment.orbit import (
     lvlh_attitude,
     solve_kepler,
 )
+from attitude.environment.orbit_environment import (
+    DISTURBANCE_SOURCES,
+    EARTH_ROTATION_RATE,
+    SURFACE_PARAMETERS,
+    TRACK_COLUMNS,
+    EnvironmentTrack,
+    OrbitEnvironment,
+)
 from attitude.environment.sun import (
     AU_M,
     SUN_RADIUS_M,
@@ -28,29 +40,71 @@ from attitude.environment.sun import (
     sun_direction_N,
     sun_position_N,
 )
+from attitude.environment.surface import DEFAULT_DRAG_COEFFICIENT, SurfaceModel
+from attitude.environment.torques import (
+    SOLAR_PRESSURE_1AU_PA,
+    aerodynamic_force,
+    aerodynamic_force_components,
+    aerodynamic_torque,
+    aerodynamic_torque_components,
+    magnetic_torque,
+    magnetic_torque_components,
+    solar_pressure_force,
+    solar_pressure_force_components,
+    solar_pressure_torque,
+    solar_pressure_torque_components,
+)
 
 __all__ = [
     "AU_M",
+    "DEFAULT_DRAG_COEFFICIENT",
     "DEFAULT_EPOCH",
+    "DISTURBANCE_SOURCES",
+    "EARTH_ROTATION_RATE",
+    "IGRF",
+    "IGRF_REFERENCE_RADIUS_M",
+    "MU0_OVER_4PI",
     "MU_EARTH",
+    "NRLMSIS",
     "R_EARTH",
+    "SOLAR_PRESSURE_1AU_PA",
     "SUN_RADIUS_M",
+    "SURFACE_PARAMETERS",
+    "TRACK_COLUMNS",
     "CircularOrbit",
+    "EnvironmentTrack",
     "Epoch",
+    "ExponentialAtmosphere",
     "GravityGradientStability",
     "KeplerOrbit",
+    "MomentumBuildUp",
     "Orbit",
+    "OrbitEnvironment",
+    "SurfaceModel",
     "TLEOrbit",
+    "TiltedDipole",
+    "aerodynamic_force",
+    "aerodynamic_force_components",
+    "aerodynamic_torque",
+    "aerodynamic_torque_components",
     "constant_plus_orbital_disturbance",
     "ecef_to_N",
+    "geodetic_coordinates",
     "gravity_gradient_stability",
     "gravity_gradient_torque",
     "gravity_gradient_torque_components",
     "gravity_gradient_torque_function",
+    "held_attitude_momentum",
     "illumination_fraction",
     "linearize_gravity_gradient",
     "lvlh_attitude",
     "lvlh_relative_dynamics",
+    "magnetic_torque",
+    "magnetic_torque_components",
+    "solar_pressure_force",
+    "solar_pressure_force_components",
+    "solar_pressure_torque",
+    "solar_pressure_torque_components",
     "solve_kepler",
     "sun_direction_N",
     "sun_position_N",

@@ -36,12 +36,22 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
-from attitude.actuators import ReactionWheels
+from attitude.actuators import Magnetorquers, ReactionWheels
+from attitude.environment.orbit_environment import OrbitEnvironment
 from attitude.results import ResultIO
 from attitude.rigid_body import RigidBody, split_components
 from attitude.rng import as_generator
+from attitude.simulation.orbit_flight import OrbitFlight
 from attitude.simulation.plant import PlantModel
-from attitude.simulation.protocols import Controller, Disturbance, Estimate, Estimator, Sensor, Truth
+from attitude.simulation.protocols import (
+    Controller,
+    DipoleController,
+    Disturbance,
+    Estimate,
+    Estimator,
+    Sensor,
+    Truth,
+)
 from attitude.validation import as_float_array, check_positive, check_vector
 
 if TYPE_CHECKING:
@@ -83,10 +93,24 @@ class SimulationResult(ResultIO):
         The controller's view (truth when there is no estimator).
     logs : dict of ndarray
         Whatever the components logged (keys ``controller.*``, ``estimator.*``,
-        ``sensor.<name>``), one row per tick, NaN where a component did not
-        sample.
+        ``sensor.<name>``, ``dipole_controller.*``), one row per tick, NaN where
+        a component did not sample.
     info : dict
         Engine details: tick, engine ("compiled" or "python"), wall time [s].
+    disturbance_torques : dict of ndarray (n, 3)
+        With an orbit environment: each source's torque in body axes [N m]
+        (keys of :data:`attitude.environment.DISTURBANCE_SOURCES`), held from
+        each row's time; empty without one.
+    field_B : ndarray (n, 3)
+        Geomagnetic field at the spacecraft in body axes [T] (empty without an environment).
+    illumination : ndarray (n,)
+        Fraction of the Sun seen (1 full sun, 0 umbra; empty without an environment).
+    dipole_command : ndarray (n, 3)
+        Dipole commanded by the magnetic law in body axes [A m^2] (empty without magnetorquers).
+    dipole : ndarray (n, 3)
+        Dipole the magnetorquers deliver after saturation and quantisation [A m^2].
+    torque_magnetorquer : ndarray (n, 3)
+        Torque of the magnetorquers ``m x B`` [N m], held from each row's time.
     """
 
     t: NDArray[np.float64]
@@ -103,6 +127,12 @@ class SimulationResult(ResultIO):
     estimate_omega: NDArray[np.float64]
     logs: dict[str, Any] = field(default_factory=dict)
     info: dict[str, Any] = field(default_factory=dict)
+    disturbance_torques: dict[str, Any] = field(default_factory=dict)
+    field_B: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))
+    illumination: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    dipole_command: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))
+    dipole: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))
+    torque_magnetorquer: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))
 
     def settling_time(self, threshold_rad: float) -> float:
         """First time [s] after which the error angle stays below ``threshold_rad`` (inf if never).
@@ -186,6 +216,10 @@ def simulate(
     sensors: tuple[Sensor, ...] | list[Sensor] = (),
     estimator: Estimator | None = None,
     disturbance: Disturbance = None,
+    environment: OrbitEnvironment | None = None,
+    surface_parameters: ArrayLike | None = None,
+    magnetorquers: Magnetorquers | None = None,
+    dipole_controller: DipoleController | None = None,
     dt: float | None = None,
     substeps: int = 1,
     rng: Any = None,
@@ -215,7 +249,23 @@ def simulate(
     estimator : object, optional
         See the module docstring. None: the controller sees the truth.
     disturbance : None, array_like (3,) or callable
-        External torque [N m] (module docstring).
+        External torque [N m] (module docstring), added to the environment's.
+    environment : OrbitEnvironment, optional
+        Fly the spacecraft in its orbit: gravity-gradient, aerodynamic, solar
+        pressure and residual-dipole torques (per source in
+        ``disturbance_torques``), and the field and Sun handed to the sensors
+        (:class:`attitude.simulation.orbit_flight.OrbitFlight`). ``t = 0`` is the
+        orbit's epoch.
+    surface_parameters : array_like (7,), optional
+        This run's surface parameters (drag scale, residual dipole,
+        centre-of-pressure offset: :meth:`OrbitEnvironment.surface_parameters`);
+        default the surface model's own.
+    magnetorquers : Magnetorquers, optional
+        Torque rods; their torque ``m x B`` acts with the wheels'.
+    dipole_controller : object, optional
+        The magnetic law commanding the rods
+        (:class:`attitude.simulation.protocols.DipoleController`: B-dot
+        detumbling, momentum unloading), running beside ``controller``.
     dt : float, optional
         The tick [s]: the shortest component period by default.
     substeps : int
@@ -271,6 +321,8 @@ def simulate(
     periods = {}
     if controller is not None:
         periods["controller"] = _period(controller, "controller")
+    if dipole_controller is not None:
+        periods["dipole_controller"] = _period(dipole_controller, "dipole_controller")
     if estimator is not None:
         periods["estimator"] = _period(estimator, "estimator")
     for s in sensors:
@@ -291,6 +343,14 @@ def simulate(
             f"the wheels' spin-axis inertia) must be a valid inertia: {exc}"
         ) from exc
     model = PlantModel(plant, wheels)
+    flight = OrbitFlight(
+        environment,
+        plant,
+        np.arange(n_ticks + 1) * dt,
+        surface_parameters=surface_parameters,
+        magnetorquers=magnetorquers,
+        dipole_controller=dipole_controller,
+    )
     compiled_ok = (
         controller is not None
         and not sensors
@@ -299,22 +359,47 @@ def simulate(
         and hasattr(controller, "compiled_inputs")
         and (disturbance is None or not callable(disturbance))
         and every.get("controller") == 1
+        and (
+            dipole_controller is None
+            or (
+                hasattr(dipole_controller, "dipole_components")
+                and hasattr(dipole_controller, "compiled_inputs")
+                and getattr(dipole_controller, "use_truth_field", False)
+                and every.get("dipole_controller") == 1
+            )
+        )
     )
     if engine == "compiled" and not compiled_ok:
         raise ValueError(
             "engine='compiled' needs a controller with torque_components/compiled_inputs at period dt, "
-            "no sensors or estimator, and a constant (or no) disturbance"
+            "no sensors or estimator, a constant (or no) disturbance, and a dipole_controller (if any) with "
+            "dipole_components at period dt"
         )
     use_compiled = compiled_ok and engine != "python"
     for s in sensors:
         if hasattr(s, "reset"):
             s.reset()  # a sensor carries state (e.g. gyro bias) from run to run otherwise
+    if dipole_controller is not None and hasattr(dipole_controller, "reset"):
+        dipole_controller.reset()  # a B-dot law keeps its last field sample otherwise
     if controller is not None and hasattr(controller, "prepare"):
         controller.prepare(0.0, q0, omega0)
     start = time.perf_counter()
     runner = _run_compiled if use_compiled else _run_python
     result = runner(
-        model, controller, sensors, estimator, disturbance, q0, omega0, h_wheels0, dt, n_ticks, substeps, every, rng
+        model,
+        flight,
+        controller,
+        sensors,
+        estimator,
+        disturbance,
+        q0,
+        omega0,
+        h_wheels0,
+        dt,
+        n_ticks,
+        substeps,
+        every,
+        rng,
     )
     if wheels is not None:
         result.info["wheel_speed_limit_rpm"] = (
@@ -327,11 +412,11 @@ def simulate(
     return result
 
 
-def _finish(model, t, x, tau_cmd, tau_app, u, err, est_q, est_w, logs) -> SimulationResult:
+def _finish(model, t, x, tau_cmd, tau_app, u, err, est_q, est_w, logs, orbit=None) -> SimulationResult:
     q, omega, h = x[:, :4], x[:, 4:7], x[:, 7:]
     speed = model.wheels.wheel_speed(h, omega) if model.wheels is not None else np.zeros((t.size, 0))
     motor = u if model.wheels is not None else np.zeros((t.size, 0))
-    return SimulationResult(
+    result = SimulationResult(
         t=t,
         q=q,
         omega=omega,
@@ -347,39 +432,90 @@ def _finish(model, t, x, tau_cmd, tau_app, u, err, est_q, est_w, logs) -> Simula
         logs=logs,
         info={},
     )
+    if orbit is not None:
+        for name, value in orbit.items():
+            setattr(result, name, value)
+    return result
+
+
+def _orbit_histories(flight: OrbitFlight, torques, field_B, illumination, m_cmd, m_B, tau_m) -> dict | None:
+    """The result fields of a run in orbit (None without an environment)."""
+    if not flight.active:
+        return None
+    fields = {
+        "disturbance_torques": {s: torques[:, i, :] for i, s in enumerate(flight.sources)},
+        "field_B": field_B,
+        "illumination": illumination,
+    }
+    if flight.magnetorquers is not None:
+        fields.update(dipole_command=m_cmd, dipole=m_B, torque_magnetorquer=tau_m)
+    return fields
 
 
 def _run_compiled(
-    model, controller, sensors, estimator, disturbance, q0, omega0, h0, dt, n_ticks, substeps, every, rng
+    model, flight, controller, sensors, estimator, disturbance, q0, omega0, h0, dt, n_ticks, substeps, every, rng
 ):
     t = np.arange(n_ticks + 1) * dt
     inputs = np.atleast_2d(as_float_array(controller.compiled_inputs(t), "controller.compiled_inputs(t)"))
     if inputs.shape[-1] != n_ticks + 1:
         raise ValueError(f"controller.compiled_inputs(t) must return shape (m, {n_ticks + 1}), got {inputs.shape}")
     m = inputs.shape[0]
+    n_row = flight.rows.shape[1] if flight.active else 0
+    law = flight.dipole_controller
+    law_inputs = np.zeros((0, n_ticks + 1))
+    if law is not None:
+        law_inputs = np.atleast_2d(
+            as_float_array(law.compiled_inputs(t), "dipole_controller.compiled_inputs(t)")
+        ).reshape(-1, n_ticks + 1)
+    n_law = law_inputs.shape[0]
     x = ca.SX.sym("x", model.n_x)
-    p = ca.SX.sym("p", m)
+    p = ca.SX.sym("p", m + n_row + n_law)
     xc = split_components(x, model.n_x)
-    tau_cmd = controller.torque_components(xc[:4], xc[4:7], model.body_momentum(xc), split_components(p, m))
+    pc = split_components(p, m + n_row + n_law)
+    h_body = model.body_momentum(xc)
+    tau_cmd = controller.torque_components(xc[:4], xc[4:7], h_body, pc[:m])
     u, tau_app = model.command(tau_cmd, xc)
-    commands = ca.vertcat(*tau_cmd, *tau_app, *u)
     tau_ext = [0.0, 0.0, 0.0] if disturbance is None else [float(v) for v in disturbance]
-    x_next = model.compiled_step(substeps)(x, ca.vertcat(*u), ca.DM(tau_ext), dt)
+    extra: list = []
+    if flight.active:
+        row = pc[m : m + n_row]
+        field_B, _ = flight.environment.body_vectors_components(xc[:4], row)
+        m_cmd = m_B = None
+        if law is not None:
+            m_cmd = law.dipole_components(field_B, h_body, pc[m + n_row :])
+            m_B = flight.magnetorquers.dipole_components(flight.magnetorquers.command_components(m_cmd))
+        torques, field_B, _, tau_m = flight.compiled_pieces(xc[:4], row, m_B)
+        for i in range(flight.n_sources):
+            tau_ext = [a + b for a, b in zip(tau_ext, torques[3 * i : 3 * i + 3])]
+        tau_ext = [a + b for a, b in zip(tau_ext, tau_m)]
+        zero = [0.0 * field_B[0]] * 3
+        extra = [*torques, *field_B, *(m_cmd or zero), *(m_B or zero), *tau_m]
+    commands = ca.vertcat(*tau_cmd, *tau_app, *u, *extra)
+    x_next = model.compiled_step(substeps)(x, ca.vertcat(*u), ca.vertcat(*tau_ext), dt)
     loop = ca.Function("closed_loop", [x, p], [x_next, commands]).mapaccum(n_ticks)
+    columns = inputs if not flight.active else np.concatenate([inputs, flight.rows.T, law_inputs], axis=0)
     x_start = np.concatenate([q0, omega0, h0])
-    x_hist, out = loop(x_start, inputs[:, :-1])
+    x_hist, out = loop(x_start, columns[:, :-1])
     x_all = np.concatenate([x_start[None], np.array(x_hist).T], axis=0)
     finite = np.all(np.isfinite(x_all), axis=1)
     if not np.all(finite):
         k = int(np.argmin(finite))
         _diverged(t[k], x_all[k - 1])
     # The command at the final time, as the Python path computes it.
-    last = np.array(ca.Function("command", [x, p], [commands])(x_all[-1], inputs[:, -1])).T
+    last = np.array(ca.Function("command", [x, p], [commands])(x_all[-1], columns[:, -1])).T
     out = np.concatenate([np.array(out).T, last], axis=0)
     n_u = len(u)
     tau_c, tau_a, uu = out[:, :3], out[:, 3:6], out[:, 6 : 6 + n_u]
+    orbit = None
+    if flight.active:
+        o = 6 + n_u
+        ns = flight.n_sources
+        torques = out[:, o : o + 3 * ns].reshape(-1, ns, 3)
+        o += 3 * ns
+        field_B, m_cmd, m_B, tau_m = (out[:, o + 3 * i : o + 3 * i + 3] for i in range(4))
+        orbit = _orbit_histories(flight, torques, field_B, flight.track.illumination, m_cmd, m_B, tau_m)
     err = _error_angles(controller, t, x_all[:, :4])
-    return _finish(model, t, x_all, tau_c, tau_a, uu, err, x_all[:, :4].copy(), x_all[:, 4:7].copy(), {})
+    return _finish(model, t, x_all, tau_c, tau_a, uu, err, x_all[:, :4].copy(), x_all[:, 4:7].copy(), {}, orbit)
 
 
 class SimulationDivergedError(FloatingPointError):
@@ -404,7 +540,9 @@ def _error_angles(controller: Any, t: NDArray, q: NDArray) -> NDArray:
     return quat.error_angle(q_ref, quat.normalize(q))
 
 
-def _run_python(model, controller, sensors, estimator, disturbance, q0, omega0, h0, dt, n_ticks, substeps, every, rng):
+def _run_python(
+    model, flight, controller, sensors, estimator, disturbance, q0, omega0, h0, dt, n_ticks, substeps, every, rng
+):
     gen = as_generator(rng)
     n_x, n_w = model.n_x, model.n_w
     t = np.arange(n_ticks + 1) * dt
@@ -424,6 +562,15 @@ def _run_python(model, controller, sensors, estimator, disturbance, q0, omega0, 
     const_dist = None
     if disturbance is not None and not callable(disturbance):
         const_dist = check_vector(disturbance, "disturbance", 3)
+    if flight.active:
+        env_torques = np.zeros((n_ticks + 1, flight.n_sources, 3))
+        field_all = np.zeros((n_ticks + 1, 3))
+        m_cmd_all = np.zeros((n_ticks + 1, 3))
+        m_B_all = np.zeros((n_ticks + 1, 3))
+        tau_m_all = np.zeros((n_ticks + 1, 3))
+        m_cmd = np.zeros(3)
+        m_B = np.zeros(3)
+    law = flight.dipole_controller
 
     def record(prefix: str, k: int, values: dict) -> None:
         for key, value in values.items():
@@ -434,8 +581,15 @@ def _run_python(model, controller, sensors, estimator, disturbance, q0, omega0, 
     for k in range(n_ticks + 1):
         tk = float(t[k])
         x = x_all[k]
-        truth = Truth(tk, x[:4] / np.linalg.norm(x[:4]), x[4:7].copy(), x[7:].copy())
+        q_unit = x[:4] / np.linalg.norm(x[:4])
+        if flight.active:
+            torques_k, field_B, sun_B = flight.at_tick(k, q_unit)
+            env_torques[k], field_all[k] = torques_k, field_B
+            truth = Truth(tk, q_unit, x[4:7].copy(), x[7:].copy(), field_B, sun_B, float(flight.track.illumination[k]))
+        else:
+            truth = Truth(tk, q_unit, x[4:7].copy(), x[7:].copy())
         measurements: dict[str, Any] = {"torque_command": tau_cmd.copy(), "wheel_momentum": truth.h_wheels}
+        samples: dict[str, Any] = {}
         for s in sensors:
             sample = None
             if k % every[f"sensor {s.name}"] == 0:
@@ -443,6 +597,7 @@ def _run_python(model, controller, sensors, estimator, disturbance, q0, omega0, 
                 if sample is not None:
                     record("sensor", k, {s.name: sample})
             measurements[s.name] = sample
+            samples[s.name] = sample
         if estimator is not None and k % every["estimator"] == 0:
             estimate = estimator.update(tk, measurements)
             if not isinstance(estimate, Estimate):
@@ -466,6 +621,11 @@ def _run_python(model, controller, sensors, estimator, disturbance, q0, omega0, 
             tau_app = np.array([float(v) for v in tau_a_c])
             if hasattr(controller, "log"):
                 record("controller", k, controller.log())
+        if law is not None and k % every["dipole_controller"] == 0:
+            m_cmd = flight.dipole_command(tk, samples, h_body, field_B)
+            m_B = flight.delivered_dipole(m_cmd)
+            if hasattr(law, "log"):
+                record("dipole_controller", k, law.log())
         tau_c_all[k], tau_a_all[k], u_all[k] = tau_cmd, tau_app, u
         if k == n_ticks:
             break
@@ -475,10 +635,23 @@ def _run_python(model, controller, sensors, estimator, disturbance, q0, omega0, 
             tau_ext = check_vector(disturbance(tk, truth.q, truth.omega), "disturbance(t, q, omega)", 3)
         else:
             tau_ext = np.zeros(3)
+        if flight.active:
+            tau_ext = tau_ext + env_torques[k].sum(axis=0)
+            if flight.magnetorquers is not None:
+                tau_m = np.cross(m_B, field_B)
+                m_cmd_all[k], m_B_all[k], tau_m_all[k] = m_cmd, m_B, tau_m
+                tau_ext = tau_ext + tau_m
         x_all[k + 1] = np.array(step(x, u, tau_ext, dt)).ravel()
         if not np.all(np.isfinite(x_all[k + 1])):
             _diverged(t[k + 1], x)
 
+    orbit = None
+    if flight.active:
+        if flight.magnetorquers is not None:  # the last row, as the other commands: what would be held from t_end
+            m_cmd_all[-1], m_B_all[-1], tau_m_all[-1] = m_cmd, m_B, np.cross(m_B, field_all[-1])
+        orbit = _orbit_histories(
+            flight, env_torques, field_all, flight.track.illumination.copy(), m_cmd_all, m_B_all, tau_m_all
+        )
     err = _error_angles(controller, t, x_all[:, :4])
     packed = {}
     for key, series in logs.items():
@@ -492,4 +665,4 @@ def _run_python(model, controller, sensors, estimator, disturbance, q0, omega0, 
         packed.setdefault(f"sensor.{s.name}", np.full((n_ticks + 1, 0), np.nan))
     if model.wheels is None:
         u_all = np.zeros((n_ticks + 1, 0))
-    return _finish(model, t, x_all, tau_c_all, tau_a_all, u_all, err, est_q, est_w, packed)
+    return _finish(model, t, x_all, tau_c_all, tau_a_all, u_all, err, est_q, est_w, packed, orbit)
