@@ -1,4 +1,4 @@
-"""Reaction wheels: geometry, torque allocation, saturation and wheel dynamics.
+"""Reaction wheels (geometry, torque allocation, saturation, wheel dynamics) and magnetorquers.
 
 Model (Schaub and Junkins, *Analytical Mechanics of Space Systems*, ch. 4;
 Wie, *Space Vehicle Dynamics and Control*, ch. 7). Wheel ``i`` spins about
@@ -33,20 +33,22 @@ from numpy.typing import ArrayLike, NDArray
 
 from attitude import backend as bk
 from attitude.rigid_body import Components, RigidBody
-from attitude.validation import as_float_array, check_positive, describe
+from attitude.validation import as_float_array, check_positive, check_vector, describe
 
-__all__ = ["RANK_TOLERANCE", "ReactionWheels"]
+__all__ = ["MAGNETORQUER_SATURATION", "RANK_TOLERANCE", "Magnetorquers", "ReactionWheels"]
 
 #: Smallest accepted singular value of the wheel axis matrix (relative to the
 #: largest): below it the wheels cannot produce torque about some axis.
 RANK_TOLERANCE = 1e-6
 
 
-def _per_wheel(value: ArrayLike, n: int, name: str, *, allow_zero: bool = False) -> NDArray[np.float64]:
-    """Check a scalar or per-wheel parameter and broadcast it to shape ``(n,)``."""
+def _per_wheel(
+    value: ArrayLike, n: int, name: str, *, allow_zero: bool = False, item: str = "wheel"
+) -> NDArray[np.float64]:
+    """Check a scalar or per-``item`` (wheel, rod) parameter and broadcast it to shape ``(n,)``."""
     arr = check_positive(value, name, allow_zero=allow_zero)
     if arr.ndim > 1 or (arr.ndim == 1 and arr.size not in (1, n)):
-        raise ValueError(f"{name} must be a scalar or one value per wheel ({n}), got shape {arr.shape}")
+        raise ValueError(f"{name} must be a scalar or one value per {item} ({n}), got shape {arr.shape}")
     return np.broadcast_to(arr, (n,)).astype(np.float64)
 
 
@@ -532,3 +534,259 @@ class ReactionWheels:
         """
         ratios = np.abs(self.allocation) / self.torque_max[:, None]
         return 1.0 / ratios.max(axis=0)
+
+
+# ---------------------------------------------------------------------------
+# Magnetorquers
+
+#: How :meth:`Magnetorquers.command_components` keeps the rods within their limits.
+MAGNETORQUER_SATURATION = ("scale", "clip")
+
+
+class Magnetorquers:
+    """Magnetic torque rods on body axes: dipole limits, quantisation and the torque ``m x B``.
+
+    Rod ``i`` produces the dipole ``m_i a_i`` along its unit axis ``a_i``
+    with ``|m_i| <= dipole_max_Am2[i]``; the body dipole is
+    ``m = sum_i m_i a_i`` and the torque on the spacecraft in the field ``B``
+    (body axes) is ``tau = m x B`` (Wertz, *Spacecraft Attitude Determination
+    and Control*, 1978, sec. 17.2; Markley and Crassidis, *Fundamentals of
+    Spacecraft Attitude Determination and Control*, 2014, sec. 3.3.5 and 7.5).
+    A commanded body dipole is mapped to the rods by the minimum-norm
+    pseudo-inverse of ``A = [a_1 ... a_n]`` (the identity for three
+    orthogonal rods), then saturated and quantised.
+
+    The command and torque are written on component lists with
+    :mod:`attitude.backend` operations, so they evaluate on numpy arrays of
+    any batch shape and on casadi symbols (the engine's compiled loop).
+
+    Parameters
+    ----------
+    axes_B : array_like (n, 3), optional
+        Rod axes in body components (normalised here; non-zero). Default:
+        the three body axes.
+    dipole_max_Am2 : float or array_like (n,)
+        Largest dipole magnitude of each rod [A m^2] (> 0).
+    quantum_Am2 : float or array_like (n,), optional
+        Quantisation step of each rod [A m^2] (> 0; e.g. the dipole of one
+        PWM count); None: no quantisation.
+    saturation : {"scale", "clip"}
+        ``"scale"``: one common factor brings every rod within its limit,
+        so the body dipole keeps its direction; ``"clip"``: each rod
+        saturates alone (the direction may change).
+
+    Raises
+    ------
+    ValueError
+        Axes of the wrong shape or zero length, a dipole limit or quantum
+        that is not strictly positive and finite, per-rod values of the
+        wrong length, or an unknown ``saturation``.
+    """
+
+    def __init__(
+        self,
+        axes_B: ArrayLike | None = None,
+        *,
+        dipole_max_Am2: ArrayLike,
+        quantum_Am2: ArrayLike | None = None,
+        saturation: str = "scale",
+    ) -> None:
+        axes = np.eye(3) if axes_B is None else as_float_array(axes_B, "axes_B")
+        if axes.ndim != 2 or axes.shape[1] != 3 or axes.shape[0] < 1:
+            raise ValueError(f"axes_B must have shape (n_rods, 3), got shape {axes.shape}")
+        lengths = np.linalg.norm(axes, axis=1)
+        if np.any(lengths == 0):
+            raise ValueError(f"axes_B must hold non-zero axes; rod {int(np.argmin(lengths))} has a zero axis")
+        if saturation not in MAGNETORQUER_SATURATION:
+            raise ValueError(f"saturation must be one of {MAGNETORQUER_SATURATION}, got {saturation!r}")
+        self.axes_B = axes / lengths[:, None]
+        self.n_rods = self.axes_B.shape[0]
+        self.dipole_max_Am2 = _per_wheel(dipole_max_Am2, self.n_rods, "dipole_max_Am2", item="rod")
+        self.quantum_Am2 = (
+            None if quantum_Am2 is None else _per_wheel(quantum_Am2, self.n_rods, "quantum_Am2", item="rod")
+        )
+        self.saturation = saturation
+        #: ``A^+`` (n x 3): minimum-norm rod dipoles for a body dipole.
+        self.allocation = np.linalg.pinv(self.axes_B.T)
+
+    @classmethod
+    def orthogonal(
+        cls, *, dipole_max_Am2: ArrayLike, quantum_Am2: ArrayLike | None = None, saturation: str = "scale"
+    ) -> Self:
+        """Three rods on the body x, y and z axes.
+
+        Parameters
+        ----------
+        dipole_max_Am2 : float or array_like (3,)
+            Largest dipole magnitude of each rod [A m^2].
+        quantum_Am2 : float or array_like (3,), optional
+            Quantisation step [A m^2]; None: none.
+        saturation : {"scale", "clip"}
+            See :class:`Magnetorquers`.
+
+        Returns
+        -------
+        Magnetorquers
+            Rods with ``axes_B = eye(3)``.
+        """
+        return cls(np.eye(3), dipole_max_Am2=dipole_max_Am2, quantum_Am2=quantum_Am2, saturation=saturation)
+
+    def __repr__(self) -> str:
+        return (
+            f"Magnetorquers(n_rods={self.n_rods}, dipole_max_Am2={self.dipole_max_Am2}, "
+            f"quantum_Am2={self.quantum_Am2}, saturation={self.saturation!r})"
+        )
+
+    # -- components (any backend) ---------------------------------------------
+
+    def command_components(self, dipole_command_B: Components) -> Components:
+        """Rod dipoles [A m^2] for a commanded body dipole: allocate, saturate, quantise.
+
+        1. ``m_rod = A^+ m_c`` (minimum norm).
+        2. ``"scale"``: ``m_rod / max(1, max_i |m_i| / m_max,i)``;
+           ``"clip"``: each ``m_i`` clipped to ``[-m_max,i, m_max,i]``.
+        3. With ``quantum_Am2``: ``q_i floor(m_i / q_i + 1/2)`` (nearest
+           level, halves rounded up), clipped again to the limit in case the
+           nearest level lies beyond it.
+
+        Parameters
+        ----------
+        dipole_command_B : list of 3
+            Commanded body dipole [A m^2] (numpy arrays or casadi scalars).
+
+        Returns
+        -------
+        list of n
+            Rod dipoles [A m^2], same backend as the command.
+        """
+        u = []
+        for row in self.allocation:
+            acc = 0.0 * dipole_command_B[0]
+            for k in range(3):
+                if row[k] != 0.0:
+                    acc = acc + row[k] * dipole_command_B[k]
+            u.append(acc)
+        limits = self.dipole_max_Am2
+        if self.saturation == "scale":
+            ratio = None
+            for i in range(self.n_rods):
+                r = bk.fabs(u[i]) / limits[i]
+                ratio = r if ratio is None else bk.fmax(ratio, r)
+            scale = 1.0 / bk.fmax(ratio, 1.0)
+            u = [ui * scale for ui in u]
+        else:
+            u = [bk.clip(ui, -limits[i], limits[i]) for i, ui in enumerate(u)]
+        if self.quantum_Am2 is not None:
+            steps = self.quantum_Am2
+            u = [bk.clip(steps[i] * bk.floor(ui / steps[i] + 0.5), -limits[i], limits[i]) for i, ui in enumerate(u)]
+        return u
+
+    def dipole_components(self, per_rod: Components) -> Components:
+        """Body dipole ``m = sum_i m_i a_i`` [A m^2] on components (any backend).
+
+        Parameters
+        ----------
+        per_rod : list of n
+            Rod dipoles [A m^2].
+
+        Returns
+        -------
+        list of 3
+            Body dipole components [A m^2]; exact zeros of the axes are skipped.
+        """
+        out = []
+        for k in range(3):
+            acc = 0.0 * per_rod[0]
+            for i in range(self.n_rods):
+                if self.axes_B[i, k] != 0.0:
+                    acc = acc + self.axes_B[i, k] * per_rod[i]
+            out.append(acc)
+        return out
+
+    def torque_components(self, per_rod: Components, field_B: Components) -> Components:
+        """Magnetic torque ``(sum_i m_i a_i) x B`` [N m] on components (any backend).
+
+        Parameters
+        ----------
+        per_rod : list of n
+            Rod dipoles [A m^2].
+        field_B : list of 3
+            Magnetic field at the spacecraft in body axes [T].
+
+        Returns
+        -------
+        list of 3
+            Torque on the spacecraft in body axes [N m].
+        """
+        return bk.cross(self.dipole_components(per_rod), field_B)
+
+    # -- numpy front ends -------------------------------------------------------
+
+    def command(self, dipole_command_B: ArrayLike) -> NDArray[np.float64]:
+        """Numpy front end of :meth:`command_components`: rod dipoles (..., n) [A m^2].
+
+        Parameters
+        ----------
+        dipole_command_B : array_like (..., 3)
+            Commanded body dipole [A m^2].
+
+        Returns
+        -------
+        ndarray (..., n)
+            Rod dipoles after saturation and quantisation [A m^2].
+
+        Raises
+        ------
+        ValueError
+            If the command holds NaN/inf or its last axis is not 3.
+        """
+        m = check_vector(dipole_command_B, "dipole_command_B", 3)
+        u = self.command_components([m[..., k] for k in range(3)])
+        return np.stack(np.broadcast_arrays(*u), axis=-1)
+
+    def dipole_B(self, per_rod: ArrayLike) -> NDArray[np.float64]:
+        """Body dipole ``m = sum_i m_i a_i`` (..., 3) [A m^2] for rod dipoles (..., n).
+
+        Parameters
+        ----------
+        per_rod : array_like (..., n)
+            Rod dipoles [A m^2].
+
+        Returns
+        -------
+        ndarray (..., 3)
+            Body dipole [A m^2].
+
+        Raises
+        ------
+        ValueError
+            If ``per_rod`` holds NaN/inf or its last axis is not ``n``.
+        """
+        u = check_vector(per_rod, "per_rod", self.n_rods)
+        out = self.dipole_components([u[..., i] for i in range(self.n_rods)])
+        return np.stack(np.broadcast_arrays(*out), axis=-1)
+
+    def torque(self, per_rod: ArrayLike, field_B: ArrayLike) -> NDArray[np.float64]:
+        """Magnetic torque ``m x B`` (..., 3) [N m] for rod dipoles (..., n) in the field ``B`` (..., 3).
+
+        Parameters
+        ----------
+        per_rod : array_like (..., n)
+            Rod dipoles [A m^2].
+        field_B : array_like (..., 3)
+            Magnetic field in body axes [T].
+
+        Returns
+        -------
+        ndarray (..., 3)
+            Torque on the spacecraft in body axes [N m]; batch dimensions broadcast.
+
+        Raises
+        ------
+        ValueError
+            If an input holds NaN/inf or has the wrong last dimension.
+        """
+        u = check_vector(per_rod, "per_rod", self.n_rods)
+        b = check_vector(field_B, "field_B", 3)
+        out = self.torque_components([u[..., i] for i in range(self.n_rods)], [b[..., k] for k in range(3)])
+        return np.stack(np.broadcast_arrays(*out), axis=-1)

@@ -20,6 +20,7 @@ __all__ = [
     "clip",
     "cross",
     "fabs",
+    "floor",
     "fmax",
     "fmin",
     "if_else",
@@ -94,6 +95,22 @@ def fabs(x: Any) -> Any:
         ``|x|``, casadi if ``x`` is symbolic.
     """
     return ca.fabs(x) if is_symbolic(x) else np.abs(x)
+
+
+def floor(x: Any) -> Any:
+    """Largest integer not above ``x`` (used for quantisation).
+
+    Parameters
+    ----------
+    x : numpy array_like or casadi SX/MX/DM
+        Argument (dimensionless).
+
+    Returns
+    -------
+    ndarray or casadi object
+        ``floor(x)``, casadi if ``x`` is symbolic.
+    """
+    return ca.floor(x) if is_symbolic(x) else np.floor(x)
 
 
 def atan2(y: Any, x: Any) -> Any:

@@ -1,4 +1,4 @@
-"""Attitude sensors: a rate-integrating gyro (Farrenkopf model) and a star tracker.
+"""Attitude sensors: a rate-integrating gyro (Farrenkopf model), a star tracker and a magnetometer.
 
 Both meet the sensor protocol of :mod:`attitude.simulation.engine`: a ``name``, a
 ``period`` [s] and ``measure(t, truth, rng)`` returning an array, or None when
@@ -35,6 +35,7 @@ __all__ = [
     "Gyro",
     "GyroBatch",
     "GyroSamplingWarning",
+    "Magnetometer",
     "StarTracker",
     "arw_from_sigma_v",
     "arw_to_sigma_v",
@@ -48,6 +49,7 @@ __all__ = [
 ARCSEC = np.pi / (180.0 * 3600.0)
 
 _DEG = np.pi / 180.0
+_NANOTESLA = 1e-9  # [T]
 _HOUR = 3600.0  # [s]
 _SQRT_HOUR = 60.0  # sqrt(3600 s) [s^0.5]
 
@@ -1433,3 +1435,229 @@ STAR_TRACKER_PRESETS: dict[str, dict[str, Any]] = {
         "40 arcsec roll (1 sigma), 5 Hz; 45 deg Sun exclusion assumed",
     },
 }
+
+
+# ---------------------------------------------------------------------------
+# Magnetometer
+
+
+class Magnetometer:
+    """A three-axis magnetometer: white noise, constant bias, scale factor, misalignment, quantisation.
+
+    The sample at ``t`` is
+
+    .. math::
+
+        y = \\mathrm{quant}\\big((I + S + M)\\, B_B + b + \\sigma\\, n\\big),
+        \\qquad n \\sim N(0, I_3)
+
+    with ``B_B`` the true field in body axes (``truth.magnetic_field_B``),
+    ``S = diag(scale_factor)``, ``M`` the misalignment (a small rotation
+    vector ``phi`` gives ``M = -[phi x]``, the first-order rotation of the
+    sensor triad by ``phi``, as :class:`Gyro` does) and ``b`` the bias; the
+    usual three-axis magnetometer error model (Markley and Crassidis,
+    *Fundamentals of Spacecraft Attitude Determination and Control*, 2014,
+    sec. 4.3; Alonso and Shuster, "Complete linear attitude-independent
+    magnetometer calibration", J. Astronaut. Sci. 50(4), 2002). Stateless:
+    ``measure`` depends only on its arguments.
+
+    Parameters
+    ----------
+    sigma_T : float
+        Standard deviation of the white noise on each axis [T] (>= 0; 0 for
+        tests of the deterministic errors).
+    period : float
+        Sample period [s] (> 0).
+    bias_T : float or array_like (3,)
+        Constant bias [T].
+    scale_factor : float or array_like (3,)
+        Scale-factor errors (dimensionless), each > -1.
+    misalignment : array_like (3,) or (3, 3)
+        Small rotation vector [rad] of the sensor triad from the body axes,
+        or the matrix ``M`` (zero diagonal) of cross-axis sensitivities.
+    quantization_T : float
+        Output resolution [T per LSB] (0: none); each axis is rounded to the
+        nearest multiple.
+    name : str
+        Sensor name (key of its samples in the measurements and the logs).
+
+    Raises
+    ------
+    ValueError
+        A negative or non-finite noise, bias or quantisation, a period <= 0,
+        a scale factor <= -1, a misalignment of the wrong shape or with a
+        non-zero diagonal, or an empty name.
+    """
+
+    def __init__(
+        self,
+        sigma_T: float,
+        *,
+        period: float,
+        bias_T: ArrayLike = 0.0,
+        scale_factor: ArrayLike = 0.0,
+        misalignment: ArrayLike = (0.0, 0.0, 0.0),
+        quantization_T: float = 0.0,
+        name: str = "magnetometer",
+    ) -> None:
+        self.sigma = positive_scalar(sigma_T, "sigma_T", allow_zero=True)
+        self.period = positive_scalar(period, "period")
+        self.bias = _per_axis(bias_T, "bias_T")
+        self.scale_factor = _per_axis(scale_factor, "scale_factor")
+        if np.any(self.scale_factor <= -1.0):
+            raise ValueError(f"scale_factor must be > -1 on every axis (a positive gain), got {self.scale_factor}")
+        self.misalignment = _misalignment_matrix(misalignment)
+        self.misalignment.flags.writeable = False
+        self.quantization = positive_scalar(quantization_T, "quantization_T", allow_zero=True)
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"name must be a non-empty string, got {name!r}")
+        self.name = name
+        transfer = np.eye(3) + np.diag(self.scale_factor) + self.misalignment
+        transfer.flags.writeable = False
+        #: ``I + S + M``: maps the true field in body axes to the noise-free output.
+        self.transfer_matrix = transfer
+
+    def __repr__(self) -> str:
+        return (
+            f"Magnetometer(name={self.name!r}, sigma={self.sigma / _NANOTESLA:.4g} nT, "
+            f"bias={self.bias / _NANOTESLA} nT, period={self.period:g} s)"
+        )
+
+    @classmethod
+    def from_datasheet(
+        cls,
+        *,
+        noise_nT: float,
+        period: float,
+        bias_nT: ArrayLike = 0.0,
+        scale_factor_ppm: ArrayLike = 0.0,
+        misalignment_rad: ArrayLike = (0.0, 0.0, 0.0),
+        quantization_nT: float = 0.0,
+        name: str = "magnetometer",
+    ) -> Magnetometer:
+        """Build a magnetometer from datasheet figures in nT and ppm.
+
+        ``1 nT = 1e-9 T``; scale factor ``ppm * 1e-6``. A noise quoted as a
+        density [nT/sqrt(Hz)] is ``noise_nT = density * sqrt(bandwidth)``
+        for the output bandwidth [Hz] (about half the sample rate for an
+        unfiltered output).
+
+        Parameters
+        ----------
+        noise_nT : float
+            1-sigma white noise per axis and sample [nT] (>= 0).
+        period : float
+            Sample period [s].
+        bias_nT : float or array_like (3,)
+            Constant bias (offset) [nT].
+        scale_factor_ppm : float or array_like (3,)
+            Scale-factor error [ppm].
+        misalignment_rad : array_like (3,) or (3, 3)
+            See the class parameters [rad].
+        quantization_nT : float
+            Output resolution [nT per LSB] (0: none).
+        name : str
+            Sensor name.
+
+        Returns
+        -------
+        Magnetometer
+            The sensor in SI units.
+        """
+        return cls(
+            positive_scalar(noise_nT, "noise_nT", allow_zero=True) * _NANOTESLA,
+            period=period,
+            bias_T=as_float_array(bias_nT, "bias_nT") * _NANOTESLA,
+            scale_factor=as_float_array(scale_factor_ppm, "scale_factor_ppm") * 1e-6,
+            misalignment=misalignment_rad,
+            quantization_T=positive_scalar(quantization_nT, "quantization_nT", allow_zero=True) * _NANOTESLA,
+            name=name,
+        )
+
+    def _measured(self, field_B: NDArray[np.float64], normals: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The sample for true fields (..., 3) and standard normals (..., 3): the one code path."""
+        y = _apply_transfer(self.transfer_matrix, field_B) + self.bias + self.sigma * normals
+        if self.quantization > 0:
+            y = self.quantization * np.floor(y / self.quantization + 0.5)
+        return y
+
+    def _field(self, truth: Any) -> NDArray[np.float64]:
+        field_B = getattr(truth, "magnetic_field_B", None)
+        if field_B is None:
+            raise ValueError(
+                f"magnetometer {self.name!r} needs truth.magnetic_field_B (the field at the spacecraft in body "
+                "axes [T]), got None: fly it with an environment (an orbit and a magnetic-field model)"
+            )
+        field_B = check_vector(field_B, "truth.magnetic_field_B", 3)
+        if field_B.shape != (3,):
+            raise ValueError(f"truth.magnetic_field_B must have shape (3,), got shape {field_B.shape}")
+        return field_B
+
+    def measure(self, t: float, truth: Any, rng: Any = None) -> NDArray[np.float64]:
+        """Measured field (3,) [T] in sensor axes at ``t`` [s].
+
+        Draws three standard normals from ``rng`` per sample (also when
+        ``sigma_T`` is 0, so that the stream does not depend on the noise level).
+
+        Parameters
+        ----------
+        t : float
+            Time [s] (the model is stationary; kept for the sensor protocol).
+        truth : attitude.simulation.protocols.Truth
+            Anything with ``magnetic_field_B`` (3,) [T].
+        rng : Generator, int or None
+            Random source.
+
+        Returns
+        -------
+        ndarray (3,)
+            The sample [T].
+
+        Raises
+        ------
+        ValueError
+            If ``truth.magnetic_field_B`` is None (a run without an orbit
+            environment) or not a finite (3,) vector.
+        """
+        scalar_time(t, "t")
+        field_B = self._field(truth)
+        return self._measured(field_B, as_generator(rng).standard_normal(3))
+
+    def measure_batch(self, t: float, field_B: ArrayLike, normals: ArrayLike | NormalStreams) -> NDArray[np.float64]:
+        """One sample per run at ``t`` [s]: run ``r`` is exactly :meth:`measure` with field ``field_B[r]``.
+
+        Parameters
+        ----------
+        t : float
+            Time [s] (shared).
+        field_B : array_like (N, 3)
+            True fields in body axes [T], one per run.
+        normals : array_like (N, 3) or NormalStreams
+            Standard normals of each run in the order of
+            ``gen.standard_normal(3)``, or the runs' streams (3 numbers each).
+
+        Returns
+        -------
+        ndarray (N, 3)
+            The samples [T].
+
+        Raises
+        ------
+        ValueError
+            If ``field_B`` is not a finite (N, 3) array or ``normals`` has
+            the wrong shape, number of streams, or non-finite entries.
+        """
+        scalar_time(t, "t")
+        field = check_vector(field_B, "field_B", 3)
+        if field.ndim != 2:
+            raise ValueError(f"field_B must have shape (N, 3) (one field per run), got shape {field.shape}")
+        n = field.shape[0]
+        if isinstance(normals, NormalStreams):
+            if normals.n_runs != n:
+                raise ValueError(f"normals must have {n} streams (one per run), got {normals.n_runs}")
+            nrm = normals.draw(None, 3)
+        else:
+            nrm = as_float_array(normals, "normals")
+            if nrm.shape != (n, 3):
+                raise ValueError(f"normals must have shape ({n}, 3) (one triple per run), got shape {nrm.shape}")
+        return self._measured(field, nrm)

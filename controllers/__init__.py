@@ -1,4 +1,4 @@
-"""Attitude controllers: PD and LQR design, loop analysis, tracking and optimal slews; imports ``attitude`` only.
+"""Attitude controllers: PD, LQR, loop analysis, tracking, slews, nadir hold, magnetic laws; imports ``attitude`` only.
 
 The front door: ``from controllers import QuaternionPD, design_lqr, margins, plan_slew``.
 """
@@ -14,22 +14,28 @@ from controllers.analysis import (
     sampled_loop,
 )
 from controllers.lqr import LQRController, LQRDesign, bryson_weights, design_lqr
+from controllers.magnetic import BDotController, CrossProductUnloading, bdot_gain
 from controllers.pd import QuaternionPD, RateLimitedPD
+from controllers.pointing import NadirPointing
 from controllers.slew import EigenaxisSlew, KeepOutCone, SlewPlan, eigenaxis_slew, plan_slew
 from controllers.tracking import ReferenceTrajectory, TrackingController
 
 __all__ = [
+    "BDotController",
+    "CrossProductUnloading",
     "EigenaxisSlew",
     "KeepOutCone",
     "LQRController",
     "LQRDesign",
     "Margins",
+    "NadirPointing",
     "QuaternionPD",
     "RateLimitedPD",
     "ReferenceTrajectory",
     "SlewPlan",
     "TrackingController",
     "attitude_closed_loop",
+    "bdot_gain",
     "bryson_weights",
     "design_lqr",
     "eigenaxis_slew",
