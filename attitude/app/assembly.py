@@ -4,7 +4,10 @@ One module builds every object the design (:mod:`attitude.app.design`), the
 Monte Carlo scenarios (:mod:`attitude.app.scenarios`) and the command line
 (:mod:`attitude.app.cli`) take from a
 :class:`~attitude.config.model.SpacecraftConfig`: the rigid body and the hub
-body, the reaction wheels, the gyro and the star tracker, the orbit, the
+body, the reaction wheels, the gyro and the star tracker, the orbit and its
+environment (field, atmosphere, eclipse, the surface model and the
+disturbance sources), the magnetorquers and the magnetometer, the B-dot
+and unloading laws with the ``[detumble]`` and ``[momentum]`` settings, the
 controllers of the ``[control]`` table (quaternion PD, rate-limited PD,
 tracking controller, LQR), the estimators (MEKF and rate EKF) with their
 initial covariances and the tuning derived from the gyro, the keep-out cones
@@ -25,20 +28,24 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from attitude.actuators import ReactionWheels
+from attitude.actuators import Magnetorquers, ReactionWheels
 from attitude.config import build
 from attitude.config.model import Dispersion, KeepOutConfig, SpacecraftConfig
-from attitude.environment.orbit import CircularOrbit
+from attitude.environment.orbit import CircularOrbit, KeplerOrbit, TLEOrbit
+from attitude.environment.orbit_environment import OrbitEnvironment
+from attitude.environment.surface import SurfaceModel
 from attitude.linearize import linearize
 from attitude.montecarlo.results import Requirement
 from attitude.rigid_body import RigidBody
-from attitude.sensors import GYRO_PRESETS, Gyro, StarTracker
+from attitude.sensors import GYRO_PRESETS, Gyro, Magnetometer, StarTracker
 from controllers.lqr import LQRDesign, bryson_weights, design_lqr
+from controllers.magnetic import BDotController, CrossProductUnloading, bdot_gain
 from controllers.pd import QuaternionPD, RateLimitedPD
 from controllers.slew.keep_out import KeepOutCone
 from controllers.tracking import ReferenceTrajectory, TrackingController
@@ -50,18 +57,26 @@ __all__ = [
     "BIAS_SIGMA0_FLOOR_DEG_PER_H",
     "RATE_EKF_TORQUE_NOISE",
     "RATE_SIGMA0_DEG_PER_S",
+    "DetumbleSettings",
+    "MomentumSettings",
     "attitude_sigma0",
+    "bdot_controller",
+    "detumble_settings",
     "eigenaxis_controller",
     "gyro",
     "gyro_bias_sigma0",
     "hub_body",
     "keep_out_cone",
     "lqr",
+    "magnetometer",
+    "magnetorquers",
     "mekf",
     "mekf_initial_covariance",
     "mekf_tracker_covariance",
+    "momentum_settings",
     "monte_carlo_requirements",
     "orbit",
+    "orbit_environment",
     "pd_from_bandwidth",
     "quaternion_pd",
     "rate_ekf",
@@ -70,7 +85,9 @@ __all__ = [
     "reaction_wheels",
     "rigid_body",
     "star_tracker",
+    "surface",
     "tracking_controller",
+    "unloading_controller",
 ]
 
 #: Initial attitude knowledge error of the MEKF, 1 sigma per axis [deg]: the one value of the design and
@@ -207,8 +224,8 @@ def star_tracker(config: SpacecraftConfig) -> StarTracker:
     return build.star_tracker(config.star_tracker_config, config.environment.sun_direction_N)
 
 
-def orbit(config: SpacecraftConfig) -> CircularOrbit | None:
-    """The circular orbit of ``[orbit]`` (altitude [km], angles [deg] in the file; SI built), or None.
+def orbit(config: SpacecraftConfig) -> CircularOrbit | KeplerOrbit | TLEOrbit | None:
+    """The orbit of ``[orbit]`` by its ``kind`` (file units km and deg; SI built), or None.
 
     Parameters
     ----------
@@ -217,10 +234,269 @@ def orbit(config: SpacecraftConfig) -> CircularOrbit | None:
 
     Returns
     -------
-    CircularOrbit or None
-        None without an ``[orbit]`` table.
+    CircularOrbit, KeplerOrbit, TLEOrbit or None
+        None without an ``[orbit]`` table; its ``epoch`` is ``orbit.epoch_utc`` (the TLE's own for a TLE).
     """
-    return None if config.orbit_config is None else build.circular_orbit(config.orbit_config)
+    return None if config.orbit_config is None else build.orbit(config.orbit_config)
+
+
+def surface(config: SpacecraftConfig) -> SurfaceModel | None:
+    """The flat-plate surface model of ``[surface]`` (areas [m^2], centres of pressure [m], dipole [A m^2]).
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file.
+
+    Returns
+    -------
+    SurfaceModel or None
+        None without a ``[surface]`` table.
+    """
+    return None if config.surface is None else build.surface_model(config.surface)
+
+
+def orbit_environment(
+    config: SpacecraftConfig, orbit: CircularOrbit | KeplerOrbit | TLEOrbit | None = None
+) -> OrbitEnvironment | None:
+    """The orbit environment of ``[orbit]``, ``[environment]`` and ``[surface]``, or None without an orbit.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file (field, atmosphere and eclipse models, the
+        disturbance sources, the sample period [s]).
+    orbit : orbit, optional
+        The orbit to fly, e.g. one already built by :func:`orbit` (default: built here).
+
+    Returns
+    -------
+    OrbitEnvironment or None
+        With the file's sources, or when it leaves them out
+        :func:`attitude.config.build.default_sources` (all four with a
+        ``[surface]``, gravity gradient alone without).
+    """
+    if config.orbit_config is None:
+        return None
+    return build.orbit_environment(config.orbit_config, config.environment, config.surface, orbit)
+
+
+def magnetorquers(config: SpacecraftConfig) -> Magnetorquers | None:
+    """The torque rods of ``[magnetorquers]`` (dipole limits [A m^2]), or None.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file.
+
+    Returns
+    -------
+    Magnetorquers or None
+        None without a ``[magnetorquers]`` table.
+    """
+    c = config.magnetorquers_config
+    return None if c is None else build.magnetorquers(c)
+
+
+def magnetometer(config: SpacecraftConfig) -> Magnetometer | None:
+    """The magnetometer of ``[magnetometer]`` (nT, ppm and deg in the file; SI built), or None.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file.
+
+    Returns
+    -------
+    Magnetometer or None
+        None without a ``[magnetometer]`` table.
+    """
+    c = config.magnetometer_config
+    return None if c is None else build.magnetometer(c)
+
+
+@dataclass(frozen=True)
+class DetumbleSettings:
+    """The ``[detumble]`` study in SI, with the B-dot gain resolved.
+
+    Parameters
+    ----------
+    tip_off_rate : ndarray (3,)
+        Body rate after separation [rad/s].
+    rate_threshold : float
+        Detumbled below this rate magnitude [rad/s].
+    gain : float
+        Gain ``k`` of the normalised B-dot law ``m = -(k/|B|) db/dt`` [N m s].
+    gain_is_auto : bool
+        The gain is :func:`controllers.magnetic.bdot_gain` (the file says ``"auto"``).
+    period : float
+        Sample period of the law [s].
+    duration_max : float
+        Longest detumbling simulated [s]: ``duration_max_orbits`` orbital periods.
+    duration_max_orbits : float
+        The same, in orbits.
+    """
+
+    tip_off_rate: NDArray[np.float64]
+    rate_threshold: float
+    gain: float
+    gain_is_auto: bool
+    period: float
+    duration_max: float
+    duration_max_orbits: float
+
+
+@dataclass(frozen=True)
+class MomentumSettings:
+    """The ``[momentum]`` budget and unloading in SI.
+
+    Parameters
+    ----------
+    unloading_gain : float or None
+        Gain ``k`` of the cross-product unloading law [1/s]; None: no unloading.
+    period : float
+        Sample period of the unloading law [s].
+    orbits : int
+        Length of the budget [orbits].
+    duration : float
+        Length of the budget [s]: ``orbits`` orbital periods.
+    wheel_momentum_margin : float
+        Fraction of the wheels' momentum capacity the stored momentum may use.
+    """
+
+    unloading_gain: float | None
+    period: float
+    orbits: int
+    duration: float
+    wheel_momentum_margin: float
+
+
+def _inclination(the_orbit: Any) -> float:
+    """Inclination of an orbit [rad]: its own, else from the angular momentum ``r x v`` at t = 0."""
+    if hasattr(the_orbit, "inclination"):
+        return float(the_orbit.inclination)
+    h = np.cross(np.asarray(the_orbit.position_N(0.0), dtype=float), np.asarray(the_orbit.velocity_N(0.0), dtype=float))
+    return float(np.arccos(np.clip(h[2] / np.linalg.norm(h), -1.0, 1.0)))
+
+
+def detumble_settings(config: SpacecraftConfig, body: RigidBody | None = None) -> DetumbleSettings | None:
+    """The ``[detumble]`` study in SI, the ``"auto"`` gain from the orbit and the inertia, or None.
+
+    ``gain_Nms = "auto"`` is :func:`controllers.magnetic.bdot_gain`,
+    ``k = 2 n (1 + sin xi_m) J_min`` (Avanzini and Giulietti 2012), with the
+    orbit's mean motion and, for ``xi_m``, its geographic inclination.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file (rates in deg/s, gain in N m s, duration in orbits).
+    body : RigidBody, optional
+        The inertia of the gain [kg m^2] (default: the file's, :func:`rigid_body`).
+
+    Returns
+    -------
+    DetumbleSettings or None
+        None without a ``[detumble]`` table.
+    """
+    d = config.detumble
+    if d is None:
+        return None
+    the_orbit = orbit(config)
+    if d.gain_Nms == "auto":
+        body = rigid_body(config) if body is None else body
+        gain = bdot_gain(the_orbit, body, magnetic_inclination=_inclination(the_orbit))
+    else:
+        gain = float(d.gain_Nms)
+    return DetumbleSettings(
+        tip_off_rate=np.radians(np.broadcast_to(np.array(d.tip_off_rate_deg_per_s, dtype=np.float64), (3,))),
+        rate_threshold=math.radians(d.rate_threshold_deg_per_s),
+        gain=float(gain),
+        gain_is_auto=d.gain_Nms == "auto",
+        period=d.period_s,
+        duration_max=d.duration_max_orbits * float(the_orbit.period),
+        duration_max_orbits=d.duration_max_orbits,
+    )
+
+
+def bdot_controller(config: SpacecraftConfig, *, use_truth_field: bool = False) -> BDotController | None:
+    """The ``[detumble]`` B-dot law on the file's rods and magnetometer, or None.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file.
+    use_truth_field : bool
+        Read the true field instead of the magnetometer (design studies).
+
+    Returns
+    -------
+    BDotController or None
+        The normalised law (``law="unit"``) with :func:`detumble_settings`' gain [N m s] and
+        period [s], limited by :func:`magnetorquers`; None without a ``[detumble]`` table.
+    """
+    settings = detumble_settings(config)
+    if settings is None:
+        return None
+    return BDotController(
+        settings.gain,
+        period=settings.period,
+        magnetorquers=magnetorquers(config),
+        law="unit",
+        use_truth_field=use_truth_field,
+    )
+
+
+def momentum_settings(config: SpacecraftConfig) -> MomentumSettings | None:
+    """The ``[momentum]`` budget and unloading in SI, or None.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file (gain in 1/s, length in orbits).
+
+    Returns
+    -------
+    MomentumSettings or None
+        None without a ``[momentum]`` table.
+    """
+    m = config.momentum
+    if m is None:
+        return None
+    the_orbit = orbit(config)
+    return MomentumSettings(
+        unloading_gain=m.unloading_gain_per_s,
+        period=m.period_s,
+        orbits=m.orbits,
+        duration=m.orbits * float(the_orbit.period),
+        wheel_momentum_margin=m.wheel_momentum_margin,
+    )
+
+
+def unloading_controller(config: SpacecraftConfig, *, use_truth_field: bool = False) -> CrossProductUnloading | None:
+    """The ``[momentum]`` cross-product unloading law on the file's rods, or None.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file.
+    use_truth_field : bool
+        Read the true field instead of the magnetometer (design studies).
+
+    Returns
+    -------
+    CrossProductUnloading or None
+        Gain [1/s] and period [s] of ``[momentum]``, target momentum zero,
+        limited by :func:`magnetorquers`; None without ``momentum.unloading_gain_per_s``.
+    """
+    settings = momentum_settings(config)
+    if settings is None or settings.unloading_gain is None:
+        return None
+    return CrossProductUnloading(
+        settings.unloading_gain,
+        period=settings.period,
+        magnetorquers=magnetorquers(config),
+        use_truth_field=use_truth_field,
+    )
 
 
 # ---------------------------------------------------------------------------

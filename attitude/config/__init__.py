@@ -2,8 +2,10 @@
 
 A spacecraft file (read with the standard library's :mod:`tomllib`) holds
 the inertia, the reaction wheels, the gyro, the star tracker, the control
-design parameters, an optional orbit and Sun direction, the requirements the
-design must meet, and an optional Monte Carlo campaign. :func:`load_config`
+design parameters, an optional orbit (circular, Keplerian or TLE) with its
+environment models, surface model, magnetorquers, magnetometer, detumbling
+and momentum settings, the Sun direction, the requirements the design must
+meet, and an optional Monte Carlo campaign. :func:`load_config`
 reads and validates it into a :class:`SpacecraftConfig` (frozen dataclasses
 that mirror the file, key for key). :mod:`attitude.app.assembly` turns it
 into the toolkit objects (body, wheels, sensors, controllers, estimators).
@@ -56,18 +58,25 @@ from attitude.config.model import (
     PYRAMID_ELEVATION_DEG,
     WHEEL_LAYOUTS,
     ControlConfig,
+    DetumbleConfig,
     Dispersion,
     EnvironmentConfig,
     GyroConfig,
     InertiaConfig,
     KeepOutConfig,
     LQRBounds,
+    MagnetometerConfig,
+    MagnetorquersConfig,
+    MomentumConfig,
     MonteCarloConfig,
     OrbitConfig,
+    PanelConfig,
+    PlateConfig,
     RequirementsConfig,
     SlewRequirement,
     SpacecraftConfig,
     StarTrackerConfig,
+    SurfaceConfig,
     WheelsConfig,
 )
 from attitude.config.reader import (
@@ -88,18 +97,25 @@ __all__ = [
     "WHEEL_LAYOUTS",
     "ConfigError",
     "ControlConfig",
+    "DetumbleConfig",
     "Dispersion",
     "EnvironmentConfig",
     "GyroConfig",
     "InertiaConfig",
     "KeepOutConfig",
     "LQRBounds",
+    "MagnetometerConfig",
+    "MagnetorquersConfig",
+    "MomentumConfig",
     "MonteCarloConfig",
     "OrbitConfig",
+    "PanelConfig",
+    "PlateConfig",
     "RequirementsConfig",
     "SlewRequirement",
     "SpacecraftConfig",
     "StarTrackerConfig",
+    "SurfaceConfig",
     "WheelsConfig",
     "config_from_dict",
     "config_to_toml",

@@ -3,7 +3,10 @@
 One dataclass per table (:class:`InertiaConfig`, :class:`WheelsConfig`,
 :class:`GyroConfig`, :class:`StarTrackerConfig`, :class:`ControlConfig`,
 :class:`OrbitConfig`, :class:`EnvironmentConfig`,
-:class:`RequirementsConfig`, :class:`MonteCarloConfig`) and
+:class:`RequirementsConfig`, :class:`MonteCarloConfig`, :class:`SurfaceConfig`
+with its :class:`PlateConfig` and :class:`PanelConfig`,
+:class:`MagnetorquersConfig`, :class:`MagnetometerConfig`,
+:class:`DetumbleConfig`, :class:`MomentumConfig`) and
 :class:`SpacecraftConfig` for the whole file. They hold data only, in the
 units of their key names; :mod:`attitude.config.reader` makes them from a
 file, :mod:`attitude.config.writer` writes them back, and
@@ -21,27 +24,44 @@ import numpy as np
 from numpy.typing import NDArray
 
 from attitude import quaternion as quat
-from attitude.actuators import ReactionWheels
+from attitude.actuators import MAGNETORQUER_SATURATION, ReactionWheels
+from attitude.environment.epoch import DEFAULT_EPOCH
+from attitude.environment.surface import DEFAULT_DRAG_COEFFICIENT
 from attitude.sensors import ARCSEC, STAR_TRACKER_PRESETS
 
 __all__ = [
+    "ATMOSPHERE_MODELS",
+    "DEFAULT_EPOCH_UTC",
+    "ECLIPSE_MODELS",
     "GYRO_FIGURES",
+    "MAGNETIC_FIELD_MODELS",
+    "NRLMSIS_DEFAULTS",
+    "ORBIT_KEYS",
+    "ORBIT_KINDS",
     "PYRAMID_ELEVATION_DEG",
+    "SATURATION_MODES",
     "WHEEL_LAYOUTS",
     "ControlConfig",
+    "DetumbleConfig",
     "Dispersion",
     "EnvironmentConfig",
     "GyroConfig",
     "InertiaConfig",
     "KeepOutConfig",
     "LQRBounds",
+    "MagnetometerConfig",
+    "MagnetorquersConfig",
+    "MomentumConfig",
     "MonteCarloConfig",
     "OrbitConfig",
+    "PanelConfig",
     "PerWheel",
+    "PlateConfig",
     "RequirementsConfig",
     "SlewRequirement",
     "SpacecraftConfig",
     "StarTrackerConfig",
+    "SurfaceConfig",
     "Vector",
     "WheelsConfig",
 ]
@@ -307,39 +327,138 @@ class ControlConfig:
     lqr: LQRBounds | None = None
 
 
+#: Kinds of ``[orbit]``: a circular orbit, two-body Keplerian elements, or a TLE flown with SGP4.
+ORBIT_KINDS = ("circular", "kepler", "tle")
+#: Keys of ``[orbit]`` by kind (``kind`` itself belongs to every kind).
+ORBIT_KEYS = {
+    "circular": ("altitude_km", "inclination_deg", "raan_deg", "argument_of_latitude_deg", "epoch_utc"),
+    "kepler": (
+        "perigee_altitude_km",
+        "apogee_altitude_km",
+        "semi_major_axis_km",
+        "eccentricity",
+        "inclination_deg",
+        "raan_deg",
+        "argument_of_perigee_deg",
+        "mean_anomaly_deg",
+        "epoch_utc",
+    ),
+    "tle": ("tle_line1", "tle_line2"),
+}
+
+#: ``environment.magnetic_field`` models.
+MAGNETIC_FIELD_MODELS = ("igrf", "dipole", "none")
+#: ``environment.atmosphere`` models.
+ATMOSPHERE_MODELS = ("exponential", "nrlmsis", "none")
+#: ``environment.eclipse`` models.
+ECLIPSE_MODELS = ("conical", "cylindrical", "none")
+#: ``magnetorquers.saturation`` modes (:data:`attitude.actuators.MAGNETORQUER_SATURATION`).
+SATURATION_MODES = MAGNETORQUER_SATURATION
+#: ``orbit.epoch_utc`` when the file leaves it out: :data:`attitude.environment.epoch.DEFAULT_EPOCH` in ISO 8601.
+DEFAULT_EPOCH_UTC = DEFAULT_EPOCH.utc.strftime("%Y-%m-%dT%H:%M:%SZ")
+#: NRLMSIS space weather when the file leaves it out: mean solar activity (F10.7 = 150 sfu) and a quiet
+#: geomagnetic field (Ap = 4), the defaults of :class:`attitude.environment.atmosphere.NRLMSIS`.
+NRLMSIS_DEFAULTS = {"f107_sfu": 150.0, "f107_average_sfu": 150.0, "ap": 4.0}
+
+
 @dataclass(frozen=True)
 class OrbitConfig:
-    """The ``[orbit]`` table: a circular Earth orbit (angles in degrees, altitude in km).
+    """The ``[orbit]`` table: a circular, Keplerian or TLE Earth orbit (angles in degrees, lengths in km).
+
+    ``kind`` says which keys apply: ``"circular"`` the altitude and the
+    angles of the circular orbit; ``"kepler"`` the perigee and apogee
+    altitudes or the semi-major axis and eccentricity (whichever the file
+    gives; the other pair stays None) and the angles; ``"tle"`` the two lines
+    only (the TLE carries its epoch and elements, so the other keys are
+    None). Keys that do not apply to the kind are None.
 
     Parameters
     ----------
-    altitude_km : float
-        Altitude above the Earth's equatorial radius [km] (key ``orbit.altitude_km``).
-    inclination_deg : float, optional
-        Inclination [deg] (key ``orbit.inclination_deg``).
-    raan_deg : float, optional
-        Right ascension of the ascending node [deg] (key ``orbit.raan_deg``).
-    argument_of_latitude_deg : float, optional
-        Argument of latitude at t = 0 [deg] (key ``orbit.argument_of_latitude_deg``).
+    altitude_km : float or None, optional
+        Circular: altitude above the Earth's equatorial radius [km] (key ``orbit.altitude_km``).
+    inclination_deg : float or None, optional
+        Inclination (circular and kepler) [deg] (key ``orbit.inclination_deg``).
+    raan_deg : float or None, optional
+        Right ascension of the ascending node (circular and kepler) [deg] (key ``orbit.raan_deg``).
+    argument_of_latitude_deg : float or None, optional
+        Circular: argument of latitude at t = 0 [deg] (key ``orbit.argument_of_latitude_deg``).
+    kind : str, optional
+        'circular', 'kepler' or 'tle' (key ``orbit.kind``).
+    epoch_utc : str or None, optional
+        UTC instant of t = 0, ISO 8601 with a time zone (key ``orbit.epoch_utc``); None for a TLE.
+    perigee_altitude_km : float or None, optional
+        Kepler: perigee altitude above the equatorial radius [km] (key ``orbit.perigee_altitude_km``).
+    apogee_altitude_km : float or None, optional
+        Kepler: apogee altitude above the equatorial radius [km] (key ``orbit.apogee_altitude_km``).
+    semi_major_axis_km : float or None, optional
+        Kepler: semi-major axis [km] (key ``orbit.semi_major_axis_km``).
+    eccentricity : float or None, optional
+        Kepler: eccentricity, in [0, 1) (key ``orbit.eccentricity``).
+    argument_of_perigee_deg : float or None, optional
+        Kepler: argument of perigee [deg] (key ``orbit.argument_of_perigee_deg``).
+    mean_anomaly_deg : float or None, optional
+        Kepler: mean anomaly at t = 0 [deg] (key ``orbit.mean_anomaly_deg``).
+    tle_line1 : str or None, optional
+        TLE: first line (key ``orbit.tle_line1``).
+    tle_line2 : str or None, optional
+        TLE: second line (key ``orbit.tle_line2``).
     """
 
-    altitude_km: float
-    inclination_deg: float = 0.0
-    raan_deg: float = 0.0
-    argument_of_latitude_deg: float = 0.0
+    altitude_km: float | None = None
+    inclination_deg: float | None = 0.0
+    raan_deg: float | None = 0.0
+    argument_of_latitude_deg: float | None = 0.0
+    kind: str = "circular"
+    epoch_utc: str | None = DEFAULT_EPOCH_UTC
+    perigee_altitude_km: float | None = None
+    apogee_altitude_km: float | None = None
+    semi_major_axis_km: float | None = None
+    eccentricity: float | None = None
+    argument_of_perigee_deg: float | None = None
+    mean_anomaly_deg: float | None = None
+    tle_line1: str | None = None
+    tle_line2: str | None = None
 
 
 @dataclass(frozen=True)
 class EnvironmentConfig:
-    """The ``[environment]`` table: the inertial Sun direction (as written; normalise to use).
+    """The ``[environment]`` table: the inertial Sun direction, and the models flown with an ``[orbit]``.
+
+    Without an ``[orbit]`` only ``sun_direction_N`` applies (the reader
+    refuses the model keys then, rather than ignore them).
 
     Parameters
     ----------
     sun_direction_N : tuple of float or None, optional
         Direction to the Sun in inertial axes (normalised) (key ``environment.sun_direction_N``).
+    magnetic_field : str, optional
+        'igrf', 'dipole' or 'none' (key ``environment.magnetic_field``).
+    atmosphere : str, optional
+        'exponential', 'nrlmsis' or 'none' (key ``environment.atmosphere``).
+    f107_sfu : float or None, optional
+        NRLMSIS only: daily F10.7 [sfu] (key ``environment.f107_sfu``).
+    f107_average_sfu : float or None, optional
+        NRLMSIS only: 81-day average F10.7 [sfu] (key ``environment.f107_average_sfu``).
+    ap : float or None, optional
+        NRLMSIS only: daily Ap index (key ``environment.ap``).
+    eclipse : str, optional
+        'conical', 'cylindrical' or 'none' (key ``environment.eclipse``).
+    sources : tuple of str or None, optional
+        Disturbance torques flown (key ``environment.sources``); None: all four with a ``[surface]``,
+        gravity gradient alone without.
+    sample_period_s : float, optional
+        Grid of the orbit environment [s] (key ``environment.sample_period_s``).
     """
 
     sun_direction_N: Vector | None = None
+    magnetic_field: str = "igrf"
+    atmosphere: str = "exponential"
+    f107_sfu: float | None = None
+    f107_average_sfu: float | None = None
+    ap: float | None = None
+    eclipse: str = "conical"
+    sources: tuple[str, ...] | None = None
+    sample_period_s: float = 1.0
 
     @property
     def sun_unit_N(self) -> NDArray[np.float64] | None:
@@ -348,6 +467,209 @@ class EnvironmentConfig:
             return None
         v = np.array(self.sun_direction_N, dtype=np.float64)
         return v / np.linalg.norm(v)
+
+
+@dataclass(frozen=True)
+class PlateConfig:
+    """One ``[[surface.plate]]``: a one-sided flat plate.
+
+    Parameters
+    ----------
+    area_m2 : float
+        Plate area [m^2] (key ``surface.plate[i].area_m2``).
+    normal_B : tuple of float
+        Outward normal in body axes (normalised) (key ``surface.plate[i].normal_B``).
+    centre_of_pressure_B_m : tuple of float
+        Centre of pressure relative to the centre of mass, body axes [m] (key
+        ``surface.plate[i].centre_of_pressure_B_m``).
+    specular : float, optional
+        Specular reflection fraction (key ``surface.plate[i].specular``).
+    diffuse : float, optional
+        Diffuse reflection fraction (key ``surface.plate[i].diffuse``).
+    drag_coefficient : float, optional
+        Free-molecular drag coefficient (key ``surface.plate[i].drag_coefficient``).
+    """
+
+    area_m2: float
+    normal_B: Vector
+    centre_of_pressure_B_m: Vector
+    specular: float = 0.0
+    diffuse: float = 0.0
+    drag_coefficient: float = DEFAULT_DRAG_COEFFICIENT
+
+
+@dataclass(frozen=True)
+class PanelConfig:
+    """One ``[[surface.panel]]``: a thin two-sided panel (a front and a back plate).
+
+    Parameters
+    ----------
+    area_m2 : float
+        Panel area, one face [m^2] (key ``surface.panel[i].area_m2``).
+    normal_B : tuple of float
+        Front face normal in body axes (key ``surface.panel[i].normal_B``).
+    centre_of_pressure_B_m : tuple of float
+        Panel centre relative to the centre of mass, body axes [m] (key
+        ``surface.panel[i].centre_of_pressure_B_m``).
+    specular : float, optional
+        Front specular fraction (key ``surface.panel[i].specular``).
+    diffuse : float, optional
+        Front diffuse fraction (key ``surface.panel[i].diffuse``).
+    back_specular : float, optional
+        Back specular fraction (key ``surface.panel[i].back_specular``).
+    back_diffuse : float, optional
+        Back diffuse fraction (key ``surface.panel[i].back_diffuse``).
+    drag_coefficient : float, optional
+        Drag coefficient of both faces (key ``surface.panel[i].drag_coefficient``).
+    """
+
+    area_m2: float
+    normal_B: Vector
+    centre_of_pressure_B_m: Vector
+    specular: float = 0.0
+    diffuse: float = 0.0
+    back_specular: float = 0.0
+    back_diffuse: float = 0.0
+    drag_coefficient: float = DEFAULT_DRAG_COEFFICIENT
+
+
+@dataclass(frozen=True)
+class SurfaceConfig:
+    """The ``[surface]`` table: a box and/or plates, two-sided panels and the residual dipole.
+
+    The surface model is the box's six faces (when ``box_m`` is given), then
+    the plates, then the panels' fronts and backs.
+
+    Parameters
+    ----------
+    box_m : tuple of float or None, optional
+        Box edge lengths [m] (key ``surface.box_m``).
+    centre_of_pressure_offset_B_m : tuple of float or None, optional
+        Box only: box centre minus centre of mass [m] (key ``surface.centre_of_pressure_offset_B_m``).
+    box_specular : float or None, optional
+        Box only: specular fraction (key ``surface.box_specular``).
+    box_diffuse : float or None, optional
+        Box only: diffuse fraction (key ``surface.box_diffuse``).
+    box_drag_coefficient : float or None, optional
+        Box only: drag coefficient (key ``surface.box_drag_coefficient``).
+    plates : tuple of PlateConfig, optional
+        One-sided plates (key ``surface.plate``).
+    panels : tuple of PanelConfig, optional
+        Two-sided panels (key ``surface.panel``).
+    residual_dipole_Am2 : tuple of float, optional
+        Residual dipole, body axes [A m^2] (key ``surface.residual_dipole_Am2``).
+    """
+
+    box_m: Vector | None = None
+    centre_of_pressure_offset_B_m: Vector | None = None
+    box_specular: float | None = None
+    box_diffuse: float | None = None
+    box_drag_coefficient: float | None = None
+    plates: tuple[PlateConfig, ...] = ()
+    panels: tuple[PanelConfig, ...] = ()
+    residual_dipole_Am2: Vector = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class MagnetorquersConfig:
+    """The ``[magnetorquers]`` table.
+
+    Parameters
+    ----------
+    dipole_max_Am2 : float or tuple of float
+        Largest dipole of a rod (one value, or one per rod) [A m^2] (key ``magnetorquers.dipole_max_Am2``).
+    quantum_Am2 : float or tuple of float or None, optional
+        Quantisation step (key ``magnetorquers.quantum_Am2``) [A m^2]; None: none.
+    axes_B : tuple of tuple of float or None, optional
+        Rod axes in body axes (key ``magnetorquers.axes_B``); None: the body axes.
+    saturation : str, optional
+        'scale' or 'clip' (key ``magnetorquers.saturation``).
+    """
+
+    dipole_max_Am2: PerWheel
+    quantum_Am2: PerWheel | None = None
+    axes_B: tuple[Vector, ...] | None = None
+    saturation: str = "scale"
+
+    @property
+    def count(self) -> int:
+        """Number of rods."""
+        return 3 if self.axes_B is None else len(self.axes_B)
+
+
+@dataclass(frozen=True)
+class MagnetometerConfig:
+    """The ``[magnetometer]`` table (datasheet units: nT, ppm, deg).
+
+    Parameters
+    ----------
+    period_s : float
+        Sample period [s] (key ``magnetometer.period_s``).
+    noise_nT : float
+        1-sigma white noise per axis [nT] (key ``magnetometer.noise_nT``).
+    bias_nT : float or tuple of float, optional
+        Constant bias [nT] (key ``magnetometer.bias_nT``).
+    scale_factor_ppm : float or tuple of float, optional
+        Scale-factor error [ppm] (key ``magnetometer.scale_factor_ppm``).
+    misalignment_deg : tuple of float, optional
+        Small rotation vector of the triad from the body axes [deg] (key ``magnetometer.misalignment_deg``).
+    quantization_nT : float, optional
+        Output resolution [nT] (key ``magnetometer.quantization_nT``).
+    """
+
+    period_s: float
+    noise_nT: float
+    bias_nT: PerWheel = 0.0
+    scale_factor_ppm: PerWheel = 0.0
+    misalignment_deg: Vector = (0.0, 0.0, 0.0)
+    quantization_nT: float = 0.0
+
+
+@dataclass(frozen=True)
+class DetumbleConfig:
+    """The ``[detumble]`` table.
+
+    Parameters
+    ----------
+    tip_off_rate_deg_per_s : float or tuple of float
+        Body rate after separation [deg/s] (key ``detumble.tip_off_rate_deg_per_s``).
+    rate_threshold_deg_per_s : float
+        Detumbled below this rate magnitude [deg/s] (key ``detumble.rate_threshold_deg_per_s``).
+    gain_Nms : float or str, optional
+        B-dot gain [N m s] or ``"auto"`` (key ``detumble.gain_Nms``).
+    period_s : float, optional
+        Sample period of the law [s] (key ``detumble.period_s``).
+    duration_max_orbits : float, optional
+        Longest detumbling simulated [orbits] (key ``detumble.duration_max_orbits``).
+    """
+
+    tip_off_rate_deg_per_s: PerWheel
+    rate_threshold_deg_per_s: float
+    gain_Nms: float | str = "auto"
+    period_s: float = 1.0
+    duration_max_orbits: float = 5.0
+
+
+@dataclass(frozen=True)
+class MomentumConfig:
+    """The ``[momentum]`` table.
+
+    Parameters
+    ----------
+    unloading_gain_per_s : float or None, optional
+        Cross-product unloading gain [1/s] (key ``momentum.unloading_gain_per_s``); None: no unloading.
+    period_s : float, optional
+        Sample period of the unloading law [s] (key ``momentum.period_s``).
+    orbits : int, optional
+        Length of the budget [orbits] (key ``momentum.orbits``).
+    wheel_momentum_margin : float, optional
+        Fraction of the wheels' capacity the budget may use (key ``momentum.wheel_momentum_margin``).
+    """
+
+    unloading_gain_per_s: float | None = None
+    period_s: float = 1.0
+    orbits: int = 20
+    wheel_momentum_margin: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -573,8 +895,9 @@ class SpacecraftConfig:
 
     Each table is a field of the same name, except ``[wheels]``
     (:attr:`wheels_config`), ``[gyro]`` (:attr:`gyro_config`),
-    ``[star_tracker]`` (:attr:`star_tracker_config`) and ``[orbit]``
-    (:attr:`orbit_config`), whose names are those of the objects
+    ``[star_tracker]`` (:attr:`star_tracker_config`), ``[orbit]``
+    (:attr:`orbit_config`), ``[magnetorquers]`` (:attr:`magnetorquers_config`)
+    and ``[magnetometer]`` (:attr:`magnetometer_config`), whose names are those of the objects
     :mod:`attitude.app.assembly` builds from them. Values keep the units of
     their key names; the builders (:mod:`attitude.config.build`) convert to
     SI. ``source`` (the file it came from) is not part of equality.
@@ -598,9 +921,19 @@ class SpacecraftConfig:
     requirements : RequirementsConfig
         What the design must achieve (key ``requirements``).
     orbit_config : OrbitConfig or None, optional
-        Circular orbit (optional: gravity gradient) (key ``orbit``).
+        Earth orbit (optional: gravity gradient, and with it the orbit environment) (key ``orbit``).
     environment : EnvironmentConfig, optional
-        Scene (optional) (key ``environment``).
+        Scene and orbit environment models (optional) (key ``environment``).
+    surface : SurfaceConfig or None, optional
+        Flat-plate surface model and residual dipole (optional) (key ``surface``).
+    magnetorquers_config : MagnetorquersConfig or None, optional
+        Magnetic torque rods (optional) (key ``magnetorquers``).
+    magnetometer_config : MagnetometerConfig or None, optional
+        Three-axis magnetometer (optional) (key ``magnetometer``).
+    detumble : DetumbleConfig or None, optional
+        B-dot detumbling study (optional) (key ``detumble``).
+    momentum : MomentumConfig or None, optional
+        Momentum budget and magnetic unloading (optional) (key ``momentum``).
     montecarlo : MonteCarloConfig or None, optional
         Monte Carlo campaign (optional) (key ``montecarlo``).
     source : str, optional
@@ -618,6 +951,11 @@ class SpacecraftConfig:
     orbit_config: OrbitConfig | None = None
     environment: EnvironmentConfig = EnvironmentConfig()
     montecarlo: MonteCarloConfig | None = None
+    surface: SurfaceConfig | None = None
+    magnetorquers_config: MagnetorquersConfig | None = None
+    magnetometer_config: MagnetometerConfig | None = None
+    detumble: DetumbleConfig | None = None
+    momentum: MomentumConfig | None = None
     source: str = field(default="", compare=False)
 
 

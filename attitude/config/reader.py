@@ -26,22 +26,37 @@ import numpy as np
 
 from attitude.config import build
 from attitude.config.model import (
+    ATMOSPHERE_MODELS,
+    DEFAULT_EPOCH_UTC,
+    ECLIPSE_MODELS,
+    MAGNETIC_FIELD_MODELS,
+    NRLMSIS_DEFAULTS,
+    ORBIT_KEYS,
+    ORBIT_KINDS,
     PYRAMID_ELEVATION_DEG,
+    SATURATION_MODES,
     WHEEL_LAYOUTS,
     ControlConfig,
+    DetumbleConfig,
     Dispersion,
     EnvironmentConfig,
     GyroConfig,
     InertiaConfig,
     KeepOutConfig,
     LQRBounds,
+    MagnetometerConfig,
+    MagnetorquersConfig,
+    MomentumConfig,
     MonteCarloConfig,
     OrbitConfig,
+    PanelConfig,
     PerWheel,
+    PlateConfig,
     RequirementsConfig,
     SlewRequirement,
     SpacecraftConfig,
     StarTrackerConfig,
+    SurfaceConfig,
     Vector,
     WheelsConfig,
 )
@@ -55,11 +70,17 @@ from attitude.config.schema import (
     normalise_unit,
     unit_of,
 )
+from attitude.environment.epoch import Epoch
+from attitude.environment.orbit import R_EARTH
+from attitude.environment.orbit_environment import DISTURBANCE_SOURCES
+from attitude.environment.surface import DEFAULT_DRAG_COEFFICIENT
 from attitude.sensors import GYRO_PRESETS, STAR_TRACKER_PRESETS
 
 __all__ = [
     "DEFAULT_CONFIG_FILE",
+    "MAGNETOMETER_MISALIGNMENT_MAX_DEG",
     "QUATERNION_NORM_TOLERANCE",
+    "TLE_LINE_LENGTH",
     "config_from_dict",
     "default_config",
     "default_config_text",
@@ -479,19 +500,439 @@ def _read_control(r: _Reader, t: _Table) -> ControlConfig:
     return ControlConfig(period_s=period, bandwidth_rad_per_s=bandwidth, damping=damping, lqr=lqr)
 
 
+#: Length of a line of a two-line element set (CelesTrak / Space-Track format).
+TLE_LINE_LENGTH = 69
+
+
+def _read_epoch(r: _Reader, t: _Table) -> str:
+    """``epoch_utc`` as a canonical UTC ISO 8601 string (``...Z``); the default epoch when left out."""
+    key = t.key("epoch_utc")
+    if not t.has("epoch_utc"):
+        return DEFAULT_EPOCH_UTC
+    value = t.data["epoch_utc"]
+    example = 'write e.g. epoch_utc = "2026-03-20T12:00:00Z" (UTC)'
+    if isinstance(value, datetime.datetime):
+        instant = value
+    elif isinstance(value, str):
+        try:
+            instant = datetime.datetime.fromisoformat(value.strip())
+        except ValueError:
+            raise r.error(key, f"must be an ISO 8601 date and time, got {_describe(value)}; {example}") from None
+    else:
+        raise r.error(key, f"expected an ISO 8601 date and time, got {_describe(value)}; {example}")
+    if instant.tzinfo is None or instant.utcoffset() is None:
+        raise r.error(key, f"must carry its time zone (Z or +hh:mm), got {_describe(value)} without one; {example}")
+    utc = instant.astimezone(datetime.UTC)
+    text = utc.strftime("%Y-%m-%dT%H:%M:%S") + (f".{utc.microsecond:06d}" if utc.microsecond else "") + "Z"
+    _try_build(r, key, lambda: Epoch.from_iso(text))
+    return text
+
+
+def _angle(r: _Reader, t: _Table, name: str, default: float = 0.0) -> float:
+    value = t.number(name, required=False, default=default)
+    _in_range(r, t.key(name), value, -360.0, 360.0, low_open=False, high_open=False)
+    return value
+
+
+def _inclination(r: _Reader, t: _Table) -> float:
+    value = t.number("inclination_deg", required=False, default=0.0)
+    _in_range(r, t.key("inclination_deg"), value, 0.0, 180.0, low_open=False, high_open=False)
+    return value
+
+
+def _tle_checksum(line: str) -> int:
+    """The modulo-10 checksum of a TLE line's first 68 columns (digits count, '-' counts 1)."""
+    return sum(int(c) if c.isdigit() else (1 if c == "-" else 0) for c in line[:68]) % 10
+
+
+def _read_tle_line(r: _Reader, t: _Table, number: int) -> str:
+    name = f"tle_line{number}"
+    key = t.key(name)
+    if not t.has(name):
+        raise t.missing(name, " (kind = 'tle' needs both lines)")
+    line = t.data[name]
+    if not isinstance(line, str):
+        raise r.error(key, f"expected a string (line {number} of the TLE), got {_describe(line)}")
+    line = line.rstrip()
+    if not line.startswith(f"{number} "):
+        raise r.error(key, f"must be line {number} of a TLE, starting with '{number} ', got {line[:12]!r}...")
+    if len(line) != TLE_LINE_LENGTH:
+        raise r.error(key, f"must be {TLE_LINE_LENGTH} characters long (a TLE line), got {len(line)}")
+    if line[68].isdigit() and int(line[68]) != _tle_checksum(line):
+        raise r.error(
+            key,
+            f"checksum fails: the last digit is {line[68]} but the line sums to {_tle_checksum(line)} "
+            "(modulo 10, each '-' counting 1): a character was changed in copying",
+        )
+    return line
+
+
 def _read_orbit(r: _Reader, t: _Table) -> OrbitConfig:
-    altitude = t.number("altitude_km")
-    _positive(r, t.key("altitude_km"), altitude, unit="km")
-    r.check(altitude < 1e9, t.key("altitude_km"), "below 1e9 km (an Earth orbit)", altitude)
-    inclination = t.number("inclination_deg", required=False, default=0.0)
-    _in_range(r, t.key("inclination_deg"), inclination, 0.0, 180.0, low_open=False, high_open=False)
-    angles = {}
-    for name in ("raan_deg", "argument_of_latitude_deg"):
-        angles[name] = t.number(name, required=False, default=0.0)
-        _in_range(r, t.key(name), angles[name], -360.0, 360.0, low_open=False, high_open=False)
-    config = OrbitConfig(altitude_km=altitude, inclination_deg=inclination, **angles)
-    _try_build(r, t.path, lambda: build.circular_orbit(config))
+    kind = t.get("kind", lambda v, k: r.string(v, k, ORBIT_KINDS, "orbit kind"), required=False, default="circular")
+    for name in t.data:
+        if name != "kind" and name not in ORBIT_KEYS[kind]:
+            kinds = [k for k, names in ORBIT_KEYS.items() if name in names]
+            raise r.error(
+                t.key(name),
+                f"applies to kind = {' or '.join(map(repr, kinds))}, not to this kind = {kind!r} orbit"
+                + (f" (set kind = {kinds[0]!r} to use it)" if len(kinds) == 1 else ""),
+            )
+    if kind == "tle":
+        config = OrbitConfig(
+            kind="tle",
+            inclination_deg=None,
+            raan_deg=None,
+            argument_of_latitude_deg=None,
+            epoch_utc=None,
+            tle_line1=_read_tle_line(r, t, 1),
+            tle_line2=_read_tle_line(r, t, 2),
+        )
+
+        def make_tle() -> Any:
+            try:
+                return build.tle_orbit(config)
+            except ValueError as exc:
+                line = "tle_line2" if "line2" in str(exc) and "line1" not in str(exc) else "tle_line1"
+                raise ConfigError(str(exc), key=t.key(line), file=r.file) from exc
+
+        make_tle()
+        return config
+    if kind == "circular":
+        altitude = t.number("altitude_km")
+        _positive(r, t.key("altitude_km"), altitude, unit="km")
+        r.check(altitude < 1e9, t.key("altitude_km"), "below 1e9 km (an Earth orbit)", altitude)
+        inclination = _inclination(r, t)
+        angles = {name: _angle(r, t, name) for name in ("raan_deg", "argument_of_latitude_deg")}
+        config = OrbitConfig(altitude_km=altitude, inclination_deg=inclination, epoch_utc=_read_epoch(r, t), **angles)
+        _try_build(r, t.path, lambda: build.circular_orbit(config))
+        return config
+    # kepler
+    by_altitudes = t.has("perigee_altitude_km") or t.has("apogee_altitude_km")
+    by_elements = t.has("semi_major_axis_km") or t.has("eccentricity")
+    shapes = "perigee_altitude_km and apogee_altitude_km, or semi_major_axis_km and eccentricity"
+    if by_altitudes and by_elements:
+        raise r.error(t.key("semi_major_axis_km"), f"give {shapes}, not both")
+    if not (by_altitudes or by_elements):
+        raise r.error(t.key("perigee_altitude_km"), f"missing required key: a Keplerian orbit needs {shapes}")
+    sizes: dict[str, float | None] = {}
+    if by_altitudes:
+        perigee, apogee = t.number("perigee_altitude_km"), t.number("apogee_altitude_km")
+        r.check(
+            perigee > 0.0,
+            t.key("perigee_altitude_km"),
+            "above the Earth's surface (> 0 km, equatorial radius)",
+            perigee,
+        )
+        r.check(apogee < 1e9, t.key("apogee_altitude_km"), "below 1e9 km (an Earth orbit)", apogee)
+        r.check(
+            apogee >= perigee,
+            t.key("apogee_altitude_km"),
+            f"at least perigee_altitude_km = {perigee:g} km (the apogee is the highest point)",
+            apogee,
+        )
+        sizes.update(perigee_altitude_km=perigee, apogee_altitude_km=apogee)
+    else:
+        a_km, e = t.number("semi_major_axis_km"), t.number("eccentricity")
+        r.check(0.0 <= e < 1.0, t.key("eccentricity"), "in [0, 1) for a closed orbit", e)
+        r.check(a_km < 1e9, t.key("semi_major_axis_km"), "below 1e9 km (an Earth orbit)", a_km)
+        perigee_km = a_km * (1.0 - e) - R_EARTH / 1000.0
+        if not perigee_km > 0.0:
+            raise r.error(
+                t.key("semi_major_axis_km"),
+                f"must put the perigee above the Earth's surface: a (1 - e) - R = {a_km:g} km x (1 - {e:g}) - "
+                f"{R_EARTH / 1000.0:g} km = {perigee_km:.6g} km altitude (with eccentricity = {e:g})",
+            )
+        sizes.update(semi_major_axis_km=a_km, eccentricity=e)
+    config = OrbitConfig(
+        kind="kepler",
+        inclination_deg=_inclination(r, t),
+        raan_deg=_angle(r, t, "raan_deg"),
+        argument_of_latitude_deg=None,
+        argument_of_perigee_deg=_angle(r, t, "argument_of_perigee_deg"),
+        mean_anomaly_deg=_angle(r, t, "mean_anomaly_deg"),
+        epoch_utc=_read_epoch(r, t),
+        **sizes,
+    )
+    _try_build(r, t.path, lambda: build.kepler_orbit(config))
     return config
+
+
+def _fraction(r: _Reader, t: _Table, name: str, default: float) -> float:
+    value = t.number(name, required=False, default=default)
+    _in_range(r, t.key(name), value, 0.0, 1.0, low_open=False, high_open=False)
+    return value
+
+
+def _optics_sum(r: _Reader, t: _Table, specular: str, diffuse: str, values: tuple[float, float]) -> None:
+    s, d = values
+    if s + d > 1.0:
+        raise r.error(
+            t.key(diffuse),
+            f"{specular} + {diffuse} must be at most 1 (the absorbed fraction 1 - {specular} - {diffuse} "
+            f"cannot be negative), got {s!r} + {d!r} = {s + d!r}",
+        )
+
+
+def _drag(r: _Reader, t: _Table, name: str) -> float:
+    value = t.number(name, required=False, default=DEFAULT_DRAG_COEFFICIENT)
+    _positive(r, t.key(name), value, allow_zero=True)
+    return value
+
+
+def _read_plates(r: _Reader, raw: Any, key: str, panel: bool) -> tuple[Any, ...]:
+    what = "surface.panel" if panel else "surface.plate"
+    if not isinstance(raw, list) or not raw:
+        raise r.error(key, f"expected an array of tables ([[{what}]] entries), got {_describe(raw)}")
+    out = []
+    for i, entry in enumerate(raw):
+        t = _Table(r, entry, f"{key}[{i}]")
+        area = t.number("area_m2")
+        _positive(r, t.key("area_m2"), area, unit="m^2")
+        normal = t.get("normal_B", lambda v, k: r.vector(v, k, 3))
+        cop = t.get("centre_of_pressure_B_m", lambda v, k: r.vector(v, k, 3, nonzero=False))
+        specular, diffuse = _fraction(r, t, "specular", 0.0), _fraction(r, t, "diffuse", 0.0)
+        _optics_sum(r, t, "specular", "diffuse", (specular, diffuse))
+        if panel:
+            back_s = _fraction(r, t, "back_specular", specular)
+            back_d = _fraction(r, t, "back_diffuse", diffuse)
+            _optics_sum(r, t, "back_specular", "back_diffuse", (back_s, back_d))
+            out.append(
+                PanelConfig(area, normal, cop, specular, diffuse, back_s, back_d, _drag(r, t, "drag_coefficient"))
+            )
+        else:
+            out.append(PlateConfig(area, normal, cop, specular, diffuse, _drag(r, t, "drag_coefficient")))
+    return tuple(out)
+
+
+def _read_surface(r: _Reader, t: _Table) -> SurfaceConfig:
+    box = t.get("box_m", lambda v, k: r.vector(v, k, 3, nonzero=False), required=False)
+    box_keys = ("centre_of_pressure_offset_B_m", "box_specular", "box_diffuse", "box_drag_coefficient")
+    extra: dict[str, Any] = {}
+    if box is None:
+        for name in box_keys:
+            t.forbid(name, "only with box_m (it describes the box faces; each plate and panel carries its own)")
+    else:
+        for i, v in enumerate(box):
+            r.check(v > 0.0, f"{t.key('box_m')}[{i}]", "strictly positive (> 0) [m] (an edge length)", v)
+        extra["centre_of_pressure_offset_B_m"] = t.get(
+            "centre_of_pressure_offset_B_m",
+            lambda v, k: r.vector(v, k, 3, nonzero=False),
+            required=False,
+            default=(0.0, 0.0, 0.0),
+        )
+        extra["box_specular"] = _fraction(r, t, "box_specular", 0.0)
+        extra["box_diffuse"] = _fraction(r, t, "box_diffuse", 0.0)
+        _optics_sum(r, t, "box_specular", "box_diffuse", (extra["box_specular"], extra["box_diffuse"]))
+        extra["box_drag_coefficient"] = _drag(r, t, "box_drag_coefficient")
+    plates = t.get("plate", lambda v, k: _read_plates(r, v, k, panel=False), required=False, default=())
+    panels = t.get("panel", lambda v, k: _read_plates(r, v, k, panel=True), required=False, default=())
+    if box is None and not plates:
+        raise r.error(
+            t.key("box_m"),
+            "missing required key: a [surface] needs box_m = [x, y, z] [m] or [[surface.plate]] entries "
+            "(panels are added to them)",
+        )
+    dipole = t.get(
+        "residual_dipole_Am2", lambda v, k: r.vector(v, k, 3, nonzero=False), required=False, default=(0.0, 0.0, 0.0)
+    )
+    config = SurfaceConfig(box_m=box, plates=plates, panels=panels, residual_dipole_Am2=dipole, **extra)
+    _try_build(r, t.path, lambda: build.surface_model(config))
+    return config
+
+
+#: The ``[environment]`` keys that describe the orbit environment (all but the Sun direction).
+_ENVIRONMENT_MODEL_KEYS = (
+    "magnetic_field",
+    "atmosphere",
+    "f107_sfu",
+    "f107_average_sfu",
+    "ap",
+    "eclipse",
+    "sources",
+    "sample_period_s",
+)
+
+
+def _read_sources(r: _Reader, value: Any, key: str) -> tuple[str, ...]:
+    if not isinstance(value, list):
+        raise r.error(key, f"expected a list of names drawn from {_list(DISTURBANCE_SOURCES)}, got {_describe(value)}")
+    names = tuple(r.string(v, f"{key}[{i}]", DISTURBANCE_SOURCES, "disturbance source") for i, v in enumerate(value))
+    for i, name in enumerate(names):
+        if name in names[:i]:
+            raise r.error(f"{key}[{i}]", f"repeats {name!r} (each source is flown once)")
+    return names
+
+
+def _read_environment(
+    r: _Reader, t: _Table | None, sun: Vector | None, orbit: OrbitConfig | None, surface: SurfaceConfig | None
+) -> EnvironmentConfig:
+    if t is None:
+        config = EnvironmentConfig(sun)
+    else:
+        if orbit is None:
+            for name in _ENVIRONMENT_MODEL_KEYS:
+                t.forbid(name, "needs an [orbit] table (the environment models are evaluated along the orbit)")
+        field = t.get(
+            "magnetic_field",
+            lambda v, k: r.string(v, k, MAGNETIC_FIELD_MODELS, "field model"),
+            required=False,
+            default="igrf",
+        )
+        air = t.get(
+            "atmosphere",
+            lambda v, k: r.string(v, k, ATMOSPHERE_MODELS, "atmosphere model"),
+            required=False,
+            default="exponential",
+        )
+        weather: dict[str, float | None] = dict.fromkeys(NRLMSIS_DEFAULTS)
+        if air == "nrlmsis":
+            for name, default in NRLMSIS_DEFAULTS.items():
+                weather[name] = t.number(name, required=False, default=default)
+            _positive(r, t.key("f107_sfu"), weather["f107_sfu"], unit="sfu")
+            _positive(r, t.key("f107_average_sfu"), weather["f107_average_sfu"], unit="sfu")
+            _in_range(r, t.key("ap"), weather["ap"], 0.0, 400.0, low_open=False, high_open=False)
+        else:
+            for name in NRLMSIS_DEFAULTS:
+                t.forbid(name, f"only with atmosphere = 'nrlmsis' (the space weather of NRLMSIS), not {air!r}")
+        eclipse = t.get(
+            "eclipse", lambda v, k: r.string(v, k, ECLIPSE_MODELS, "eclipse model"), required=False, default="conical"
+        )
+        sources = t.get("sources", lambda v, k: _read_sources(r, v, k), required=False)
+        period = t.number("sample_period_s", required=False, default=1.0)
+        _positive(r, t.key("sample_period_s"), period, unit="s")
+        if sources is not None:
+            key = t.key("sources")
+            needs = {"aerodynamic": "a [surface]", "solar_pressure": "a [surface]", "magnetic": "a [surface]"}
+            for name in sources:
+                if name in needs and surface is None:
+                    raise r.error(
+                        key,
+                        f"{name!r} needs a [surface] table (the plates and the residual dipole); "
+                        'add one or fly sources = ["gravity_gradient"]',
+                    )
+            if "magnetic" in sources and field == "none":
+                raise r.error(key, "'magnetic' needs a field model: environment.magnetic_field is 'none'")
+            if "aerodynamic" in sources and air == "none":
+                raise r.error(key, "'aerodynamic' needs an atmosphere: environment.atmosphere is 'none'")
+        config = EnvironmentConfig(
+            sun_direction_N=sun,
+            magnetic_field=field,
+            atmosphere=air,
+            eclipse=eclipse,
+            sources=sources,
+            sample_period_s=period,
+            **weather,
+        )
+    if orbit is not None:
+        _try_build(r, "environment", lambda: build.orbit_environment(orbit, config, surface))
+    return config
+
+
+def _needs(r: _Reader, key: str, what: str, **present: Any) -> None:
+    """Refuse a table whose prerequisites are missing (a table flown without them would be ignored)."""
+    missing = [name for name, value in present.items() if not value]
+    if missing:
+        tables = " and ".join(f"an [{name}] table" if name[0] in "aeiou" else f"a [{name}] table" for name in missing)
+        raise r.error(key, f"needs {tables} ({what})")
+
+
+def _read_magnetorquers(r: _Reader, t: _Table) -> MagnetorquersConfig:
+    axes = None
+    if t.has("axes_B"):
+        key = t.key("axes_B")
+        raw = t.data["axes_B"]
+        if not isinstance(raw, list) or not raw:
+            raise r.error(key, f"expected a list of axes [[x, y, z], ...], got {_describe(raw)}")
+        axes = tuple(r.vector(a, f"{key}[{i}]", 3) for i, a in enumerate(raw))
+    n = 3 if axes is None else len(axes)
+    dipole = t.get("dipole_max_Am2", lambda v, k: r.scalar_or_list(v, k, n, "rod"))
+    _positive(r, t.key("dipole_max_Am2"), dipole, unit="A m^2")
+    quantum = t.get("quantum_Am2", lambda v, k: r.scalar_or_list(v, k, n, "rod"), required=False)
+    _positive(r, t.key("quantum_Am2"), quantum, unit="A m^2")
+    saturation = t.get(
+        "saturation", lambda v, k: r.string(v, k, SATURATION_MODES, "saturation mode"), required=False, default="scale"
+    )
+    config = MagnetorquersConfig(dipole_max_Am2=dipole, quantum_Am2=quantum, axes_B=axes, saturation=saturation)
+    _try_build(r, t.path, lambda: build.magnetorquers(config))
+    return config
+
+
+#: Largest magnetometer misalignment [deg]: the error model is the first-order rotation ``I - [phi x]``.
+MAGNETOMETER_MISALIGNMENT_MAX_DEG = 10.0
+
+
+def _read_magnetometer(r: _Reader, t: _Table) -> MagnetometerConfig:
+    period = t.number("period_s")
+    _positive(r, t.key("period_s"), period, unit="s")
+    noise = t.number("noise_nT")
+    _positive(r, t.key("noise_nT"), noise, allow_zero=True, unit="nT")
+    bias = t.get("bias_nT", lambda v, k: r.scalar_or_list(v, k, 3, "axis"), required=False, default=0.0)
+    scale = t.get("scale_factor_ppm", lambda v, k: r.scalar_or_list(v, k, 3, "axis"), required=False, default=0.0)
+    for i, v in enumerate(_values(scale)):
+        k = t.key("scale_factor_ppm") + (f"[{i}]" if isinstance(scale, tuple) else "")
+        r.check(v > -1e6, k, "> -1e6 ppm (a positive gain)", v)
+    misalignment = t.get(
+        "misalignment_deg", lambda v, k: r.vector(v, k, 3, nonzero=False), required=False, default=(0.0, 0.0, 0.0)
+    )
+    angle = math.sqrt(sum(v * v for v in misalignment))
+    r.check(
+        angle <= MAGNETOMETER_MISALIGNMENT_MAX_DEG,
+        t.key("misalignment_deg"),
+        f"a small rotation, |phi| <= {MAGNETOMETER_MISALIGNMENT_MAX_DEG:g} deg (the error model is first order)",
+        misalignment,
+    )
+    quantization = t.number("quantization_nT", required=False, default=0.0)
+    _positive(r, t.key("quantization_nT"), quantization, allow_zero=True, unit="nT")
+    config = MagnetometerConfig(period, noise, bias, scale, misalignment, quantization)
+    _try_build(r, t.path, lambda: build.magnetometer(config))
+    return config
+
+
+def _read_detumble(r: _Reader, t: _Table) -> DetumbleConfig:
+    tip_off = t.get("tip_off_rate_deg_per_s", lambda v, k: r.scalar_or_list(v, k, 3, "axis"))
+    threshold = t.number("rate_threshold_deg_per_s")
+    _positive(r, t.key("rate_threshold_deg_per_s"), threshold, unit="deg/s")
+    rates = np.broadcast_to(np.array(tip_off, dtype=float), (3,))
+    magnitude = float(np.linalg.norm(rates))
+    r.check(
+        magnitude > threshold,
+        t.key("tip_off_rate_deg_per_s"),
+        f"faster than rate_threshold_deg_per_s = {threshold:g} deg/s in magnitude (|w| = {magnitude:.6g} deg/s; "
+        "a scalar applies to every axis)",
+        tip_off,
+    )
+    gain: float | str = "auto"
+    if t.has("gain_Nms"):
+        raw = t.data["gain_Nms"]
+        if raw != "auto":
+            gain = r.number(raw, t.key("gain_Nms"))
+            _positive(r, t.key("gain_Nms"), gain, unit="N m s")
+    period = t.number("period_s", required=False, default=1.0)
+    _positive(r, t.key("period_s"), period, unit="s")
+    duration = t.number("duration_max_orbits", required=False, default=5.0)
+    _positive(r, t.key("duration_max_orbits"), duration)
+    r.check(duration <= 1000.0, t.key("duration_max_orbits"), "at most 1000 orbits", duration)
+    return DetumbleConfig(tip_off, threshold, gain, period, duration)
+
+
+def _read_momentum(r: _Reader, t: _Table) -> MomentumConfig:
+    gain = t.number("unloading_gain_per_s", required=False)
+    _positive(r, t.key("unloading_gain_per_s"), gain, unit="1/s")
+    period = t.number("period_s", required=False, default=1.0)
+    _positive(r, t.key("period_s"), period, unit="s")
+    if gain is not None:
+        r.check(
+            gain * period < 1.0,
+            t.key("unloading_gain_per_s"),
+            f"below 1 / period_s = {1.0 / period:.6g} 1/s (the sampled law removes a fraction k T of the "
+            "excess momentum per step: k T >= 1 over-corrects)",
+            gain,
+        )
+    orbits = t.get("orbits", r.integer, required=False, default=20)
+    r.check(1 <= orbits <= 1000, t.key("orbits"), "an integer in [1, 1000] (orbits of the budget)", orbits)
+    margin = t.number("wheel_momentum_margin", required=False, default=1.0)
+    _in_range(r, t.key("wheel_momentum_margin"), margin, 0.0, 1.0, low_open=True, high_open=False)
+    return MomentumConfig(gain, period, orbits, margin)
 
 
 #: Accepted deviation of a typed quaternion's norm from 1: four significant
@@ -660,6 +1101,40 @@ def config_from_dict(data: Mapping[str, Any], file: str = "<config>") -> Spacecr
     control = _read_control(r, top.table("control"))
     ot = top.table("orbit", required=False)
     orbit = None if ot is None else _read_orbit(r, ot)
+    st = top.table("surface", required=False)
+    surface = None if st is None else _read_surface(r, st)
+    environment = _read_environment(r, et, sun, orbit, surface)
+    field = orbit is not None and environment.magnetic_field != "none"
+    magnetic = "the magnetic field along the orbit: environment.magnetic_field must not be 'none'"
+    tt = top.table("magnetorquers", required=False)
+    torquers = None
+    if tt is not None:
+        torquers = _read_magnetorquers(r, tt)
+        _needs(r, "magnetorquers", magnetic, orbit=orbit is not None, **({} if orbit is None else {"field": field}))
+    mt_ = top.table("magnetometer", required=False)
+    magnetometer = None
+    if mt_ is not None:
+        magnetometer = _read_magnetometer(r, mt_)
+        _needs(r, "magnetometer", magnetic, orbit=orbit is not None, **({} if orbit is None else {"field": field}))
+    dt = top.table("detumble", required=False)
+    detumble = None
+    if dt is not None:
+        detumble = _read_detumble(r, dt)
+        _needs(
+            r,
+            "detumble",
+            "B-dot reads the magnetometer and commands the rods along the orbit",
+            orbit=orbit is not None,
+            magnetorquers=torquers is not None,
+            magnetometer=magnetometer is not None,
+        )
+    mo = top.table("momentum", required=False)
+    momentum = None
+    if mo is not None:
+        momentum = _read_momentum(r, mo)
+        _needs(r, "momentum", "the budget is taken over orbits", orbit=orbit is not None)
+        if momentum.unloading_gain_per_s is not None:
+            _needs(r, "momentum.unloading_gain_per_s", "the unloading law commands the rods", magnetorquers=torquers)
     requirements = _read_requirements(r, top.table("requirements"), sun)
     mt = top.table("montecarlo", required=False)
     montecarlo = None if mt is None else _read_montecarlo(r, mt)
@@ -673,8 +1148,13 @@ def config_from_dict(data: Mapping[str, Any], file: str = "<config>") -> Spacecr
         control=control,
         requirements=requirements,
         orbit_config=orbit,
-        environment=EnvironmentConfig(sun),
+        environment=environment,
         montecarlo=montecarlo,
+        surface=surface,
+        magnetorquers_config=torquers,
+        magnetometer_config=magnetometer,
+        detumble=detumble,
+        momentum=momentum,
         source=str(file),
     )
 

@@ -7,12 +7,14 @@ an equal configuration.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 from collections.abc import Mapping
 from typing import Any
 
-from attitude.config.model import GYRO_FIGURES, SpacecraftConfig
+from attitude.config.build import default_sources
+from attitude.config.model import GYRO_FIGURES, ORBIT_KEYS, SpacecraftConfig
 from attitude.config.schema import DISPERSIONS, meaning_of
 from attitude.sensors import GYRO_PRESETS, STAR_TRACKER_PRESETS
 
@@ -131,14 +133,53 @@ def config_to_toml(config: SpacecraftConfig) -> str:
         for name in ("angle_max_deg", "rate_max_deg_per_s", "torque_max_Nm"):
             w.key("control.lqr", name, getattr(cc.lqr, name))
 
-    if config.orbit_config is not None:
+    oc = config.orbit_config
+    if oc is not None:
         w.table("orbit")
-        for name in ("altitude_km", "inclination_deg", "raan_deg", "argument_of_latitude_deg"):
-            w.key("orbit", name, getattr(config.orbit_config, name))
+        w.key("orbit", "kind", oc.kind)
+        for name in ORBIT_KEYS[oc.kind]:
+            w.key("orbit", name, getattr(oc, name))
 
-    if config.environment.sun_direction_N is not None:
+    ec = config.environment
+    if ec.sun_direction_N is not None or oc is not None:
         w.table("environment")
-        w.key("environment", "sun_direction_N", config.environment.sun_direction_N)
+        w.key("environment", "sun_direction_N", ec.sun_direction_N)
+    if oc is not None:
+        for name in ("magnetic_field", "atmosphere", "f107_sfu", "f107_average_sfu", "ap", "eclipse"):
+            w.key("environment", name, getattr(ec, name))
+        if ec.sources is None:
+            w.comment(f"sources left out: {list(default_sources(ec, config.surface))} (the default for this file)")
+        w.key("environment", "sources", ec.sources)
+        w.key("environment", "sample_period_s", ec.sample_period_s)
+
+    sf = config.surface
+    if sf is not None:
+        w.table("surface")
+        for name in (
+            "box_m",
+            "centre_of_pressure_offset_B_m",
+            "box_specular",
+            "box_diffuse",
+            "box_drag_coefficient",
+            "residual_dipole_Am2",
+        ):
+            w.key("surface", name, getattr(sf, name))
+        for kind, entries in (("plate", sf.plates), ("panel", sf.panels)):
+            for i, entry in enumerate(entries):
+                w.table(f"surface.{kind}", array=True)
+                for f in dataclasses.fields(entry):
+                    w.key(f"surface.{kind}[{i}]", f.name, getattr(entry, f.name))
+
+    for table, entry in (
+        ("magnetorquers", config.magnetorquers_config),
+        ("magnetometer", config.magnetometer_config),
+        ("detumble", config.detumble),
+        ("momentum", config.momentum),
+    ):
+        if entry is not None:
+            w.table(table)
+            for f in dataclasses.fields(entry):
+                w.key(table, f.name, getattr(entry, f.name))
 
     rc = config.requirements
     w.table("requirements")
