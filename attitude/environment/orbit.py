@@ -373,6 +373,11 @@ class Orbit(Protocol):
         ...
 
     @property
+    def mu(self) -> float:
+        """Gravitational parameter of the central body [m^3/s^2] (gravity gradient)."""
+        ...
+
+    @property
     def mean_motion(self) -> float:
         """Mean motion [rad/s]."""
         ...
@@ -873,6 +878,11 @@ class TLEOrbit:
     def epoch(self) -> Epoch:
         """The TLE's epoch (UTC), the ``t = 0`` of :meth:`position_N`."""
         return self._epoch
+
+    @property
+    def mu(self) -> float:
+        """Earth's gravitational parameter for the gravity gradient [m^3/s^2] (WGS-84; SGP4 uses WGS-72's inside)."""
+        return MU_EARTH
 
     @property
     def mean_motion(self) -> float:
