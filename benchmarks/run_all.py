@@ -18,6 +18,7 @@ from benchmarks import (
     bench_closed_loop,
     bench_mekf,
     bench_montecarlo,
+    bench_orbit,
     bench_propagation,
     bench_rate_ekf,
     bench_slew,
@@ -30,6 +31,7 @@ SUITES = {
     "rate_ekf": bench_rate_ekf.run,
     "mekf": bench_mekf.run,
     "montecarlo": bench_montecarlo.run,
+    "orbit": bench_orbit.run,
 }
 
 

@@ -298,13 +298,17 @@ def magnetorquers(config: SpacecraftConfig) -> Magnetorquers | None:
     return None if c is None else build.magnetorquers(c)
 
 
-def magnetometer(config: SpacecraftConfig) -> Magnetometer | None:
+def magnetometer(config: SpacecraftConfig, *, period: float | None = None) -> Magnetometer | None:
     """The magnetometer of ``[magnetometer]`` (nT, ppm and deg in the file; SI built), or None.
 
     Parameters
     ----------
     config : SpacecraftConfig
         The spacecraft file.
+    period : float, optional
+        Sample period [s] instead of the file's ``period_s`` (the detumbling
+        study reads the sensor at the B-dot law's period, the only samples the
+        law uses).
 
     Returns
     -------
@@ -312,7 +316,11 @@ def magnetometer(config: SpacecraftConfig) -> Magnetometer | None:
         None without a ``[magnetometer]`` table.
     """
     c = config.magnetometer_config
-    return None if c is None else build.magnetometer(c)
+    if c is None:
+        return None
+    if period is not None:
+        c = dataclasses.replace(c, period_s=float(period))
+    return build.magnetometer(c)
 
 
 @dataclass(frozen=True)

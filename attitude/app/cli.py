@@ -301,6 +301,60 @@ def _cmd_physics(args: argparse.Namespace) -> int:
 
 
 # ---------------------------------------------------------------------------
+# momentum
+
+
+def _cmd_momentum(args: argparse.Namespace) -> int:
+    from attitude.app.design.orbit import momentum_budget, momentum_figures
+    from attitude.app.report.sections import fmt
+    from attitude.app.report.writer import dumps_json
+
+    config = _load(args.file)
+    if config.orbit_config is None:
+        raise UsageError(f"{config.source}: no [orbit] table: the momentum budget needs an orbit")
+    targets = []
+    if args.out is not None:
+        if args.out.exists() and not args.out.is_dir():
+            raise UsageError(f"--out {args.out}: exists and is not a folder")
+        targets = [args.out / f"{name}.png" for name in ("orbit_torques", "orbit_momentum")]
+        existing = [str(p) for p in targets if p.exists()]
+        if existing and not args.force:
+            raise UsageError(f"--out {args.out}: would overwrite {', '.join(existing)}; use --force to replace them")
+    _progress(f"attitude momentum: {config.name}, {args.orbits or ('the file' + chr(39) + 's')} orbits ...")
+    budget = momentum_budget(config, args.orbits)
+    if args.out is not None:
+        args.out.mkdir(parents=True, exist_ok=True)
+        for name, fig in momentum_figures(budget).items():
+            fig.savefig(args.out / f"{name}.png", dpi=120)
+    plain = {k: v for k, v in budget.items() if not k.startswith("_")}
+    if args.json:
+        sys.stdout.write(dumps_json({"spacecraft": {"name": config.name, "source": config.source}, "momentum": plain}))
+        return EXIT_PASS if budget["pass"] else EXIT_FAIL
+    print(f"Momentum budget of {config.name}: {plain['orbit']}")
+    print(f"  {plain['pointing']}; {plain['environment']}")
+    print("  disturbance torques over one orbit [uN m]: peak, mean magnitude, orbit average (body)")
+    for source, v in plain["torques"].items():
+        average = ", ".join(fmt(x) for x in v["orbit_average_body_uNm"])
+        print(f"    {source:<17} {fmt(v['peak_uNm']):>10} {fmt(v['mean_uNm']):>10}  [{average}]")
+    for label, case in (("no dumping", plain["no_dumping"]), ("unloading", plain["unloading"])):
+        if case is None:
+            print(f"  {label}: not configured ([magnetorquers] and [momentum] unloading_gain_per_s)")
+            continue
+        print(
+            f"  {label} over {fmt(plain['orbits'])} orbits: |h| peak {fmt(case['peak_body_mNms'])} mN m s, largest "
+            f"wheel {fmt(max(case['peak_per_wheel_mNms']))} of {fmt(min(case['allowed_per_wheel_mNms']))} mN m s "
+            f"allowed ({fmt(plain['wheel_momentum_margin'])} of capacity)"
+        )
+    rate = plain["no_dumping"]["secular_rate_body_uNms_per_orbit"]
+    print(f"  secular build-up without dumping: [{', '.join(fmt(v) for v in rate)}] uN m s per orbit (body axes)")
+    verdict = "PASS" if budget["pass"] else "FAIL"
+    print(f"Wheel momentum ({plain['judged_case']}) within the margin: {verdict}")
+    if targets:
+        print(f"Figures: {', '.join(str(p) for p in targets)}")
+    return EXIT_PASS if budget["pass"] else EXIT_FAIL
+
+
+# ---------------------------------------------------------------------------
 # montecarlo
 
 
@@ -561,6 +615,32 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--json", action="store_true", help="print the statistics as JSON")
     p.set_defaults(run=_cmd_montecarlo)
+
+    p = sub.add_parser(
+        "momentum",
+        help="the momentum budget in orbit alone: disturbance torques, build-up, magnetic unloading",
+        formatter_class=fmt_class,
+        description=(
+            "The momentum budget of the file's [orbit], [environment] and [surface] for a nadir-pointing\n"
+            "spacecraft: the disturbance torques per source over one orbit, the wheel momentum over N orbits\n"
+            "without dumping and with cross-product magnetic unloading ([magnetorquers], [momentum]), and the\n"
+            "largest wheel's momentum against [momentum] wheel_momentum_margin of its capacity (exit code 0\n"
+            "within the margin, 1 beyond it)."
+        ),
+        epilog=_EPILOG,
+    )
+    p.add_argument("file", nargs="?", metavar="FILE", help=_FILE_HELP)
+    p.add_argument(
+        "--orbits",
+        type=_positive,
+        default=None,
+        metavar="N",
+        help="length of the budget [orbits] (default: the file's)",
+    )
+    p.add_argument("--out", type=Path, default=None, metavar="DIR", help="write the two figures (PNG) into DIR")
+    p.add_argument("--force", action="store_true", help="replace figures already in DIR")
+    p.add_argument("--json", action="store_true", help="print the figures as JSON")
+    p.set_defaults(run=_cmd_momentum)
 
     p = sub.add_parser(
         "init",

@@ -435,8 +435,8 @@ class OrbitEnvironment:
         )
 
     def describe(self) -> str:
-        """One line for reports: the orbit and the models flown."""
-        parts = [self.orbit.describe() if hasattr(self.orbit, "describe") else type(self.orbit).__name__]
+        """One line for reports: the models flown (the orbit describes itself)."""
+        parts = []
         for name, model in (("field", self.magnetic_field), ("atmosphere", self.atmosphere)):
             if model is None:
                 parts.append(f"no {name}")

@@ -18,7 +18,9 @@ the report shows (keys carry their units as in the spacecraft file: ``_s``,
 3. Slews (:func:`attitude.app.design.slew.plan_slews`).
 4. Closed loop (:func:`attitude.app.design.slew.fly_slew`).
 5. Estimation (:func:`attitude.app.design.estimation.estimation_study`).
-6. Requirements (:func:`requirement_verdicts`; :func:`plan_verdicts` judges a
+6. Orbit, when the file has an ``[orbit]``: disturbance torques, momentum
+   budget and unloading, detumbling (:mod:`attitude.app.design.orbit`).
+7. Requirements (:func:`requirement_verdicts`; :func:`plan_verdicts` judges a
    plan alone for ``attitude slew``): each requirement of the
    file against the achieved figure, judged from the numbers stored in
    ``results`` and nowhere else, so the report, ``results.json`` and the
@@ -41,18 +43,26 @@ from matplotlib.figure import Figure
 from attitude.app.design.body import DEFAULT_SPIN_RATE_DEG_PER_S, body_analysis, body_figures
 from attitude.app.design.estimation import FRACTION_INSIDE_MIN, estimation_study
 from attitude.app.design.linear import linear_design
+from attitude.app.design.orbit import detumble_figures, detumble_study, momentum_budget, momentum_figures
 from attitude.app.design.slew import check_periods, fly_slew, plan_slews, slew_figures
 from attitude.config import SpacecraftConfig
 
 __all__ = [
     "GAIN_MARGIN_GUIDELINE_DB",
     "PHASE_MARGIN_GUIDELINE_DEG",
+    "QUICK_BUDGET_ORBITS",
+    "QUICK_DETUMBLE_ORBITS",
+    "STEPS",
     "DesignOptions",
     "DesignResult",
+    "orbit_study",
     "plan_verdicts",
     "requirement_verdicts",
     "run_design",
 ]
+
+#: Steps of :func:`run_design` (the progress lines count them).
+STEPS = 7
 
 #: Classical margin guidelines of the advisory checks (not requirements of the file).
 GAIN_MARGIN_GUIDELINE_DB = 6.0
@@ -122,7 +132,7 @@ Progress = Callable[[str], None]
 
 
 # ---------------------------------------------------------------------------
-# 6. Requirements
+# 7. Requirements
 
 
 def _row(rid: str, text: str, key: str, required: Any, achieved: Any, unit: str, comparison: str) -> dict[str, Any]:
@@ -196,8 +206,43 @@ def _slew_rows(
     return rows
 
 
+#: Orbits of the momentum budget and of the detumbling study in a quick design.
+QUICK_BUDGET_ORBITS = 3.0
+QUICK_DETUMBLE_ORBITS = 2.0
+
+
+def orbit_study(config: SpacecraftConfig, quick: bool = False) -> tuple[dict[str, Any] | None, dict[str, Figure]]:
+    """Section 6: the momentum budget and the detumbling study (None without an ``[orbit]``).
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file.
+    quick : bool
+        Shorter spans (:data:`QUICK_BUDGET_ORBITS`, :data:`QUICK_DETUMBLE_ORBITS`).
+
+    Returns
+    -------
+    tuple
+        ``({"momentum": ..., "detumble": ...} or None, figures)``; the numpy
+        histories the figures need are left out of the JSON-ready dict.
+    """
+    budget = momentum_budget(config, QUICK_BUDGET_ORBITS if quick else None)
+    if budget is None:
+        return None, {}
+    figures = momentum_figures(budget)
+    detumble = detumble_study(config, QUICK_DETUMBLE_ORBITS if quick else None)
+    if detumble is not None:
+        figures.update(detumble_figures(detumble))
+    plain = {
+        "momentum": {k: v for k, v in budget.items() if not k.startswith("_")},
+        "detumble": None if detumble is None else {k: v for k, v in detumble.items() if not k.startswith("_")},
+    }
+    return plain, figures
+
+
 def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> dict[str, Any]:
-    """Section 6: each requirement of the file against the achieved figure (from ``results`` only).
+    """Section 7: each requirement of the file against the achieved figure (from ``results`` only).
 
     A requirement passes when ``achieved <= required`` (or ``>=``, per row);
     a figure that could not be computed (``None``) fails. Returns
@@ -209,7 +254,7 @@ def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> d
     config : SpacecraftConfig
         The spacecraft file (its requirements).
     results : dict
-        The JSON-ready results of sections 1 to 5.
+        The JSON-ready results of sections 1 to 6.
     """
     req = config.requirements
     slews = results["slews"]
@@ -299,8 +344,48 @@ def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> d
                     ">=",
                 )
             )
+    orbit = results.get("orbit")
+    if orbit is not None:
+        budget = orbit["momentum"]
+        judged = budget["unloading"] if budget["unloading"] is not None else budget["no_dumping"]
+        rows.append(
+            _row(
+                "wheel_momentum_budget",
+                f"wheel momentum over {_orbits_text(budget['orbits'])} orbits in the environment "
+                f"({budget['judged_case']}), largest wheel, within the margin of its capacity",
+                "momentum.wheel_momentum_margin",
+                min(judged["allowed_per_wheel_mNms"]),
+                max(judged["peak_per_wheel_mNms"]),
+                "mN m s",
+                "<=",
+            )
+        )
+        det = orbit["detumble"]
+        if det is not None:
+            checks.append(
+                _row(
+                    "detumble_time",
+                    "detumbled (rate below the threshold for good) within the simulated span",
+                    "detumble.duration_max_orbits",
+                    det["duration_simulated_s"],
+                    det["time_to_detumble_s"],
+                    "s",
+                    "<=",
+                )
+            )
     failed = [r["id"] for r in rows if not r["pass"]]
     return {"requirements": rows, "checks": checks, "verdict": {"pass": not failed, "failed": failed}}
+
+
+def _orbits_text(value: float) -> str:
+    """A count of orbits as text: whole numbers without a decimal point.
+
+    Parameters
+    ----------
+    value : float
+        The count.
+    """
+    return f"{value:g}"
 
 
 def plan_verdicts(config: SpacecraftConfig, slews: dict[str, Any]) -> dict[str, Any]:
@@ -352,6 +437,13 @@ def _caption_table() -> dict[str, tuple[str, str]]:
         "rate_ekf_errors": ("estimation", "Rate EKF rate and bias errors (run 1) with 3-sigma bounds."),
         "mekf_nees": ("estimation", "MEKF: average NEES over the Monte Carlo runs with its 95 % chi-square band."),
         "rate_ekf_nees": ("estimation", "Rate EKF: average NEES with its 95 % chi-square band."),
+        "orbit_torques": ("orbit", "Disturbance torques per source over one orbit, nadir hold (log scale)."),
+        "orbit_momentum": (
+            "orbit",
+            "Momentum of each wheel (minimum-norm distribution) over the budget, without dumping and with "
+            "cross-product unloading; dashed: the allowed momentum per wheel.",
+        ),
+        "detumble": ("orbit", "B-dot detumbling: body rates with the threshold, and the rods' dipole."),
     }
 
 
@@ -386,7 +478,7 @@ def run_design(
     figures: dict[str, Figure] = {}
 
     def step(number: int, name: str, label: str, fun: Callable[[], Any]) -> Any:
-        say(f"[{number}/6] {label} ...")
+        say(f"[{number}/{STEPS}] {label} ...")
         start = time.perf_counter()
         with warnings.catch_warnings(record=True) as record:
             warnings.simplefilter("always")
@@ -396,7 +488,7 @@ def run_design(
             if text not in caught:
                 caught.append(text)
         timing[name] = time.perf_counter() - start
-        say(f"[{number}/6] {label}: done in {timing[name]:.1f} s")
+        say(f"[{number}/{STEPS}] {label}: done in {timing[name]:.1f} s")
         return value
 
     results: dict[str, Any] = {
@@ -445,7 +537,15 @@ def run_design(
     figures.update(figs)
     if est is not None:
         est["fraction_inside_min"] = FRACTION_INSIDE_MIN
-    verdicts = step(6, "requirements", "requirements", lambda: requirement_verdicts(config, results))
+    orbit, figs = step(
+        6,
+        "orbit",
+        "orbit: disturbance torques, momentum budget, detumbling",
+        lambda: orbit_study(config, options.quick),
+    )
+    results["orbit"] = orbit
+    figures.update(figs)
+    verdicts = step(7, "requirements", "requirements", lambda: requirement_verdicts(config, results))
     results.update(verdicts)
     captions = _caption_table()
     results["figures"] = {

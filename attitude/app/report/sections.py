@@ -20,7 +20,8 @@ SECTIONS = (
     ("slews", "3. Slews"),
     ("closed_loop", "4. Closed loop"),
     ("estimation", "5. Estimation"),
-    ("requirements", "6. Requirements"),
+    ("orbit", "6. Orbit: disturbances, momentum, detumbling"),
+    ("requirements", "7. Requirements"),
 )
 
 
@@ -545,7 +546,97 @@ def _estimation(results: dict[str, Any]) -> list[Block]:
 
 
 # ---------------------------------------------------------------------------
-# 6. Requirements
+# 6. Orbit
+
+
+def _orbit(results: dict[str, Any]) -> list[Block]:
+    o = results.get("orbit")
+    if o is None:
+        return [
+            Paragraph(
+                "No [orbit] table in the spacecraft file: the spacecraft is flown in empty inertial space, with no "
+                "disturbance torques, momentum budget or detumbling study."
+            )
+        ]
+    b = o["momentum"]
+    names = {
+        "gravity_gradient": "gravity gradient",
+        "aerodynamic": "aerodynamic",
+        "solar_pressure": "solar radiation pressure",
+        "magnetic": "residual dipole",
+    }
+    rows = [
+        [names.get(k, k), fmt(v["peak_uNm"]), fmt(v["mean_uNm"]), _vec(v["orbit_average_body_uNm"])]
+        for k, v in b["torques"].items()
+    ]
+    rows.append(["total", "", "", _vec(b["total_orbit_average_body_uNm"])])
+    out: list[Block] = [
+        Paragraph(
+            f"Orbit: {b['orbit']}. Environment: {b['environment']}. Attitude: {b['pointing']}. The torques are "
+            "evaluated on the nominal attitude; the orbit average in body axes is the part that accumulates in the "
+            "wheels."
+        ),
+        _t(
+            ["source", "peak [uN m]", "mean magnitude [uN m]", "orbit average, body [uN m]"],
+            rows,
+            "Disturbance torques over one orbit",
+        ),
+        *_figure(results, "orbit_torques"),
+    ]
+    free, unl = b["no_dumping"], b["unloading"]
+    text = (
+        f"Momentum budget over {fmt(b['orbits'])} orbits ({fmt(b['step_s'])} s steps; the budget of a perfect "
+        "attitude control: the wheels carry whatever the external torques add to the spacecraft's momentum). "
+        f"Without dumping the wheel momentum grows by {_vec(free['secular_rate_body_uNms_per_orbit'])} uN m s per "
+        f"orbit (body axes, least-squares slope) and peaks at {fmt(free['peak_body_mNms'])} mN m s; the largest "
+        f"wheel then stores {fmt(max(free['peak_per_wheel_mNms']))} mN m s of its "
+        f"{fmt(min(free['capacity_per_wheel_mNms']))} mN m s."
+    )
+    if unl is None:
+        text += " No magnetic unloading in the file ([magnetorquers] and [momentum] unloading_gain_per_s)."
+    else:
+        text += (
+            f" With cross-product unloading (gain {fmt(unl['gain_per_s'])} 1/s, peak dipole "
+            f"{fmt(unl['dipole_peak_Am2'])} A m^2) the momentum stays below {fmt(unl['peak_body_mNms'])} mN m s "
+            f"({fmt(unl['last_orbit_peak_body_mNms'])} mN m s in the last orbit); the largest wheel stores "
+            f"{fmt(max(unl['peak_per_wheel_mNms']))} mN m s."
+        )
+    text += (
+        f" Judged case: {b['judged_case']}, against {fmt(b['wheel_momentum_margin'])} of each wheel's capacity: "
+        + verdict_text(b["pass"])
+        + "."
+    )
+    out += [Paragraph(text), *_figure(results, "orbit_momentum")]
+    d = o["detumble"]
+    if d is None:
+        out.append(Paragraph("No [detumble] table: detumbling not studied."))
+        return out
+    gain = f"{fmt(d['gain_Nms'])} N m s" + (" (automatic: 2 n (1 + sin i) J_min)" if d["gain_is_auto"] else "")
+    if d["detumbled"]:
+        outcome = (
+            f"the rate stays below {fmt(d['rate_threshold_deg_per_s'])} deg/s from "
+            f"{fmt(d['time_to_detumble_s'])} s ({fmt(d['time_to_detumble_orbits'])} orbits) on"
+        )
+    else:
+        outcome = (
+            f"NOT detumbled in the {fmt(d['duration_simulated_s'])} s simulated: the rate ends at "
+            f"{fmt(d['final_rate_deg_per_s'])} deg/s, above the {fmt(d['rate_threshold_deg_per_s'])} deg/s threshold"
+        )
+    out += [
+        Paragraph(
+            f"Detumbling from the tip-off rate {_vec(d['tip_off_rate_deg_per_s'])} deg/s with the B-dot law on the "
+            f"magnetometer's samples (gain {gain}; rods limited to {_vec(d['dipole_max_Am2'])} A m^2, saturated "
+            f"{fmt(100 * d['dipole_saturated_fraction'], 3)} % of the time), flown with the environment on: "
+            f"{outcome}. Total angular momentum {fmt(d['momentum_initial_mNms'])} -> "
+            f"{fmt(d['momentum_final_mNms'])} mN m s."
+        ),
+        *_figure(results, "detumble"),
+    ]
+    return out
+
+
+# ---------------------------------------------------------------------------
+# 7. Requirements
 
 
 def requirement_rows(rows: list[dict[str, Any]]) -> list[list[str]]:
@@ -600,7 +691,7 @@ def _requirements(results: dict[str, Any]) -> list[Block]:
 
 
 def build_blocks(results: dict[str, Any]) -> list[Block]:
-    """The whole report as blocks: title, summary, the six sections and the notes.
+    """The whole report as blocks: title, summary, the seven sections and the notes.
 
     Parameters
     ----------
@@ -623,6 +714,7 @@ def build_blocks(results: dict[str, Any]) -> list[Block]:
         "slews": _slews,
         "closed_loop": _closed_loop,
         "estimation": _estimation,
+        "orbit": _orbit,
         "requirements": _requirements,
     }
     for key, title in SECTIONS:

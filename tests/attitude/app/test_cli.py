@@ -217,8 +217,8 @@ def test_design_end_to_end(which, tmp_path):
     # The resolved file reproduces the spacecraft.
     assert load_config(out / "spacecraft.toml") == config
     # Progress of every step on stderr.
-    for k in range(1, 7):
-        assert f"[{k}/6]" in proc.stderr
+    for k in range(1, 8):
+        assert f"[{k}/7]" in proc.stderr
     assert "Traceback" not in proc.stderr
     if which == "default":
         # The default design meets its requirements (what `make demo` shows), and the table is printed.
