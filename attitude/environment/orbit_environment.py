@@ -82,6 +82,14 @@ TRACK_COLUMNS = (
     "density_kg_m3",
 )
 
+#: Where each quantity sits in a track row (slices of :data:`TRACK_COLUMNS`).
+_POSITION = slice(TRACK_COLUMNS.index("position_N[0]"), TRACK_COLUMNS.index("position_N[2]") + 1)
+_VELOCITY = slice(TRACK_COLUMNS.index("velocity_relative_N[0]"), TRACK_COLUMNS.index("velocity_relative_N[2]") + 1)
+_SUN = slice(TRACK_COLUMNS.index("sun_N[0]"), TRACK_COLUMNS.index("sun_N[2]") + 1)
+_PRESSURE = TRACK_COLUMNS.index("solar_pressure_Pa")
+_FIELD = slice(TRACK_COLUMNS.index("field_N[0]"), TRACK_COLUMNS.index("field_N[2]") + 1)
+_DENSITY = TRACK_COLUMNS.index("density_kg_m3")
+
 #: Entries of a per-run surface parameter vector (:meth:`OrbitEnvironment.surface_parameters`).
 SURFACE_PARAMETERS = (
     "drag_scale",
@@ -328,8 +336,8 @@ class OrbitEnvironment:
         tuple of list of 3
             ``(field_B, sun_B)``.
         """
-        field_B = quat.rotate_inverse_components(q, list(row[12:15]))
-        sun_B = quat.rotate_inverse_components(q, list(row[6:9]))
+        field_B = quat.rotate_inverse_components(q, list(row[_FIELD]))
+        sun_B = quat.rotate_inverse_components(q, list(row[_SUN]))
         return field_B, sun_B
 
     def torque_components(
@@ -358,20 +366,20 @@ class OrbitEnvironment:
         out: dict[str, Components] = {}
         for source in self.sources:
             if source == "gravity_gradient":
-                r_B = quat.rotate_inverse_components(q, row[0:3])
+                r_B = quat.rotate_inverse_components(q, row[_POSITION])
                 out[source] = gravity_gradient_torque_components(body, r_B, self.orbit.mu)
             elif source == "aerodynamic":
-                v_B = quat.rotate_inverse_components(q, row[3:6])
-                tau = aerodynamic_torque_components(self.surface, v_B, row[14])
-                force = aerodynamic_force_components(self.surface, v_B, row[14])
+                v_B = quat.rotate_inverse_components(q, row[_VELOCITY])
+                tau = aerodynamic_torque_components(self.surface, v_B, row[_DENSITY])
+                force = aerodynamic_force_components(self.surface, v_B, row[_DENSITY])
                 out[source] = [scale * (a + b) for a, b in zip(tau, cross(offset, force))]
             elif source == "solar_pressure":
-                s_B = quat.rotate_inverse_components(q, row[6:9])
-                tau = solar_pressure_torque_components(self.surface, s_B, row[9])
-                force = solar_pressure_force_components(self.surface, s_B, row[9])
+                s_B = quat.rotate_inverse_components(q, row[_SUN])
+                tau = solar_pressure_torque_components(self.surface, s_B, row[_PRESSURE])
+                force = solar_pressure_force_components(self.surface, s_B, row[_PRESSURE])
                 out[source] = [a + b for a, b in zip(tau, cross(offset, force))]
             else:
-                field_B = quat.rotate_inverse_components(q, row[12:15])
+                field_B = quat.rotate_inverse_components(q, row[_FIELD])
                 out[source] = magnetic_torque_components(dipole, field_B)
         return out
 

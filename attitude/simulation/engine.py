@@ -343,9 +343,12 @@ def simulate(
             f"the wheels' spin-axis inertia) must be a valid inertia: {exc}"
         ) from exc
     model = PlantModel(plant, wheels)
+    # The gravity gradient acts on the whole mass distribution: the rotors are axisymmetric about
+    # their spin axes, so their full inertia (spin part included) takes the gradient; the hub
+    # body (I - sum J a a^T) is only the plant's dynamic inertia.
     flight = OrbitFlight(
         environment,
-        plant,
+        body,
         np.arange(n_ticks + 1) * dt,
         surface_parameters=surface_parameters,
         magnetorquers=magnetorquers,
