@@ -177,6 +177,12 @@ def check_verdicts(results: dict, config) -> None:
         expected["slew_rate"] = (req.slew.rate_max_deg_per_s, flight["rate_peak_deg_per_s"])
     for i, cone in enumerate(req.keep_out):
         expected[f"keep_out_{i}"] = (cone.half_angle_deg, flight["separation_min_deg"][cone.name])
+    orbit = results.get("orbit")
+    if orbit is not None:  # section 6: the largest wheel's momentum over the budget against its allowed share
+        budget = orbit["momentum"]
+        judged = budget["unloading"] if budget["unloading"] is not None else budget["no_dumping"]
+        allowed = config.momentum.wheel_momentum_margin * min(judged["capacity_per_wheel_mNms"])
+        expected["wheel_momentum_budget"] = (allowed, max(judged["peak_per_wheel_mNms"]))
     rows = {r["id"]: r for r in results["requirements"]}
     assert set(rows) == set(expected), "one row per requirement of the file"
     for rid, (required, achieved) in expected.items():

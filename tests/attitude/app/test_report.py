@@ -167,6 +167,9 @@ def test_missing_sections_fail_their_requirements_and_still_render(design):
     results["estimation"] = None
     verdicts = requirement_verdicts(design.config, results)
     rows = {r["id"]: r for r in verdicts["requirements"]}
+    # The momentum budget of section 6 needs no flown slew: it is judged on its own figures.
+    budget = rows.pop("wheel_momentum_budget")
+    assert budget["achieved"] == max(results["orbit"]["momentum"]["unloading"]["peak_per_wheel_mNms"])
     assert all(r["achieved"] is None and not r["pass"] for r in rows.values())
     assert not verdicts["verdict"]["pass"] and set(verdicts["verdict"]["failed"]) == set(rows)
     results.update(verdicts)
