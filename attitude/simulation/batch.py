@@ -356,7 +356,7 @@ def environment_inputs(
     negative = surface[:, 0] < 0.0
     if np.any(negative):
         raise ValueError(
-            f"surface_parameters drag_scale (column 0) must be >= 0, got {surface[negative, 0][0]!r} "
+            f"surface_parameters drag_scale (column 0) must be >= 0, got {float(surface[negative, 0][0])!r} "
             f"(run {int(np.argmax(negative))})"
         )
     return surface
