@@ -1140,11 +1140,11 @@ def config_from_dict(data: Mapping[str, Any], file: str = "<config>") -> Spacecr
     requirements = _read_requirements(r, top.table("requirements"), sun)
     mt = top.table("montecarlo", required=False)
     montecarlo = None if mt is None else _read_montecarlo(r, mt)
-    for name in SURFACE_DISPERSIONS:
-        if montecarlo is not None and getattr(montecarlo, name) is not None:
+    for dispersed in SURFACE_DISPERSIONS:
+        if montecarlo is not None and getattr(montecarlo, dispersed) is not None:
             _needs(
                 r,
-                f"montecarlo.{name}",
+                f"montecarlo.{dispersed}",
                 "it disperses the surface model flown along the orbit",
                 orbit=orbit is not None,
                 surface=surface is not None,

@@ -19,6 +19,7 @@ What each group checks against:
 from __future__ import annotations
 
 import copy
+import dataclasses
 import re
 import tomllib
 
@@ -589,3 +590,11 @@ def test_surface_dispersions_need_an_orbit_and_a_surface(missing, table):
         ConfigError, match=rf"montecarlo\.drag_scale: needs {re.escape(table)} \(it disperses the surface"
     ):
         _load(data)
+
+
+def test_surface_dispersions_leave_the_rest_of_the_file_as_it_was():
+    """Reading the new keys must not disturb the other fields (the spacecraft name, the tables)."""
+    with_them = _load(_with_surface_dispersions())
+    plain = default_config()
+    assert with_them.name == plain.name
+    assert dataclasses.replace(with_them, montecarlo=plain.montecarlo, source=plain.source) == plain
