@@ -393,9 +393,12 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
             nodes=args.nodes,
             vectorized=args.vectorized,
             resume=not args.fresh,
+            environment=args.environment,
         )
     except ScenarioError as exc:
         flag = f"--duration-s {args.duration_s:g}: " if str(exc).startswith("duration") else ""
+        if "environment" in str(exc) and not flag:
+            flag = "--environment: " if args.environment else ""
         raise UsageError(f"{flag}{exc}") from None
     except SlewPlanningError as exc:
         print(f"attitude montecarlo: {exc}", file=sys.stderr)
@@ -612,6 +615,12 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="advance the runs together in batches (truth, sensors, MEKF, control as batched states; same metrics "
         "to rounding, tens of times less CPU; the plant step compiled to C when a C compiler is found)",
+    )
+    p.add_argument(
+        "--environment",
+        action="store_true",
+        help="fly the file's [orbit], [environment] and [surface]: the disturbance torques act on every run, with "
+        "the surface dispersions of [montecarlo] (drag_scale, residual_dipole, centre_of_pressure_offset)",
     )
     p.add_argument("--json", action="store_true", help="print the statistics as JSON")
     p.set_defaults(run=_cmd_montecarlo)

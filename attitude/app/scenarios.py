@@ -27,6 +27,21 @@ estimators; :mod:`attitude.montecarlo.campaign` never does (a scenario is any ca
     What ``attitude montecarlo FILE`` calls: the campaign of the file's
     ``[montecarlo]`` table, written with its figures to an output directory.
 
+In orbit (``environment=True``, ``attitude montecarlo --environment``) both
+scenarios fly the file's ``[orbit]``, ``[environment]`` and ``[surface]``
+(:func:`attitude.app.assembly.orbit_environment`): every run starts at the
+orbit's epoch, and the disturbance torques of its sources act on it, with
+each run's surface parameters drawn from the ``drag_scale``,
+``residual_dipole`` and ``centre_of_pressure_offset`` dispersions
+(:func:`surface_parameters`; the file's values where not dispersed). The
+guidance is unchanged: the runs start from the file's start attitude and
+slew to its target, both inertial (``q_BN`` in the orbit environment's frame
+N), and are judged on the same pointing metrics; the keep-out cone ``"sun"``
+stays the file's fixed ``environment.sun_direction_N`` (the scene of the slew
+design), not the ephemeris Sun the solar pressure uses. The closed-loop
+scenario adds ``disturbance_torque_peak.<source>`` [N m] (largest torque
+magnitude of each source over the run) to its metrics.
+
 Metrics (SI), all judged against the TARGET attitude of the slew (not the
 moving reference a tracking controller follows): ``settling_time`` [s]
 (first time after which the true error angle to the target stays within the
@@ -56,6 +71,8 @@ from attitude import quaternion as quat
 from attitude.app import assembly
 from attitude.app.design.slew import SlewStudy, plan_slews
 from attitude.config import SpacecraftConfig, load_config
+from attitude.config.schema import SURFACE_DISPERSIONS
+from attitude.environment.orbit_environment import OrbitEnvironment
 from attitude.montecarlo.campaign import Campaign, run_campaign, usable_cpus
 from attitude.montecarlo.dispersions import dispersions_from_config
 from attitude.montecarlo.executors import RunOutput
@@ -80,6 +97,7 @@ __all__ = [
     "ScenarioError",
     "requirements_from_config",
     "run_campaign_from_config",
+    "surface_parameters",
 ]
 
 #: What :class:`ClosedLoopScenario` can fly: the planned slew (default) or the eigenaxis rate-limited PD.
@@ -117,6 +135,45 @@ def requirements_from_config(config: SpacecraftConfig, *, keep_out: bool = True)
         Include a rule per keep-out cone.
     """
     return assembly.monte_carlo_requirements(config, keep_out=keep_out)
+
+
+def surface_parameters(environment: OrbitEnvironment | None, params: Mapping[str, Any]) -> np.ndarray | None:
+    """One run's surface parameters from its dispersed values; None without an environment.
+
+    Parameters
+    ----------
+    environment : OrbitEnvironment or None
+        The environment flown (its surface's dipole where ``residual_dipole`` is not dispersed).
+    params : mapping
+        The run's dispersed parameters: ``drag_scale`` (factor, default 1),
+        ``residual_dipole`` (3,) [A m^2] (default the file's),
+        ``centre_of_pressure_offset`` (3,) [m] (default 0).
+
+    Returns
+    -------
+    ndarray (7,) or None
+        :meth:`OrbitEnvironment.surface_parameters`.
+    """
+    if environment is None:
+        return None
+    return environment.surface_parameters(
+        drag_scale=params.get("drag_scale", 1.0),
+        residual_dipole_Am2=params.get("residual_dipole"),
+        centre_of_pressure_offset_B_m=params.get("centre_of_pressure_offset", np.zeros(3)),
+    )
+
+
+def _scenario_environment(config: SpacecraftConfig, environment: bool) -> OrbitEnvironment | None:
+    """The file's orbit environment when a scenario flies it (ScenarioError without an [orbit])."""
+    if not environment:
+        return None
+    built = assembly.orbit_environment(config)
+    if built is None:
+        raise ScenarioError(
+            "environment=True flies the spacecraft file's [orbit], [environment] and [surface], but the file has "
+            "no [orbit] table; add one, or leave the environment off"
+        )
+    return built
 
 
 def _history(result: Any, stride: int | None, extra: Mapping[str, np.ndarray] | None = None) -> dict | None:
@@ -249,6 +306,9 @@ class ClosedLoopScenario:
         Add the per-axis variance of the file's ``star_tracker_misalignment``
         dispersion to the tracker measurement covariance the MEKF uses
         (default False; see Notes).
+    environment : bool
+        Fly the file's orbit environment (module docstring; default False:
+        empty inertial space, as before). Needs an ``[orbit]`` table.
 
     Notes
     -----
@@ -302,14 +362,17 @@ class ClosedLoopScenario:
     ``initial_attitude`` (4,), ``initial_rate`` (3,) [rad/s],
     ``gyro_misalignment`` and ``star_tracker_misalignment`` (3,) [rad],
     ``gyro_bias`` (3,) [rad/s] (added to the file's turn-on bias; the MEKF's
-    initial bias uncertainty grows to cover it).
+    initial bias uncertainty grows to cover it) and, in orbit,
+    ``drag_scale``, ``residual_dipole`` (3,) [A m^2] and
+    ``centre_of_pressure_offset`` (3,) [m] (:func:`surface_parameters`).
 
     Raises
     ------
     ScenarioError
         (a ValueError) naming the argument: an unknown ``guidance``, a
         ``duration`` shorter than the planned slew plus the settling time, a
-        ``rate_margin`` outside (0, 1], a ``study`` of another slew.
+        ``rate_margin`` outside (0, 1], a ``study`` of another slew,
+        ``environment=True`` for a file without an ``[orbit]``.
     SlewPlanningError
         ``guidance="plan"`` and the slew could not be planned.
     """
@@ -325,6 +388,7 @@ class ClosedLoopScenario:
         nodes: int = PLAN_NODES,
         study: SlewStudy | None = None,
         consider_misalignment: bool = False,
+        environment: bool = False,
     ) -> None:
         if guidance not in GUIDANCES:
             raise ScenarioError(f"guidance must be one of {', '.join(map(repr, GUIDANCES))}, got {guidance!r}")
@@ -340,6 +404,8 @@ class ClosedLoopScenario:
         self.history_stride = history_stride
         self.nodes = int(nodes)
         self.consider_misalignment = bool(consider_misalignment)
+        self.environment = bool(environment)
+        self._environment = _scenario_environment(config, self.environment)
         self._nominal = assembly.rigid_body(config)
         self._wheels = assembly.reaction_wheels(config)
         self._tracker = assembly.star_tracker(config)
@@ -401,7 +467,8 @@ class ClosedLoopScenario:
         return (
             f"ClosedLoopScenario({self.config!r}, duration={self.duration!r}, stride={self.history_stride!r}, "
             f"rate_margin={self.rate_margin!r}, guidance={self.guidance!r}, nodes={self.nodes!r}, "
-            f"slew_end={self.slew_end!r}, consider_misalignment={self.consider_misalignment!r})"
+            f"slew_end={self.slew_end!r}, consider_misalignment={self.consider_misalignment!r}"
+            + (", environment=True)" if self.environment else ")")
         )
 
     def controller(self) -> Any:
@@ -463,6 +530,8 @@ class ClosedLoopScenario:
             sensors=[gyro, tracker],
             estimator=estimator,
             rng=rng,
+            environment=self._environment,
+            surface_parameters=surface_parameters(self._environment, params),
         )
         accuracy = self.config.requirements.pointing_accuracy_rad
         metrics = closed_loop_metrics(result, accuracy)
@@ -478,6 +547,8 @@ class ClosedLoopScenario:
         for cone in self.config.requirements.keep_out:
             separation = cone.separation(result.q)
             metrics[f"keep_out_margin.{cone.name}"] = float(np.min(separation) - cone.half_angle_rad)
+        for source, tau in result.disturbance_torques.items():
+            metrics[f"disturbance_torque_peak.{source}"] = float(np.max(np.linalg.norm(tau, axis=-1)))
         est_error = np.full(result.t.size, np.nan)
         est_error[k] = np.linalg.norm(errors, axis=-1)
         extra = {"error_angle": to_target, "tracking_error": result.error_angle, "estimation_error": est_error}
@@ -510,6 +581,9 @@ class ClosedLoopScenario:
         theta = _stacked(params_list, "star_tracker_misalignment", np.zeros(3))
         mekf = MEKFBatch(self.estimator(gyros[0]), n)
         recorder = _BatchRecorder(self, n, mekf)
+        surface = None
+        if self._environment is not None:
+            surface = np.stack([surface_parameters(self._environment, p) for p in params_list])
         out = simulate_batch_estimated(
             body,
             q0,
@@ -523,8 +597,10 @@ class ClosedLoopScenario:
             streams=NormalStreams(list(rngs)),
             tracker_mounting=quat.from_rotation_vector(theta),
             observer=recorder,
+            environment=self._environment,
+            surface_parameters=surface,
         )
-        return recorder.outputs(out["diverged_at"])
+        return recorder.outputs(out["diverged_at"], out.get("disturbance_torque_peak", {}))
 
 
 def _stacked(params_list: Sequence[Mapping[str, Any]], name: str, default: Any) -> np.ndarray:
@@ -585,7 +661,7 @@ class _BatchRecorder:
             for name, value in rows.items():
                 self.history.setdefault(name, []).append(value)
 
-    def outputs(self, diverged_at: np.ndarray) -> list[RunOutput]:
+    def outputs(self, diverged_at: np.ndarray, torque_peaks: Mapping[str, np.ndarray]) -> list[RunOutput]:
         last = self.last_outside
         settle = settling_time_after(self.t, last)
         history = {name: np.stack(rows, axis=1) for name, rows in self.history.items()}
@@ -603,6 +679,8 @@ class _BatchRecorder:
             }
             for cone in self.cones:
                 metrics[f"keep_out_margin.{cone.name}"] = float(self.separation_min[cone.name][r] - cone.half_angle_rad)
+            for source, peak in torque_peaks.items():
+                metrics[f"disturbance_torque_peak.{source}"] = float(peak[r])
             run_history = None
             if self.stride:
                 run_history = {name: values[r] for name, values in history.items()}
@@ -633,9 +711,13 @@ class PDWheelsScenario:
         Error angle [rad] for the settling time.
     history_stride : int, optional
         Keep time histories every this many ticks.
+    environment : OrbitEnvironment, optional
+        The orbit the runs fly (module docstring); None: empty inertial space.
 
     Dispersion names it reads (all optional): ``inertia`` (3, 3),
-    ``initial_attitude`` (4,), ``initial_rate`` (3,) [rad/s].
+    ``initial_attitude`` (4,), ``initial_rate`` (3,) [rad/s] and, in orbit,
+    ``drag_scale``, ``residual_dipole`` (3,) [A m^2] and
+    ``centre_of_pressure_offset`` (3,) [m] (:func:`surface_parameters`).
     """
 
     def __init__(
@@ -651,7 +733,11 @@ class PDWheelsScenario:
         duration: float = 600.0,
         pointing_threshold: float = math.radians(0.05),
         history_stride: int | None = None,
+        environment: OrbitEnvironment | None = None,
     ) -> None:
+        if environment is not None and not isinstance(environment, OrbitEnvironment):
+            raise ScenarioError(f"environment must be an OrbitEnvironment or None, got {type(environment).__name__}")
+        self.environment = environment
         self.nominal = inertia if isinstance(inertia, RigidBody) else RigidBody(inertia)
         self.wheels = wheels
         self.q_start = quat.as_unit_quaternion(q_start, "q_start")
@@ -669,18 +755,21 @@ class PDWheelsScenario:
         )
 
     @classmethod
-    def from_config(cls, config: SpacecraftConfig, **kwargs: Any) -> PDWheelsScenario:
+    def from_config(cls, config: SpacecraftConfig, *, environment: bool = False, **kwargs: Any) -> PDWheelsScenario:
         """The file's spacecraft, wheels, control bandwidth and slew (pointing threshold: its accuracy).
 
         Parameters
         ----------
         config : SpacecraftConfig
             The spacecraft file.
+        environment : bool
+            Fly the file's orbit environment (needs an ``[orbit]``; default False).
         **kwargs
             Other fields of the scenario.
         """
         c = config.control
         kwargs.setdefault("pointing_threshold", config.requirements.pointing_accuracy_rad)
+        kwargs.setdefault("environment", _scenario_environment(config, environment))
         return cls(
             assembly.rigid_body(config),
             assembly.reaction_wheels(config),
@@ -697,7 +786,8 @@ class PDWheelsScenario:
         return (
             f"PDWheelsScenario({self.nominal.inertia.tolist()}, {self.wheels!r}, {self.q_start.tolist()}, "
             f"{self.q_target.tolist()}, {self.bandwidth!r}, {self.damping!r}, {self.period!r}, {self.duration!r}, "
-            f"{self.pointing_threshold!r}, {self.history_stride!r})"
+            f"{self.pointing_threshold!r}, {self.history_stride!r}"
+            + (")" if self.environment is None else f", {self.environment.describe()!r})")
         )
 
     def initial_state(self, params: Mapping[str, Any]) -> tuple[Any, Any, Any]:
@@ -718,7 +808,16 @@ class PDWheelsScenario:
 
     def __call__(self, params: Mapping[str, Any], rng: np.random.Generator) -> RunOutput:
         inertia, q0, omega0 = self.initial_state(params)
-        result = simulate(RigidBody(inertia), q0, omega0, self.duration, controller=self.controller, wheels=self.wheels)
+        result = simulate(
+            RigidBody(inertia),
+            q0,
+            omega0,
+            self.duration,
+            controller=self.controller,
+            wheels=self.wheels,
+            environment=self.environment,
+            surface_parameters=surface_parameters(self.environment, params),
+        )
         return RunOutput(closed_loop_metrics(result, self.pointing_threshold), _history(result, self.history_stride))
 
     def run_batch(self, params_list: Sequence[Mapping[str, Any]], rngs: Sequence[Any]) -> list[RunOutput]:
@@ -741,6 +840,12 @@ class PDWheelsScenario:
             wheels=self.wheels,
             pointing_threshold=self.pointing_threshold,
             history_stride=self.history_stride,
+            environment=self.environment,
+            surface_parameters=(
+                None
+                if self.environment is None
+                else np.stack([surface_parameters(self.environment, p) for p in params_list])
+            ),
         )
         outputs = []
         for i in range(len(params_list)):
@@ -772,6 +877,7 @@ def run_campaign_from_config(
     consider_misalignment: bool = False,
     vectorized: bool = False,
     resume: bool = True,
+    environment: bool = False,
 ) -> CampaignResult:
     """The campaign of a spacecraft file: what ``attitude montecarlo FILE`` runs.
 
@@ -819,14 +925,34 @@ def run_campaign_from_config(
         four batches per worker (at least 100 runs a batch).
     resume : bool
         Resume the campaign checkpointed in ``out_dir`` (default); False starts afresh.
+    environment : bool
+        Fly the file's orbit environment with the surface dispersions of
+        ``[montecarlo]`` (module docstring; ``attitude montecarlo
+        --environment``). Default False: empty space, and a file that
+        disperses the surface is refused (ScenarioError naming the key)
+        rather than drawing values nobody flies.
     """
     if not isinstance(config, SpacecraftConfig):
         config = load_config(config)
     mc = config.montecarlo
     dispersions = {}
     if mc is not None:
+        if not environment:
+            declared = [name for name in SURFACE_DISPERSIONS if getattr(mc, name) is not None]
+            if declared:
+                raise ScenarioError(
+                    f"montecarlo.{declared[0]} disperses the surface flown along the orbit, but the campaign does not "
+                    "fly the environment: pass environment=True (attitude montecarlo --environment) or remove "
+                    f"the key{'s' if len(declared) > 1 else ''} {', '.join('montecarlo.' + n for n in declared)}"
+                )
         nominal = assembly.rigid_body(config).inertia
-        dispersions = dispersions_from_config(mc, nominal, config.requirements.slew.q_start())
+        surface = assembly.surface(config)
+        dispersions = dispersions_from_config(
+            mc,
+            nominal,
+            config.requirements.slew.q_start(),
+            residual_dipole_Am2=np.zeros(3) if surface is None else surface.residual_dipole_Am2,
+        )
     n = runs if runs is not None else (mc.runs if mc is not None else None)
     if n is None:
         raise ValueError("runs must be given when the spacecraft file has no [montecarlo] table")
@@ -837,6 +963,7 @@ def run_campaign_from_config(
         guidance=guidance,
         nodes=nodes,
         consider_misalignment=consider_misalignment,
+        environment=environment,
     )
     campaign = Campaign(
         scenario,

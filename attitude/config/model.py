@@ -824,8 +824,8 @@ class Dispersion:
     scale : float or None
         Standard deviation (normal) or half-width (uniform) in ``unit``; None for ``uniform_so3``.
     unit : str
-        Unit of ``scale``, the key suffix: ``percent``, ``deg_per_s``, ``deg``, ``deg_per_h`` or
-        ``arcsec``.
+        Unit of ``scale``, the key suffix: ``percent``, ``deg_per_s``, ``deg``, ``deg_per_h``,
+        ``arcsec``, ``Am2`` or ``m``.
     axis_sigma_deg : float, optional
         Inertia only: standard deviation of a rotation of the principal axes, per axis [deg].
     """
@@ -837,7 +837,7 @@ class Dispersion:
 
     @property
     def scale_si(self) -> float | None:
-        """The scale in SI: a fraction for ``percent``, rad, rad/s."""
+        """The scale in SI: a fraction for ``percent``, rad, rad/s, A m^2, m."""
         if self.scale is None:
             return None
         factor = {
@@ -846,6 +846,8 @@ class Dispersion:
             "deg_per_s": math.pi / 180.0,
             "deg_per_h": math.pi / 180.0 / 3600.0,
             "arcsec": ARCSEC,
+            "Am2": 1.0,
+            "m": 1.0,
         }
         return self.scale * factor[self.unit]
 
@@ -877,6 +879,15 @@ class MonteCarloConfig:
     gyro_bias : Dispersion or None, optional
         Dispersion of the gyro turn-on bias about the file's bias, per axis [deg/h] (key
         ``montecarlo.gyro_bias``).
+    drag_scale : Dispersion or None, optional
+        Dispersion of a common scale on every plate's drag coefficient, relative, about 1 [%]
+        (key ``montecarlo.drag_scale``; flown with the orbit environment).
+    residual_dipole : Dispersion or None, optional
+        Dispersion of the residual magnetic dipole about the file's, per axis [A m^2] (key
+        ``montecarlo.residual_dipole``; flown with the orbit environment).
+    centre_of_pressure_offset : Dispersion or None, optional
+        Dispersion of a common offset of every centre of pressure, per axis [m] (key
+        ``montecarlo.centre_of_pressure_offset``; flown with the orbit environment).
     """
 
     runs: int
@@ -887,6 +898,9 @@ class MonteCarloConfig:
     gyro_misalignment: Dispersion | None = None
     star_tracker_misalignment: Dispersion | None = None
     gyro_bias: Dispersion | None = None
+    drag_scale: Dispersion | None = None
+    residual_dipole: Dispersion | None = None
+    centre_of_pressure_offset: Dispersion | None = None
 
 
 @dataclass(frozen=True)

@@ -64,6 +64,7 @@ from attitude.config.schema import (
     DISPERSIONS,
     DISTRIBUTIONS,
     RENAMED_KEYS,
+    SURFACE_DISPERSIONS,
     ConfigError,
     children,
     meaning_of,
@@ -1037,7 +1038,8 @@ def _read_dispersion(r: _Reader, t: _Table, name: str) -> Dispersion | None:
     scale_key = dt.key(sigma_key if distribution == "normal" else half_key)
     _positive(r, scale_key, scale, allow_zero=True, unit=unit_of(scale_key))
     if suffix == "percent":
-        r.check(scale < 100.0, scale_key, "below 100 percent (moments must stay positive)", scale)
+        what = "the drag coefficients" if name == "drag_scale" else "moments"
+        r.check(scale < 100.0, scale_key, f"below 100 percent ({what} must stay positive)", scale)
     axis = 0.0
     if name == "inertia":
         axis = dt.number("axis_sigma_deg", required=False, default=0.0)
@@ -1138,6 +1140,15 @@ def config_from_dict(data: Mapping[str, Any], file: str = "<config>") -> Spacecr
     requirements = _read_requirements(r, top.table("requirements"), sun)
     mt = top.table("montecarlo", required=False)
     montecarlo = None if mt is None else _read_montecarlo(r, mt)
+    for dispersed in SURFACE_DISPERSIONS:
+        if montecarlo is not None and getattr(montecarlo, dispersed) is not None:
+            _needs(
+                r,
+                f"montecarlo.{dispersed}",
+                "it disperses the surface model flown along the orbit",
+                orbit=orbit is not None,
+                surface=surface is not None,
+            )
     return SpacecraftConfig(
         name=name,
         description=description,

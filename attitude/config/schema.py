@@ -20,6 +20,7 @@ __all__ = [
     "DISPERSIONS",
     "DISTRIBUTIONS",
     "RENAMED_KEYS",
+    "SURFACE_DISPERSIONS",
     "ConfigError",
     "children",
     "meaning_of",
@@ -254,7 +255,28 @@ DISPERSIONS: dict[str, tuple[str, str, str, tuple[str, ...]]] = {
     "gyro_misalignment": ("arcsec", "arcsec", "of the gyro triad misalignment, per axis", ()),
     "star_tracker_misalignment": ("arcsec", "arcsec", "of the star-tracker mounting misalignment, per axis", ()),
     "gyro_bias": ("deg_per_h", "deg/h", "of the gyro turn-on bias about the file's bias, per axis", ()),
+    # Flown with the orbit environment only (attitude montecarlo --environment); need [orbit] and [surface].
+    "drag_scale": (
+        "percent",
+        "%",
+        "of a common scale on every plate's drag coefficient, relative, about 1 (with --environment)",
+        (),
+    ),
+    "residual_dipole": (
+        "Am2",
+        "A m^2",
+        "of the residual magnetic dipole about surface.residual_dipole_Am2, per axis (with --environment)",
+        (),
+    ),
+    "centre_of_pressure_offset": (
+        "m",
+        "m",
+        "of a common offset of every plate's centre of pressure, per axis (with --environment)",
+        (),
+    ),
 }
+#: The dispersions of the surface, flown only with the orbit environment (they need [orbit] and [surface]).
+SURFACE_DISPERSIONS = ("drag_scale", "residual_dipole", "centre_of_pressure_offset")
 for _name, (_suffix, _unit, _meaning, _extra) in DISPERSIONS.items():
     CONFIG_KEYS[f"montecarlo.{_name}"] = ("", f"dispersion {_meaning} [{_unit}]")
     CONFIG_KEYS[f"montecarlo.{_name}.distribution"] = ("", "one of " + ", ".join(map(repr, DISTRIBUTIONS + _extra)))

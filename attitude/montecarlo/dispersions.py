@@ -12,6 +12,7 @@ listing the scalar table columns the value occupies (``inertia.xx``,
 :class:`RandomAttitude`    attitude uniformly distributed on SO(3)
 :class:`AttitudeDispersion` small rotation about a nominal attitude, per axis
 :class:`Misalignment`      small rotation vector [rad], per axis
+:class:`RelativeScale`     a positive factor ``1 + d`` (e.g. the drag scale)
 =========================  ==================================================
 
 Seeds
@@ -52,6 +53,7 @@ __all__ = [
     "Misalignment",
     "Normal",
     "RandomAttitude",
+    "RelativeScale",
     "Uniform",
     "dispersions_from_config",
     "draw_parameters",
@@ -332,6 +334,60 @@ class Misalignment(Dispersion):
         return _draw(rng, self.distribution, self.scale, (3,))
 
 
+class RelativeScale(Dispersion):
+    """A factor ``1 + d`` about 1 that stays non-negative (e.g. the scale on every drag coefficient).
+
+    ``d`` is normal (``sigma``) or uniform on ``[-h, h]`` (``half_width``),
+    relative (0.1 = 10 %). A normal draw below ``-1`` (a negative factor, which
+    has no physical meaning) is **rejected and redrawn**, so the distribution
+    is the requested one truncated at 0; that changes nothing unless
+    ``sigma`` is a sizeable fraction of 1 (at 30 %, one draw in 3,400 is
+    redrawn). A uniform half-width must be at most 1.
+
+    Parameters
+    ----------
+    sigma : float, optional
+        Relative standard deviation (normal), >= 0.
+    half_width : float, optional
+        Relative half-width (uniform), in [0, 1]. Exactly one of ``sigma`` and ``half_width``.
+    max_tries : int
+        Draws before giving up (default 1000).
+    """
+
+    shape = ()
+
+    def __init__(self, sigma: float | None = None, half_width: float | None = None, *, max_tries: int = 1000) -> None:
+        self.distribution, scale = _two_sided(sigma, half_width, "RelativeScale")
+        if scale.ndim != 0:
+            raise ValueError(f"the relative scale must be one value, got shape {scale.shape}")
+        self.scale = float(scale)
+        if self.distribution == "uniform" and self.scale > 1.0:
+            raise ValueError(f"half_width must be at most 1 (the factor must stay >= 0), got {self.scale!r}")
+        if not isinstance(max_tries, int) or max_tries < 1:
+            raise ValueError(f"max_tries must be a positive integer, got {max_tries!r}")
+        self.max_tries = max_tries
+
+    def __repr__(self) -> str:
+        return f"RelativeScale({self.distribution}, relative={self.scale!r})"
+
+    def sample(self, rng: np.random.Generator) -> float:
+        """Draw one factor, >= 0.
+
+        Parameters
+        ----------
+        rng : numpy.random.Generator
+            The run's generator.
+        """
+        for _ in range(self.max_tries):
+            value = 1.0 + float(_draw(rng, self.distribution, np.asarray(self.scale), ()))
+            if value >= 0.0:
+                return value
+        raise ValueError(
+            f"RelativeScale: no non-negative factor in {self.max_tries} draws; the relative dispersion "
+            f"{self.scale!r} is too wide"
+        )
+
+
 class RandomAttitude(Dispersion):
     """An attitude ``q_BN`` uniformly distributed on SO(3) (normalised 4-D Gaussian; Haar measure)."""
 
@@ -516,7 +572,13 @@ class InertiaDispersion(Dispersion):
 # From the spacecraft file
 
 
-def dispersions_from_config(montecarlo: Any, inertia: ArrayLike, q_start: ArrayLike) -> dict[str, Dispersion]:
+def dispersions_from_config(
+    montecarlo: Any,
+    inertia: ArrayLike,
+    q_start: ArrayLike,
+    *,
+    residual_dipole_Am2: ArrayLike = (0.0, 0.0, 0.0),
+) -> dict[str, Dispersion]:
     """The dispersions of a ``[montecarlo]`` table (:class:`attitude.config.model.MonteCarloConfig`).
 
     Parameters
@@ -527,6 +589,8 @@ def dispersions_from_config(montecarlo: Any, inertia: ArrayLike, q_start: ArrayL
         Nominal inertia (whole spacecraft) [kg m^2].
     q_start : array_like (4,)
         Nominal start attitude ``q_BN`` (the centre of ``initial_attitude``).
+    residual_dipole_Am2 : array_like (3,)
+        Nominal residual dipole in body axes [A m^2] (the centre of ``residual_dipole``).
 
     Returns
     -------
@@ -536,8 +600,12 @@ def dispersions_from_config(montecarlo: Any, inertia: ArrayLike, q_start: ArrayL
         ``gyro_bias`` [rad/s] (:class:`Normal` or :class:`Uniform` about 0),
         ``initial_attitude`` (:class:`AttitudeDispersion` or
         :class:`RandomAttitude`), ``gyro_misalignment`` and
-        ``star_tracker_misalignment`` [rad] (:class:`Misalignment`); the
-        tables left out of the file are left out here.
+        ``star_tracker_misalignment`` [rad] (:class:`Misalignment`), and
+        the surface's: ``drag_scale`` (:class:`RelativeScale` about 1),
+        ``residual_dipole`` [A m^2] (:class:`Normal` or :class:`Uniform`
+        about ``residual_dipole_Am2``, per axis) and
+        ``centre_of_pressure_offset`` [m] (about 0, per axis); the tables
+        left out of the file are left out here.
     """
     out: dict[str, Dispersion] = {}
 
@@ -565,4 +633,13 @@ def dispersions_from_config(montecarlo: Any, inertia: ArrayLike, q_start: ArrayL
         entry = getattr(montecarlo, name)
         if entry is not None:
             out[name] = Misalignment(**two_sided(entry))
+    if getattr(montecarlo, "drag_scale", None) is not None:
+        out["drag_scale"] = RelativeScale(**two_sided(montecarlo.drag_scale))
+    centres = {"residual_dipole": residual_dipole_Am2, "centre_of_pressure_offset": np.zeros(3)}
+    for name, centre in centres.items():
+        entry = getattr(montecarlo, name, None)
+        if entry is not None:
+            c = np.broadcast_to(as_float_array(centre, name), (3,)).copy()
+            scale = entry.scale_si
+            out[name] = Normal(c, scale) if entry.distribution == "normal" else Uniform.centered(c, scale)
     return out

@@ -30,6 +30,18 @@ Controllers are those of the engine's compiled path: ``period``,
 h_body, inputs)``; the inputs (reference samples) are shared by all runs,
 so a controller with per-run state latched by ``prepare`` is refused.
 
+With an orbit environment (``environment=``, an
+:class:`attitude.environment.OrbitEnvironment`) every run flies it from the
+orbit's epoch: the environment's track (attitude-independent, shared by the
+runs) joins the shared tick columns, each run's surface parameters
+(``surface_parameters=``, dispersed drag scale, residual dipole and
+centre-of-pressure offset) join its tick state, and each tick adds the
+per-source disturbance torques of the run's attitude at the tick, held over
+it, to the external torque (:func:`attitude.simulation.kernel.disturbance_torques`),
+exactly as the single-run engine with ``environment=`` and
+``surface_parameters=``. Their histories are kept per source with the other
+histories.
+
 Metrics are reduced on the fly (no full histories unless asked):
 ``settling_time`` (first time after which the error angle stays at or below
 ``pointing_threshold``, as :meth:`SimulationResult.settling_time`), the
@@ -51,15 +63,16 @@ from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
+from attitude.environment.orbit_environment import SURFACE_PARAMETERS, OrbitEnvironment
 from attitude.rigid_body import RigidBody, symmetric_entries
 from attitude.simulation.codegen import CompilationError
 from attitude.simulation.engine import settling_time_after, ticks_per_period, whole_ticks
-from attitude.simulation.kernel import METRICS, CompiledTicks, command, observe
+from attitude.simulation.kernel import METRICS, CompiledTicks, command, disturbance_torques, environment_key, observe
 from attitude.simulation.plant import PlantModel
 from attitude.simulation.protocols import CompiledController
 from attitude.validation import as_float_array, check_positive
 
-__all__ = ["BATCH_CHUNK", "BatchResult", "closed_loop_metrics", "simulate_batch"]
+__all__ = ["BATCH_CHUNK", "BatchResult", "closed_loop_metrics", "environment_inputs", "simulate_batch"]
 
 #: Most spacecraft advanced together; larger batches are split (cache-sized component arrays).
 BATCH_CHUNK = 4096
@@ -84,7 +97,9 @@ class BatchResult:
         Times of the recorded histories [s] (every ``history_stride`` ticks).
     histories : dict of ndarray
         ``error_angle`` (N, k) [rad], ``omega`` (N, k, 3) [rad/s],
-        ``wheel_speed`` (N, k, n_wheels) [rad/s]; empty without a stride.
+        ``wheel_speed`` (N, k, n_wheels) [rad/s] and, with an environment,
+        ``disturbance.<source>`` (N, k, 3) [N m] (each source's torque in body
+        axes, held from each sample's time); empty without a stride.
     info : dict
         Tick, substeps, chunk size, wall time [s].
     """
@@ -144,6 +159,8 @@ def simulate_batch(
     pointing_threshold: float = 0.0,
     history_stride: int | None = None,
     backend: str = "auto",
+    environment: OrbitEnvironment | None = None,
+    surface_parameters: ArrayLike | None = None,
 ) -> BatchResult:
     """Simulate ``N`` closed loops at once (module docstring).
 
@@ -180,6 +197,12 @@ def simulate_batch(
         compiler); "numpy": numpy operations on arrays of runs; "auto"
         (default): compiled when a compiler works, else numpy
         (``info["backend"]`` and ``info["backend_note"]`` say which and why).
+    environment : OrbitEnvironment, optional
+        The orbit every run flies from its epoch (module docstring); None: empty space.
+    surface_parameters : array_like (N, 7) or (7,), optional
+        Per-run surface parameters (:meth:`OrbitEnvironment.surface_parameters`:
+        drag scale, residual dipole [A m^2], centre-of-pressure offset [m]);
+        default the environment's nominal ones. Only with ``environment``.
 
     Returns
     -------
@@ -221,6 +244,7 @@ def simulate_batch(
 
     if backend not in ("auto", "compiled", "numpy"):
         raise ValueError(f"backend must be 'auto', 'compiled' or 'numpy', got {backend!r}")
+    surface = environment_inputs(environment, surface_parameters, n)
 
     t = np.arange(n_ticks + 1) * dt
     inputs = np.atleast_2d(as_float_array(controller.compiled_inputs(t), "controller.compiled_inputs(t)"))
@@ -228,13 +252,15 @@ def simulate_batch(
         raise ValueError(f"controller.compiled_inputs(t) must return shape (m, {t.size}), got {inputs.shape}")
     q_ref = np.asarray(controller.reference_samples(t)[0], float) if hasattr(controller, "reference_samples") else None
     plant = body if wheels is None else wheels.hub_body(body)
+    rows = None if environment is None else environment.track(t).columns()
     loop = _Loop(PlantModel(plant, wheels), controller, t, inputs, q_ref, every, substeps, pointing_threshold, stride)
+    loop.environment, loop.rows = environment, rows
 
     start = time.perf_counter()
     ticks, note = None, None
     if backend != "numpy":
         try:
-            ticks = _compiled_ticks(wheels, controller, inputs.shape[0], q_ref is not None, substeps)
+            ticks = _compiled_ticks(wheels, controller, inputs.shape[0], q_ref is not None, substeps, environment)
         except CompilationError as exc:
             if backend == "compiled":
                 raise
@@ -253,6 +279,8 @@ def simulate_batch(
         histories = {"error_angle": np.empty((n, k_rec)), "omega": np.empty((n, k_rec, 3))}
         if wheels is not None:
             histories["wheel_speed"] = np.empty((n, k_rec, n_w))
+        for source in () if environment is None else environment.sources:
+            histories[f"disturbance.{source}"] = np.empty((n, k_rec, 3))
     x0 = np.concatenate([q0, omega0, h0], axis=1)
     ext = np.zeros((n, 3)) if tau_ext is None else tau_ext
     chunk = n if ticks is not None else BATCH_CHUNK
@@ -262,10 +290,12 @@ def simulate_batch(
         sl = slice(lo, min(lo + size, n))
         chunk_plant = plant if not plant.batch_shape else RigidBody(plant.inertia[sl])
         with np.errstate(all="ignore"):  # a diverging run turns NaN; it is reported, the others go on
+            chunk_surface = None if surface is None else surface[sl]
             if ticks is None:
-                x, acc, err, recorded = loop.run_numpy(chunk_plant, x0[sl], None if tau_ext is None else ext[sl])
+                ext_chunk = None if tau_ext is None else ext[sl]
+                x, acc, err, recorded = loop.run_numpy(chunk_plant, x0[sl], ext_chunk, chunk_surface)
             else:
-                x, acc, err, recorded = loop.run_compiled(ticks, chunk_plant, x0[sl], ext[sl])
+                x, acc, err, recorded = loop.run_compiled(ticks, chunk_plant, x0[sl], ext[sl], chunk_surface)
         _store(t, acc, err, sl, metrics, diverged)
         final[sl] = np.stack(np.broadcast_arrays(*x), axis=-1)
         for name, rows in recorded.items():
@@ -279,24 +309,79 @@ def simulate_batch(
         "compile_s": compile_s,
         "wall_time_s": time.perf_counter() - start,
     }
+    if environment is not None:
+        info["environment"] = environment.describe()
     return BatchResult(t, metrics, final[:, :4], final[:, 4:7], final[:, 7:], diverged, history_t, histories, info=info)
+
+
+def environment_inputs(
+    environment: OrbitEnvironment | None, surface_parameters: ArrayLike | None, n: int
+) -> NDArray[np.float64] | None:
+    """The per-run surface parameters ``(n, 7)`` of a batch in orbit, checked; None without an environment.
+
+    Parameters
+    ----------
+    environment : OrbitEnvironment or None
+        The environment flown.
+    surface_parameters : array_like (n, 7) or (7,), optional
+        Per-run surface parameters (:data:`attitude.environment.SURFACE_PARAMETERS`);
+        default the environment's nominal ones.
+    n : int
+        Number of runs.
+
+    Returns
+    -------
+    ndarray (n, 7) or None
+
+    Raises
+    ------
+    ValueError
+        For an environment that is not an OrbitEnvironment, surface
+        parameters without an environment, of the wrong shape, or with a
+        negative drag scale.
+    """
+    if environment is None:
+        if surface_parameters is not None:
+            raise ValueError(
+                "surface_parameters need an environment: give environment=OrbitEnvironment(...) or leave "
+                "surface_parameters out"
+            )
+        return None
+    if not isinstance(environment, OrbitEnvironment):
+        raise ValueError(f"environment must be an OrbitEnvironment or None, got {type(environment).__name__}")
+    width = len(SURFACE_PARAMETERS)
+    if surface_parameters is None:
+        surface_parameters = environment.surface_parameters()
+    surface = _batch(surface_parameters, f"surface_parameters {SURFACE_PARAMETERS}", width, n)
+    negative = surface[:, 0] < 0.0
+    if np.any(negative):
+        raise ValueError(
+            f"surface_parameters drag_scale (column 0) must be >= 0, got {float(surface[negative, 0][0])!r} "
+            f"(run {int(np.argmax(negative))})"
+        )
+    return surface
 
 
 _TICKS_CACHE: dict[bytes, CompiledTicks] = {}
 _TICKS_LOCK = threading.Lock()
 
 
-def _compiled_ticks(wheels: Any, controller: Any, n_inputs: int, has_reference: bool, substeps: int) -> CompiledTicks:
+def _compiled_ticks(
+    wheels: Any, controller: Any, n_inputs: int, has_reference: bool, substeps: int, environment: Any = None
+) -> CompiledTicks:
     """One :class:`CompiledTicks` per loop structure in a process (the library itself is cached on disk).
 
-    Thread-safe: a Dask worker may run several batches in threads at once.
+    The environment enters the key by what the kernel builds in
+    (:func:`attitude.simulation.kernel.environment_key`: sources, plates,
+    ``mu``), never by its track, which is an input. Thread-safe: a Dask
+    worker may run several batches in threads at once.
     """
-    key = pickle.dumps((wheels, controller, n_inputs, has_reference, substeps))
+    key = pickle.dumps((wheels, controller, n_inputs, has_reference, substeps, environment_key(environment)))
     with _TICKS_LOCK:
         if key not in _TICKS_CACHE:
             if len(_TICKS_CACHE) >= 4:  # a few loop structures at a time; keep memory flat
                 _TICKS_CACHE.pop(next(iter(_TICKS_CACHE)))
-            _TICKS_CACHE[key] = CompiledTicks(wheels, controller, n_inputs, has_reference, substeps)
+            _TICKS_CACHE[key] = CompiledTicks(wheels, controller, n_inputs, has_reference, substeps, environment)
         return _TICKS_CACHE[key]
 
 
@@ -319,50 +404,74 @@ class _Loop:
     def __init__(self, model, controller, t, inputs, q_ref, every, substeps, threshold, stride) -> None:
         self.model, self.controller, self.t, self.inputs, self.q_ref = model, controller, t, inputs, q_ref
         self.every, self.substeps, self.threshold, self.stride = every, substeps, threshold, stride
+        self.environment: OrbitEnvironment | None = None
+        self.rows: NDArray[np.float64] | None = None  # (15, n_ticks + 1) track columns with an environment
+
+    def _disturbance(self, model, x, k, surface) -> tuple:
+        """Per-source torques and their sum at tick ``k`` (numpy on arrays of runs)."""
+        row = [float(v) for v in self.rows[:, k]]
+        return disturbance_torques(self.environment, model.body, x[:4], row, surface)
 
     def _start(self, n: int) -> list:
         return [np.zeros(n), np.zeros(n), np.full(n, -np.inf), np.full(n, np.inf)]
 
-    def _observe(self, model, x, k, acc, recorded) -> tuple[list, Any]:
+    def _observe(self, model, x, k, acc, recorded, surface=None, torques=None) -> tuple[list, Any]:
         q_ref = None if self.q_ref is None else [float(v) for v in self.q_ref[k]]
         acc, err, speeds = observe(model, x, q_ref, self.threshold, float(k), float(self.t[k]), acc)
         if self.stride and k % self.stride == 0:
-            recorded.setdefault("error_angle", []).append(np.broadcast_to(err, acc[0].shape))
+            shape = np.shape(acc[0])
+            recorded.setdefault("error_angle", []).append(np.broadcast_to(err, shape))
             recorded.setdefault("omega", []).append(np.stack(np.broadcast_arrays(*x[4:7]), axis=-1))
             if speeds:
                 recorded.setdefault("wheel_speed", []).append(np.stack(np.broadcast_arrays(*speeds), axis=-1))
+            if self.environment is not None:
+                if torques is None:
+                    torques, _ = self._disturbance(model, x, k, surface)
+                for source, tau in torques.items():
+                    rows = np.stack([np.broadcast_to(c, shape) for c in tau], axis=-1)
+                    recorded.setdefault(f"disturbance.{source}", []).append(rows)
         return acc, err
 
-    def run_numpy(self, plant: RigidBody, x0: NDArray, ext: NDArray | None) -> tuple:
+    def run_numpy(self, plant: RigidBody, x0: NDArray, ext: NDArray | None, surface: NDArray | None = None) -> tuple:
         """Every tick as numpy operations on arrays of runs."""
         model = PlantModel(plant, self.model.wheels)
         n_ticks = self.t.size - 1
         dt = self.t[1] - self.t[0]
         x = [np.ascontiguousarray(x0[:, i]) for i in range(x0.shape[1])]
         ext_c = None if ext is None else [np.ascontiguousarray(ext[:, i]) for i in range(3)]
+        surface_c = None if surface is None else [np.ascontiguousarray(surface[:, i]) for i in range(surface.shape[1])]
         acc, recorded, u = self._start(x0.shape[0]), {}, []
         for k in range(n_ticks + 1):
             if k % self.every == 0:
                 u = command(model, self.controller, x, [float(v) for v in self.inputs[:, k]])
-            acc, err = self._observe(model, x, k, acc, recorded)
+            tau_ext, torques = ext_c, None
+            if self.environment is not None:
+                torques, total = self._disturbance(model, x, k, surface_c)
+                tau_ext = total if ext_c is None else [a + b for a, b in zip(ext_c, total)]
+            acc, err = self._observe(model, x, k, acc, recorded, surface_c, torques)
             if k == n_ticks:
                 break
-            x = model.hold_step(x, u, ext_c, dt, self.substeps)
+            x = model.hold_step(x, u, tau_ext, dt, self.substeps)
         return x, acc, err, recorded
 
-    def run_compiled(self, ticks: CompiledTicks, plant: RigidBody, x0: NDArray, ext: NDArray) -> tuple:
+    def run_compiled(
+        self, ticks: CompiledTicks, plant: RigidBody, x0: NDArray, ext: NDArray, surface: NDArray | None = None
+    ) -> tuple:
         """Ticks in compiled calls; the last tick's metrics and the history samples by numpy."""
         n, n_ticks = x0.shape[0], self.t.size - 1
         inertia = np.broadcast_to(plant.inertia, (n, 3, 3))
         inverse = np.broadcast_to(plant.inertia_inv, (n, 3, 3))
         z = np.concatenate(
             [x0, np.zeros((n, ticks.n_u)), np.stack(self._start(n), axis=1), symmetric_entries(inertia),
-             symmetric_entries(inverse), ext], axis=1,
+             symmetric_entries(inverse), ext, *([] if surface is None else [surface])], axis=1,
         )  # fmt: skip
+        surface_c = None if surface is None else [np.ascontiguousarray(surface[:, i]) for i in range(surface.shape[1])]
         k = np.arange(n_ticks)
         columns = [self.inputs[:, :-1]]
         if self.q_ref is not None:
             columns.append(self.q_ref[:-1].T)
+        if self.rows is not None:
+            columns.append(self.rows[:, :-1])
         columns.append(np.stack([k, self.t[:-1], (k % self.every == 0), np.diff(self.t), np.full(n_ticks, 0.0)]))
         columns = np.concatenate(columns, axis=0)
         columns[-1] = self.threshold
@@ -371,10 +480,10 @@ class _Loop:
         model = PlantModel(plant, self.model.wheels)
         for a, b in zip(stops, [*stops[1:], n_ticks]):
             if self.stride:
-                self._observe(model, [z[:, i] for i in range(ticks.n_x)], a, self._start(n), recorded)
+                self._observe(model, [z[:, i] for i in range(ticks.n_x)], a, self._start(n), recorded, surface_c)
             z = ticks.advance(z, columns[:, a:b])
         x = [np.ascontiguousarray(z[:, i]) for i in range(ticks.n_x)]
         off = ticks.n_x + ticks.n_u
         acc = [np.ascontiguousarray(z[:, off + i]) for i in range(len(METRICS))]
-        acc, err = self._observe(model, x, n_ticks, acc, recorded)
+        acc, err = self._observe(model, x, n_ticks, acc, recorded, surface_c)
         return x, acc, err, recorded

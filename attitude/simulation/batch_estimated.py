@@ -16,7 +16,11 @@ time, in the order of the single-run engine's Python path
 4. at controller samples, the control law's ``torque_components`` on the
    *estimate* (and the wheel momentum of the truth, as the engine), allocated
    to the wheels on the true wheel speeds, then held;
-5. the plant's hold step: compiled to C (:class:`CompiledHold`) or numpy.
+5. the plant's hold step: compiled to C (:class:`CompiledHold`) or numpy,
+   with, in orbit (``environment=``), the disturbance torques of the true
+   attitude at the tick held over it
+   (:func:`attitude.simulation.kernel.disturbance_torques`, numpy on the
+   arrays of runs) as the external torque, as the single-run engine.
 
 So run ``r`` of a batch is the single-run engine's run with the same
 generator, to rounding (the truth step is evaluated by C or numpy instead of
@@ -40,12 +44,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
+from attitude.environment.orbit_environment import OrbitEnvironment
 from attitude.rigid_body import RigidBody, symmetric_entries
 from attitude.rng import NormalStreams
 from attitude.sensors import GyroBatch, StarTracker
+from attitude.simulation.batch import environment_inputs
 from attitude.simulation.codegen import CompilationError
 from attitude.simulation.engine import ticks_per_period, whole_ticks
-from attitude.simulation.kernel import CompiledHold, command
+from attitude.simulation.kernel import CompiledHold, command, disturbance_torques
 from attitude.simulation.plant import PlantModel
 from attitude.simulation.protocols import BatchEstimator, CompiledController
 from attitude.validation import as_float_array, check_positive
@@ -72,6 +78,8 @@ def simulate_batch_estimated(
     substeps: int = 1,
     observer: Observer | None = None,
     backend: str = "auto",
+    environment: OrbitEnvironment | None = None,
+    surface_parameters: ArrayLike | None = None,
 ) -> dict[str, Any]:
     """Simulate ``N`` closed loops with a gyro, a star tracker and an estimator (module docstring).
 
@@ -108,13 +116,21 @@ def simulate_batch_estimated(
         ``observer(k, t_k, x (N, 7 + n_w), q_hat, omega_hat, updated)`` at every tick.
     backend : {"auto", "compiled", "numpy"}
         The truth step's evaluation (as :func:`attitude.simulation.batch.simulate_batch`).
+    environment : OrbitEnvironment, optional
+        The orbit every run flies from its epoch (module docstring); None: empty space.
+    surface_parameters : array_like (N, 7) or (7,), optional
+        Per-run surface parameters (:meth:`OrbitEnvironment.surface_parameters`);
+        default the environment's nominal ones. Only with ``environment``.
 
     Returns
     -------
     dict
         ``x`` (N, 7 + n_w) final true states, ``diverged_at`` (N,) [s] (NaN
         for runs that stayed finite), ``backend``, ``backend_note`` and
-        ``wall_time_s``.
+        ``wall_time_s``; with an environment, ``disturbance_torques``: the
+        last tick's torque per source (N, 3) [N m], and
+        ``disturbance_torque_peak``: each source's largest torque magnitude
+        over the run (N,) [N m].
     """
     if not isinstance(body, RigidBody) or len(body.batch_shape) != 1:
         raise ValueError("body must be a RigidBody holding a batch of inertias of shape (N,)")
@@ -143,9 +159,15 @@ def simulate_batch_estimated(
     if mounting is not None and mounting.shape != (n, 4):
         raise ValueError(f"tracker_mounting must have shape ({n}, 4), got {mounting.shape}")
 
+    surface = environment_inputs(environment, surface_parameters, n)
+
     t = np.arange(n_ticks + 1) * dt
     inputs = np.atleast_2d(as_float_array(controller.compiled_inputs(t), "controller.compiled_inputs(t)"))
     plant = wheels.hub_body(body)
+    rows = None if environment is None else environment.track(t).columns()
+    surface_c = None if surface is None else [np.ascontiguousarray(surface[:, i]) for i in range(surface.shape[1])]
+    torques: dict[str, NDArray[np.float64]] = {}
+    peaks = {} if environment is None else {s: np.zeros(n) for s in environment.sources}
     model = PlantModel(plant, wheels)
     hold, note = None, None
     if backend != "numpy":
@@ -183,23 +205,35 @@ def simulate_batch_estimated(
             estimate = [q_hat[:, i] for i in range(4)] + [w_hat[:, i] for i in range(3)]
             column = [float(v) for v in inputs[:, k]]
             u = np.stack(np.broadcast_arrays(*command(model, controller, xc, column, estimate)), axis=1)
+        tau_ext = None
+        if environment is not None:
+            row = [float(v) for v in rows[:, k]]
+            q_c = [np.ascontiguousarray(q_true[:, i]) for i in range(4)]
+            comps, tau_ext = disturbance_torques(environment, plant, q_c, row, surface_c)
+            torques = {s: np.stack(np.broadcast_arrays(*comps[s], q_c[0]), axis=1)[:, :3] for s in comps}
+            for s, tau in torques.items():
+                np.fmax(peaks[s], np.linalg.norm(tau, axis=1), out=peaks[s])
+            parameters[:, 12:15] = np.stack(np.broadcast_arrays(*tau_ext, q_c[0]), axis=1)[:, :3]
         if k == n_ticks:
             break
         with np.errstate(all="ignore"):
             if hold is not None:
                 x_next = hold.step(x, u, parameters, dt)
             else:
-                xn = model.hold_step([x[:, i] for i in range(x.shape[1])], list(u.T), None, dt, substeps)
+                xn = model.hold_step([x[:, i] for i in range(x.shape[1])], list(u.T), tau_ext, dt, substeps)
                 x_next = np.stack(np.broadcast_arrays(*xn), axis=1)
         bad = ~np.all(np.isfinite(x_next), axis=1)
         if np.any(bad):
             diverged_at[bad & np.isnan(diverged_at)] = t[k + 1]
             x_next[bad] = x[bad]  # frozen: the run is reported, the others go on
         x = x_next
-    return {
+    out = {
         "x": x,
         "diverged_at": diverged_at,
         "backend": "numpy" if hold is None else "compiled",
         "backend_note": note,
         "wall_time_s": time.perf_counter() - start,
     }
+    if environment is not None:
+        out.update(disturbance_torques=torques, disturbance_torque_peak=peaks)
+    return out

@@ -20,18 +20,30 @@ ticks, compiles the three to C (:mod:`attitude.simulation.codegen`) and maps the
 compiled functions over the runs: one call advances every run by up to 100
 ticks with no Python work in between.
 
-Tick state per run, ``z = [x (7 + n_w), u (n_u), metrics (4), parameters (15)]``;
+Tick state per run, ``z = [x (7 + n_w), u (n_u), metrics (4), parameters (15),
+surface (7, with an environment)]``;
 ``metrics = [rate_peak, wheel_speed_peak, last_above, diverged_at]``
 (``diverged_at`` is +inf while the run is finite); ``parameters`` are the six
 entries of the hub inertia and of its inverse
-(:func:`attitude.rigid_body.symmetric_entries`) and the external torque.
+(:func:`attitude.rigid_body.symmetric_entries`) and the external torque;
+``surface`` the run's surface parameters
+(:data:`attitude.environment.SURFACE_PARAMETERS`).
 Tick column (shared by all runs): ``c = [controller inputs (m), q_ref (4,
-when the controller has a reference), k, t_k, sample, dt, threshold]``.
+when the controller has a reference), track row (15, with an environment:
+:data:`attitude.environment.TRACK_COLUMNS`), k, t_k, sample, dt, threshold]``.
+
+With an orbit environment (:class:`attitude.environment.OrbitEnvironment`)
+the tick adds its disturbance torques (:func:`disturbance_torques`, the
+environment's backend-neutral ``torque_components`` on the hub body, the
+tick's attitude and track row and the run's surface parameters) to the
+external torque, evaluated at the tick and held over it, as the single-run
+engine (:mod:`attitude.simulation.orbit_flight`).
 """
 
 from __future__ import annotations
 
 import threading
+from collections.abc import Sequence
 from typing import Any
 
 import casadi as ca
@@ -40,12 +52,22 @@ from numpy.typing import NDArray
 
 from attitude import backend as bk
 from attitude import quaternion as quat
+from attitude.environment.orbit_environment import SURFACE_PARAMETERS, TRACK_COLUMNS
 from attitude.rigid_body import ParametricBody, split_components
 from attitude.simulation.codegen import compile_functions
 from attitude.simulation.plant import PlantModel
 from attitude.simulation.protocols import CompiledController
 
-__all__ = ["FOLDS", "METRICS", "CompiledHold", "CompiledTicks", "command", "observe"]
+__all__ = [
+    "FOLDS",
+    "METRICS",
+    "CompiledHold",
+    "CompiledTicks",
+    "command",
+    "disturbance_torques",
+    "environment_key",
+    "observe",
+]
 
 #: Order of the running metrics in the tick state.
 METRICS = ("rate_peak", "wheel_speed_peak", "last_above", "diverged_at")
@@ -119,6 +141,64 @@ def command(
     return model.command(tau, x)[0]
 
 
+def disturbance_torques(environment: Any, body: Any, q: list, row: Sequence[Any], surface: Sequence[Any]) -> tuple:
+    """The environment's disturbance torques per source and their sum, on components (numpy or casadi).
+
+    Parameters
+    ----------
+    environment : OrbitEnvironment
+        The orbit environment (its ``sources``).
+    body : RigidBody or ParametricBody
+        The hub body the plant flies (gravity gradient), as the single-run engine.
+    q : list of 4
+        Attitude ``q_BN`` at the tick.
+    row : sequence of 15
+        The tick's track row (:data:`attitude.environment.TRACK_COLUMNS`).
+    surface : sequence of 7
+        The run's surface parameters (:data:`attitude.environment.SURFACE_PARAMETERS`).
+
+    Returns
+    -------
+    tuple
+        ``(torques, total)``: a dict of list of 3 per source [N m] (in the
+        order of ``environment.sources``) and their sum (list of 3) [N m].
+    """
+    torques = environment.torque_components(body, q, row, surface)
+    total: list = [0.0, 0.0, 0.0]
+    for source in environment.sources:
+        total = [a + b for a, b in zip(total, torques[source])]
+    return torques, total
+
+
+def environment_key(environment: Any) -> Any:
+    """What of an environment is built into a compiled tick: sources, plates and ``mu``, not the track.
+
+    The track rows and the surface parameters are inputs of the tick, so
+    every orbit, field, atmosphere and epoch with the same sources, the same
+    plates and the same gravitational parameter shares one kernel.
+
+    Parameters
+    ----------
+    environment : OrbitEnvironment or None
+        The environment flown (None: no environment).
+
+    Returns
+    -------
+    tuple or None
+        ``(sources, plates or None, mu)``; None without an environment.
+    """
+    if environment is None:
+        return None
+    surface = environment.surface
+    plates = None
+    if surface is not None:
+        plates = tuple(
+            np.asarray(getattr(surface, name), dtype=float).tobytes()
+            for name in ("area_m2", "normal_B", "centre_of_pressure_B_m", "specular", "diffuse", "drag_coefficient")
+        )
+    return (tuple(environment.sources), plates, float(environment.orbit.mu))
+
+
 class CompiledTicks:
     """The closed-loop tick for one run compiled to C, mapped over ``n_runs`` (module docstring).
 
@@ -134,6 +214,8 @@ class CompiledTicks:
         Whether tick columns carry ``q_ref`` (error angles).
     substeps : int
         RK4 steps per tick.
+    environment : OrbitEnvironment, optional
+        Flown by every run (module docstring); None: none.
 
     Raises
     ------
@@ -142,28 +224,42 @@ class CompiledTicks:
     """
 
     def __init__(
-        self, wheels: Any, controller: CompiledController, n_inputs: int, has_reference: bool, substeps: int
+        self,
+        wheels: Any,
+        controller: CompiledController,
+        n_inputs: int,
+        has_reference: bool,
+        substeps: int,
+        environment: Any = None,
     ) -> None:
+        n_row = 0 if environment is None else len(TRACK_COLUMNS)
+        n_surface = 0 if environment is None else len(SURFACE_PARAMETERS)
         self.n_w = 0 if wheels is None else wheels.n_wheels
         self.n_x = 7 + self.n_w
         self.n_u = self.n_w if wheels is not None else 3
-        self.n_z = self.n_x + self.n_u + len(METRICS) + 15
-        self.n_c = n_inputs + (4 if has_reference else 0) + 5
+        self.n_z = self.n_x + self.n_u + len(METRICS) + 15 + n_surface
+        self.n_c = n_inputs + (4 if has_reference else 0) + n_row + 5
         z = ca.SX.sym("z", self.n_z)
         c = ca.SX.sym("c", self.n_c)
         zs, cs = split_components(z, self.n_z), split_components(c, self.n_c)
         x = zs[: self.n_x]
         u_held = zs[self.n_x : self.n_x + self.n_u]
         acc = zs[self.n_x + self.n_u : self.n_x + self.n_u + len(METRICS)]
-        p = zs[self.n_z - 15 :]
+        p = zs[self.n_z - 15 - n_surface : self.n_z - n_surface]
+        surface = zs[self.n_z - n_surface :]
         q_ref = cs[n_inputs : n_inputs + 4] if has_reference else None
         k, t_k, sample, dt, threshold = cs[self.n_c - 5 :]
         model = PlantModel(ParametricBody(p[:6], p[6:12]), wheels)
         acc_next, _, _ = observe(model, x, q_ref, threshold, k, t_k, acc)
         u_new = command(model, controller, x, cs[:n_inputs])
         u = [bk.if_else(sample > 0.5, a, b) for a, b in zip(u_new, u_held)]
-        x_next = model.hold_step(x, u, p[12:15], dt, substeps)
-        tick = ca.Function("tick1", [z, c], [ca.vertcat(*x_next, *u, *acc_next, *p)])
+        tau_ext = p[12:15]
+        if environment is not None:
+            row = cs[self.n_c - 5 - n_row : self.n_c - 5]
+            _, total = disturbance_torques(environment, model.body, x[:4], row, surface)
+            tau_ext = [a + b for a, b in zip(tau_ext, total)]
+        x_next = model.hold_step(x, u, tau_ext, dt, substeps)
+        tick = ca.Function("tick1", [z, c], [ca.vertcat(*x_next, *u, *acc_next, *p, *surface)])
         functions = [tick]
         for n in FOLDS:
             zm, cm = ca.MX.sym("z", self.n_z), ca.MX.sym("c", self.n_c, n)

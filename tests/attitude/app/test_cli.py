@@ -623,3 +623,15 @@ def test_hopelessly_weak_wheels_fail_fast_with_the_reason(tmp_path):
     proc = run_attitude("design", str(path), "--quick", "--out", str(tmp_path / "out"), cwd=tmp_path, timeout=120)
     assert proc.returncode == 1, proc.stderr[-2000:]
     assert "cannot make this slew in time" in (tmp_path / "out" / "report.md").read_text()
+
+
+def test_montecarlo_flies_the_environment_on_request(tmp_path, capsys):
+    """--environment: every run in the file's orbit (the disturbance peaks are metrics); a file without one: exit 2."""
+    args = ["--guidance", "eigenaxis", "--no-keep-out", "--runs", "2", "--duration-s", "5", "--workers", "1"]
+    assert main(["montecarlo", *args, "--environment", "--json", "--out", str(tmp_path / "mc")]) in (0, 1)
+    stats = json.loads(capsys.readouterr().out)
+    assert "disturbance_torque_peak.magnetic" in json.dumps(stats)
+    code = main(["montecarlo", str(SECOND), *args, "--environment", "--out", str(tmp_path / "second")])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "--environment: environment=True flies" in err and "no [orbit] table" in err

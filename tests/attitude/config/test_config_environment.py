@@ -19,6 +19,7 @@ What each group checks against:
 from __future__ import annotations
 
 import copy
+import dataclasses
 import re
 import tomllib
 
@@ -527,3 +528,73 @@ def test_tle_checksum_by_hand():
     digits = sum(int(c) for c in TLE_1[:68] if c.isdigit()) + TLE_1[:68].count("-")
     assert _tle_checksum(TLE_1) == digits % 10 == int(TLE_1[68])
     assert _tle_checksum(TLE_2) == int(TLE_2[68])
+
+
+# ---------------------------------------------------------------------------
+# [montecarlo] surface dispersions (flown with the orbit environment)
+
+_SURFACE_DISPERSIONS = {
+    "drag_scale": {"distribution": "normal", "sigma_percent": 10.0},
+    "residual_dipole": {"distribution": "uniform", "half_width_Am2": 0.004},
+    "centre_of_pressure_offset": {"distribution": "normal", "sigma_m": 0.005},
+}
+
+
+def _with_surface_dispersions(**tables):
+    data = _with(**tables)
+    data["montecarlo"].update(copy.deepcopy(_SURFACE_DISPERSIONS))
+    return data
+
+
+def test_surface_dispersions_read_in_their_units_and_round_trip():
+    config = _load(_with_surface_dispersions())
+    mc = config.montecarlo
+    assert (mc.drag_scale.distribution, mc.drag_scale.scale, mc.drag_scale.unit) == ("normal", 10.0, "percent")
+    assert mc.drag_scale.scale_si == pytest.approx(0.10)
+    assert (mc.residual_dipole.distribution, mc.residual_dipole.scale_si) == ("uniform", 0.004)  # A m^2
+    assert mc.centre_of_pressure_offset.scale_si == 0.005  # m
+    assert parse_config(config_to_toml(config)) == config
+    # Left out (the default file): None, and the file writes none of them.
+    assert default_config().montecarlo.drag_scale is None
+    assert "drag_scale" not in config_to_toml(default_config())
+
+
+@pytest.mark.parametrize(
+    ("change", "key", "rule"),
+    [
+        (("drag_scale", {"distribution": "normal", "sigma_percent": 100.0}), "montecarlo.drag_scale.sigma_percent",
+         r"must be below 100 percent \(the drag coefficients must stay positive\), got 100.0"),
+        (("residual_dipole", {"distribution": "normal", "sigma_Am2": -1.0}), "montecarlo.residual_dipole.sigma_Am2",
+         r"must be non-negative \(>= 0\) \[A m\^2\], got -1.0"),
+        (("centre_of_pressure_offset", {"distribution": "normal", "half_width_m": 0.01}),
+         "montecarlo.centre_of_pressure_offset.half_width_m", r"only with distribution = 'uniform'"),
+        (("drag_scale", {"distribution": "uniform_so3"}), "montecarlo.drag_scale.distribution", r"uniform_so3"),
+    ],
+)  # fmt: skip
+def test_surface_dispersions_refuse_bad_values_naming_the_key(change, key, rule):
+    data = _with_surface_dispersions()
+    data["montecarlo"][change[0]] = change[1]
+    with pytest.raises(ConfigError, match=rf"{re.escape(key)}: .*{rule}"):
+        _load(data)
+
+
+@pytest.mark.parametrize(("missing", "table"), [("surface", "a [surface] table"), ("orbit", "an [orbit] table")])
+def test_surface_dispersions_need_an_orbit_and_a_surface(missing, table):
+    data = _with_surface_dispersions(**{missing: None})
+    if missing == "orbit":  # the tables and models that need an orbit go with it
+        for name in ("magnetorquers", "magnetometer", "detumble", "momentum"):
+            data.pop(name)
+        data["environment"] = {"sun_direction_N": data["environment"]["sun_direction_N"]}
+    data["environment"].pop("sources", None)
+    with pytest.raises(
+        ConfigError, match=rf"montecarlo\.drag_scale: needs {re.escape(table)} \(it disperses the surface"
+    ):
+        _load(data)
+
+
+def test_surface_dispersions_leave_the_rest_of_the_file_as_it_was():
+    """Reading the new keys must not disturb the other fields (the spacecraft name, the tables)."""
+    with_them = _load(_with_surface_dispersions())
+    plain = default_config()
+    assert with_them.name == plain.name
+    assert dataclasses.replace(with_them, montecarlo=plain.montecarlo, source=plain.source) == plain
