@@ -256,8 +256,15 @@ class ReactionWheels:
             If ``I_s`` is not a valid inertia (e.g. the wheels' spin inertia
             exceeds the body's).
         """
-        inertia = body.inertia - np.einsum("i,ij,ik->jk", self.spin_inertia, self.axes_B, self.axes_B)
-        return RigidBody(inertia)
+        return RigidBody(body.inertia - self.spin_inertia_tensor())
+
+    def spin_inertia_tensor(self) -> NDArray[np.float64]:
+        """The wheels' spin-axis inertia in body axes, ``sum J_i a_i a_i^T`` [kg m^2] (3, 3).
+
+        The hub body lacks it (:meth:`hub_body`); the gravity gradient acts on
+        the whole spacecraft, wheels included, so the environment adds it back.
+        """
+        return np.einsum("i,ij,ik->jk", self.spin_inertia, self.axes_B, self.axes_B)
 
     def wheel_speed(self, h: ArrayLike, omega: ArrayLike) -> NDArray[np.float64]:
         """Wheel speeds relative to the body ``Omega = h/J - a . omega`` [rad/s] (numpy).

@@ -410,7 +410,10 @@ class _Loop:
     def _disturbance(self, model, x, k, surface) -> tuple:
         """Per-source torques and their sum at tick ``k`` (numpy on arrays of runs)."""
         row = [float(v) for v in self.rows[:, k]]
-        return disturbance_torques(self.environment, model.body, x[:4], row, surface)
+        whole = model.body
+        if model.wheels is not None:  # gravity gradient on the whole spacecraft, wheels included
+            whole = RigidBody(model.body.inertia + model.wheels.spin_inertia_tensor())
+        return disturbance_torques(self.environment, whole, x[:4], row, surface)
 
     def _start(self, n: int) -> list:
         return [np.zeros(n), np.zeros(n), np.full(n, -np.inf), np.full(n, np.inf)]

@@ -209,7 +209,7 @@ def simulate_batch_estimated(
         if environment is not None:
             row = [float(v) for v in rows[:, k]]
             q_c = [np.ascontiguousarray(q_true[:, i]) for i in range(4)]
-            comps, tau_ext = disturbance_torques(environment, plant, q_c, row, surface_c)
+            comps, tau_ext = disturbance_torques(environment, body, q_c, row, surface_c)
             torques = {s: np.stack(np.broadcast_arrays(*comps[s], q_c[0]), axis=1)[:, :3] for s in comps}
             for s, tau in torques.items():
                 np.fmax(peaks[s], np.linalg.norm(tau, axis=1), out=peaks[s])

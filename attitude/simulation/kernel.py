@@ -53,7 +53,7 @@ from numpy.typing import NDArray
 from attitude import backend as bk
 from attitude import quaternion as quat
 from attitude.environment.orbit_environment import SURFACE_PARAMETERS, TRACK_COLUMNS
-from attitude.rigid_body import ParametricBody, split_components
+from attitude.rigid_body import ParametricBody, split_components, symmetric_entries
 from attitude.simulation.codegen import compile_functions
 from attitude.simulation.plant import PlantModel
 from attitude.simulation.protocols import CompiledController
@@ -149,7 +149,8 @@ def disturbance_torques(environment: Any, body: Any, q: list, row: Sequence[Any]
     environment : OrbitEnvironment
         The orbit environment (its ``sources``).
     body : RigidBody or ParametricBody
-        The hub body the plant flies (gravity gradient), as the single-run engine.
+        The whole spacecraft, wheels included (gravity gradient acts on the
+        wheels' spin inertia too), as the single-run engine.
     q : list of 4
         Attitude ``q_BN`` at the tick.
     row : sequence of 15
@@ -256,7 +257,10 @@ class CompiledTicks:
         tau_ext = p[12:15]
         if environment is not None:
             row = cs[self.n_c - 5 - n_row : self.n_c - 5]
-            _, total = disturbance_torques(environment, model.body, x[:4], row, surface)
+            whole = p[:6]
+            if wheels is not None:  # the hub plus the wheels' spin inertia
+                whole = [a + float(b) for a, b in zip(p[:6], symmetric_entries(wheels.spin_inertia_tensor()))]
+            _, total = disturbance_torques(environment, ParametricBody(whole, p[6:12]), x[:4], row, surface)
             tau_ext = [a + b for a, b in zip(tau_ext, total)]
         x_next = model.hold_step(x, u, tau_ext, dt, substeps)
         tick = ca.Function("tick1", [z, c], [ca.vertcat(*x_next, *u, *acc_next, *p, *surface)])

@@ -38,7 +38,8 @@ class OrbitFlight:
         The orbit and its models; None: no environment (magnetorquers then
         have no field to push against and are refused).
     body : RigidBody
-        The plant body (gravity gradient).
+        The whole spacecraft, wheels included (the gravity gradient acts on the
+        wheels' spin inertia as well as on the hub).
     t : ndarray (n,)
         The engine's tick times [s] since the orbit's epoch.
     surface_parameters : array_like (7,), optional

@@ -291,3 +291,35 @@ def test_bad_environment_arguments_name_the_argument_the_rule_and_the_value():
     bad[1, 0] = -0.5
     with pytest.raises(ValueError, match=r"drag_scale \(column 0\) must be >= 0, got -0.5 \(run 1\)"):
         simulate_batch(RigidBody(inertia), q0, omega0, 1.0, environment=ENVIRONMENT, surface_parameters=bad, **common)
+
+
+@pytest.mark.parametrize("backend", ["compiled", "numpy"])
+def test_gravity_gradient_acts_on_the_wheels_spin_inertia_too(backend):
+    """Orthogonal wheels of unequal spin inertia (sum J a a^T not isotropic): the batch's gravity gradient
+    is the single-run engine's, on the whole spacecraft, and differs from the hub body's.
+
+    Gravity gradient ``3 mu / r^5 r x (I r)`` (Wie, *Space Vehicle Dynamics and Control*, sec. 6.4) with
+    ``I`` the whole spacecraft: the rotors spin about their axes but their mass distribution still feels
+    the gradient. A pyramid at the magic angle hides the difference (its sum J a a^T is a multiple of 1,
+    which adds no torque), so these wheels are deliberately unequal.
+    """
+    from attitude.actuators import ReactionWheels
+
+    wheels = ReactionWheels.orthogonal(spin_inertia=[0.01, 0.05, 0.3], torque_max=0.05, momentum_max=1.0)
+    body = RigidBody(np.diag([8.0, 10.0, 4.0]))
+    env = OrbitEnvironment(CircularOrbit.from_altitude(500e3), sources=("gravity_gradient",), atmosphere=None)
+    q0 = quat.from_rotation_vector(np.array([[0.3, -0.2, 0.5], [0.1, 0.4, -0.3]]))
+    pd = QuaternionPD.from_bandwidth(body, wn=0.3, zeta=0.8, period=0.1, q_ref=q0[0], gyroscopic=True)
+    common = dict(controller=pd, wheels=wheels, dt=0.1, environment=env)
+    batch = simulate_batch(body, q0, np.zeros(3), 20.0, history_stride=1, backend=backend, **common)
+    for i in range(2):
+        single = simulate(body, q0[i], np.zeros(3), 20.0, **common)
+        tau = single.disturbance_torques["gravity_gradient"]
+        # Rounding only, as the test above.
+        np.testing.assert_allclose(
+            batch.histories["disturbance.gravity_gradient"][i], tau, atol=1e-12 * np.abs(tau).max()
+        )
+        np.testing.assert_allclose(batch.q[i], single.q[-1], atol=1e-13)
+        # The hub body's torque differs at the percent level: the check above can tell them apart.
+        hub = env.torques_B(wheels.hub_body(body), single.q, env.track(single.t))["gravity_gradient"]
+        assert np.max(np.abs(hub - tau)) > 1e-3 * np.abs(tau).max()
