@@ -578,9 +578,11 @@ def plot_flip(
 def plot_simulation(result: SimulationData) -> Figure:
     """The standard review figure of a closed-loop run.
 
-    Four panels: attitude error to the controller's reference [deg] on a
-    log scale, body rates [deg/s], commanded and applied body torques [mN m],
-    and wheel speeds [rpm] with their limits when wheels are present.
+    Panels: attitude error to the controller's reference [deg] on a log
+    scale, body rates [deg/s], commanded and applied body torques [mN m],
+    wheel speeds [rpm] with their limits when wheels are present, and in
+    orbit the disturbance torques per source [uN m] and the magnetorquers'
+    commanded and delivered dipole [A m^2].
 
     Parameters
     ----------
@@ -593,8 +595,12 @@ def plot_simulation(result: SimulationData) -> Figure:
     """
     t = result.t
     has_wheels = result.wheel_speed.shape[-1] > 0
-    fig = Figure(figsize=(10, 10 if has_wheels else 8), layout="constrained")
-    axes = fig.subplots(4 if has_wheels else 3, 1, sharex=True)
+    disturbances = getattr(result, "disturbance_torques", {}) or {}
+    dipole = getattr(result, "dipole", np.zeros((0, 3)))
+    has_rods = dipole.shape[0] == t.size
+    n_panels = 3 + has_wheels + bool(disturbances) + has_rods
+    fig = Figure(figsize=(10, 2.4 * n_panels + 0.8), layout="constrained")
+    axes = fig.subplots(n_panels, 1, sharex=True)
     err_deg = np.degrees(result.error_angle)
     floor = 1e-9  # deg; below this the error is at rounding level for any realistic pointing
     axes[0].semilogy(t, np.maximum(err_deg, floor), color="black")
@@ -623,6 +629,24 @@ def plot_simulation(result: SimulationData) -> Figure:
                 axes[3].axhline(-lim, color="red", ls="--", lw=0.8)
         axes[3].set_ylabel("wheel speed [rpm]")
         axes[3].legend(loc="upper right", ncols=4, fontsize=8)
+    k = 3 + has_wheels
+    if disturbances:
+        for source, tau in disturbances.items():
+            magnitude = 1e6 * np.linalg.norm(tau, axis=-1)
+            axes[k].semilogy(t, np.where(magnitude > 0.0, magnitude, np.nan), label=source.replace("_", " "))
+        if has_rods:
+            rods = 1e6 * np.linalg.norm(result.torque_magnetorquer, axis=-1)
+            axes[k].semilogy(t, np.where(rods > 0.0, rods, np.nan), color="black", lw=0.8, label="magnetorquers")
+        axes[k].set_ylabel("external torque [uN m]")
+        axes[k].set_title("disturbance torques per source (magnitude; none drawn where zero)", fontsize=10)
+        axes[k].legend(loc="upper right", ncols=5, fontsize=8)
+        k += 1
+    if has_rods:
+        for i, name in enumerate("xyz"):
+            axes[k].plot(t, dipole[:, i], color=AXIS_COLORS[i], label=f"$m_{name}$ delivered")
+            axes[k].plot(t, result.dipole_command[:, i], color=AXIS_COLORS[i], ls=":", label=f"$m_{name}$ commanded")
+        axes[k].set_ylabel("magnetic dipole [A m$^2$]")
+        axes[k].legend(loc="upper right", ncols=3, fontsize=8)
     axes[-1].set_xlabel("time [s]")
     for ax in axes:
         ax.grid(True, alpha=0.3)

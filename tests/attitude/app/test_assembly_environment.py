@@ -97,8 +97,8 @@ def test_detumble_auto_gain_by_hand():
     assert settings.gain_is_auto and settings.gain == pytest.approx(by_hand, rel=1e-12)
     assert settings.gain == pytest.approx(9.3e-4, rel=0.01)  # the default file's comment
     np.testing.assert_allclose(settings.tip_off_rate, np.radians([4.0, -3.0, 5.0]), rtol=1e-15)
-    assert settings.rate_threshold == pytest.approx(math.radians(1.0), rel=1e-15)
-    assert settings.duration_max == pytest.approx(6.0 * 2.0 * math.pi / n, rel=1e-12)
+    assert settings.rate_threshold == pytest.approx(math.radians(0.5), rel=1e-15)
+    assert settings.duration_max == pytest.approx(3.0 * 2.0 * math.pi / n, rel=1e-12)
     law = assembly.bdot_controller(CONFIG)
     assert isinstance(law, BDotController) and law.gain == settings.gain and law.period == 1.0
     assert law.law == "unit" and law.magnetorquers is not None

@@ -452,7 +452,7 @@ BAD = [
         "tip-off below the threshold",
         {"detumble.tip_off_rate_deg_per_s": 0.1},
         "detumble.tip_off_rate_deg_per_s",
-        ["faster than rate_threshold_deg_per_s = 1 deg/s"],
+        ["faster than rate_threshold_deg_per_s = 0.5 deg/s"],
     ),
     ("zero threshold", {"detumble.rate_threshold_deg_per_s": 0.0}, "detumble.rate_threshold_deg_per_s", ["[deg/s]"]),
     ("detumble without rods", {"magnetorquers": None}, "detumble", ["needs a [magnetorquers] table"]),
