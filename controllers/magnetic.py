@@ -74,7 +74,7 @@ def bdot_gain(orbit: Any, body: RigidBody, *, magnetic_inclination: float | None
     magnetic_inclination : float, optional
         ``xi_m`` [rad], in ``[0, pi]``. Default: the orbit's geographic
         inclination, which differs from ``xi_m`` by at most the dipole tilt
-        (about 9.7 deg for IGRF 2025) depending on the node.
+        (9.2 deg for IGRF-14 at 2025.5) depending on the node.
 
     Returns
     -------

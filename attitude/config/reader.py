@@ -606,6 +606,7 @@ def _read_orbit(r: _Reader, t: _Table) -> OrbitConfig:
         angles = {name: _angle(r, t, name) for name in ("raan_deg", "argument_of_latitude_deg")}
         config = OrbitConfig(altitude_km=altitude, inclination_deg=inclination, epoch_utc=_read_epoch(r, t), **angles)
         _try_build(r, t.path, lambda: build.circular_orbit(config))
+        _check_perigee(r, t.key("altitude_km"), altitude)
         return config
     # kepler
     by_altitudes = t.has("perigee_altitude_km") or t.has("apogee_altitude_km")
@@ -654,8 +655,24 @@ def _read_orbit(r: _Reader, t: _Table) -> OrbitConfig:
         epoch_utc=_read_epoch(r, t),
         **sizes,
     )
-    _try_build(r, t.path, lambda: build.kepler_orbit(config))
+    kepler = _try_build(r, t.path, lambda: build.kepler_orbit(config))
+    key = t.key("perigee_altitude_km" if by_altitudes else "semi_major_axis_km")
+    _check_perigee(r, key, kepler.perigee_altitude_m / 1000.0)
     return config
+
+
+#: Lowest perigee accepted [km]: the Karman line. Below it drag ends an orbit within a few revolutions
+#: (and the exponential atmosphere's 0-100 km bands describe air, not orbits).
+PERIGEE_ALTITUDE_MIN_KM = 100.0
+
+
+def _check_perigee(r: _Reader, key: str, perigee_km: float) -> None:
+    if not perigee_km >= PERIGEE_ALTITUDE_MIN_KM:
+        raise r.error(
+            key,
+            f"must keep the perigee at least {PERIGEE_ALTITUDE_MIN_KM:g} km up (the Karman line: below it drag "
+            f"ends any orbit within a few revolutions), got a perigee altitude of {perigee_km:.6g} km",
+        )
 
 
 def _fraction(r: _Reader, t: _Table, name: str, default: float) -> float:
@@ -825,7 +842,16 @@ def _read_environment(
             **weather,
         )
     if orbit is not None:
-        _try_build(r, "environment", lambda: build.orbit_environment(orbit, config, surface))
+        env = _try_build(r, "environment", lambda: build.orbit_environment(orbit, config, surface))
+        if env is not None and env.magnetic_field is not None:
+            # The field model's coefficients cover a span of dates (IGRF-14: 1900-2030): refuse an epoch outside.
+            key = "orbit.tle_line1" if orbit.kind == "tle" else "orbit.epoch_utc"
+            _try_build(
+                r,
+                key,
+                lambda: env.magnetic_field.field_N(env.orbit.position_N(0.0)[None], env.epoch, np.zeros(1)),
+                context="the orbit's epoch is outside the geomagnetic field model: ",
+            )
     return config
 
 
@@ -1112,12 +1138,16 @@ def config_from_dict(data: Mapping[str, Any], file: str = "<config>") -> Spacecr
     torquers = None
     if tt is not None:
         torquers = _read_magnetorquers(r, tt)
-        _needs(r, "magnetorquers", magnetic, orbit=orbit is not None, **({} if orbit is None else {"field": field}))
+        _needs(r, "magnetorquers", magnetic, orbit=orbit is not None)
+        if orbit is not None and not field:
+            raise r.error("magnetorquers", "needs a magnetic field: environment.magnetic_field is 'none'")
     mt_ = top.table("magnetometer", required=False)
     magnetometer = None
     if mt_ is not None:
         magnetometer = _read_magnetometer(r, mt_)
-        _needs(r, "magnetometer", magnetic, orbit=orbit is not None, **({} if orbit is None else {"field": field}))
+        _needs(r, "magnetometer", magnetic, orbit=orbit is not None)
+        if orbit is not None and not field:
+            raise r.error("magnetometer", "needs a magnetic field: environment.magnetic_field is 'none'")
     dt = top.table("detumble", required=False)
     detumble = None
     if dt is not None:

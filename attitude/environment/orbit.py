@@ -879,6 +879,10 @@ class TLEOrbit:
         """The TLE's epoch (UTC), the ``t = 0`` of :meth:`position_N`."""
         return self._epoch
 
+    def __reduce__(self) -> tuple:
+        # sgp4's compiled Satrec does not pickle: rebuild from the two lines (Monte Carlo worker processes).
+        return (type(self), (self.line1, self.line2))
+
     @property
     def mu(self) -> float:
         """Earth's gravitational parameter for the gravity gradient [m^3/s^2] (WGS-84; SGP4 uses WGS-72's inside)."""

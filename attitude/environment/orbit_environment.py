@@ -59,6 +59,7 @@ from attitude.validation import as_float_array, check_positive, check_vector
 __all__ = [
     "DISTURBANCE_SOURCES",
     "EARTH_ROTATION_RATE",
+    "SAMPLES_PER_ORBIT_MIN",
     "SURFACE_PARAMETERS",
     "TRACK_COLUMNS",
     "EnvironmentTrack",
@@ -98,6 +99,10 @@ SURFACE_PARAMETERS = (
 )
 
 _ECLIPSE_MODELS = ("conical", "cylindrical", "none")
+
+#: Fewest track samples per orbit: a chord of 1/100 of a circle is within 5e-4 of the arc, and the
+#: torques follow the quantities linearly, so the interpolated track stays within that of the truth.
+SAMPLES_PER_ORBIT_MIN = 100
 
 
 @dataclass(frozen=True)
@@ -219,7 +224,18 @@ class OrbitEnvironment:
                 "or fly sources=('gravity_gradient',)"
             )
         object.__setattr__(self, "sources", sources)
-        object.__setattr__(self, "sample_period", float(check_positive(self.sample_period, "sample_period")))
+        period = float(check_positive(self.sample_period, "sample_period"))
+        if period > self.orbit.period / SAMPLES_PER_ORBIT_MIN:
+            raise ValueError(
+                f"sample_period must be at most 1/{SAMPLES_PER_ORBIT_MIN} of the orbit period "
+                f"({self.orbit.period / SAMPLES_PER_ORBIT_MIN:.4g} s here: the track is interpolated linearly "
+                f"between samples), got {period!r} s"
+            )
+        if "magnetic" in sources and self.magnetic_field is None:
+            raise ValueError("sources 'magnetic' needs a magnetic_field model (got None)")
+        if "aerodynamic" in sources and self.atmosphere is None:
+            raise ValueError("sources 'aerodynamic' needs an atmosphere model (got None)")
+        object.__setattr__(self, "sample_period", period)
 
     @property
     def epoch(self) -> Any:

@@ -31,6 +31,7 @@ from attitude.analytic import flip_period, torque_free_motion
 from attitude.app import assembly
 from attitude.config import SpacecraftConfig
 from attitude.environment.gravity_gradient import gravity_gradient_stability
+from attitude.environment.orbit import CircularOrbit
 from attitude.plain import plain_float as _f
 from attitude.plain import plain_matrix as _mat
 from attitude.plain import plain_vector as _vec
@@ -162,6 +163,10 @@ def body_analysis(config: SpacecraftConfig, spin_rate_deg_per_s: float = DEFAULT
         tilt = axes_B[:, 1] + PERTURBATION * off_axis
         out["flip_period_s"] = _f(flip_period(body, spin * tilt / np.linalg.norm(tilt)))
     orbit = assembly.orbit(config)
+    if orbit is not None and not isinstance(orbit, CircularOrbit):
+        # The linear gravity-gradient analysis is about a circular orbit: the one of the same mean motion
+        # (for an eccentric orbit the libration is forced at the orbital rate, Wie sec. 6.4; this is its mean).
+        orbit = CircularOrbit((orbit.mu / orbit.mean_motion**2) ** (1.0 / 3.0), mu=orbit.mu)
     if orbit is not None:
         n = orbit.mean_motion
         mounted = _mounted_moments(axes_B, m)

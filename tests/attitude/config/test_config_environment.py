@@ -443,7 +443,25 @@ BAD = [
         "magnetometer without a field",
         {"environment.magnetic_field": "none", "environment.sources": ["gravity_gradient"]},
         "magnetorquers",
-        ["environment.magnetic_field must not be 'none'"],
+        ["needs a magnetic field: environment.magnetic_field is 'none'"],
+    ),
+    (
+        "perigee below the Karman line",
+        {"orbit.altitude_km": 50.0},
+        "orbit.altitude_km",
+        ["at least 100 km up", "50 km"],
+    ),
+    (
+        "epoch beyond the IGRF coefficients",
+        {"orbit.epoch_utc": "2040-03-20T12:00:00Z"},
+        "orbit.epoch_utc",
+        ["outside the geomagnetic field model", "span 1900-01-01 to 2030-01-01", "2040-03-20"],
+    ),
+    (
+        "track sampled too coarsely",
+        {"environment.sample_period_s": 4000.0},
+        "environment",
+        ["sample_period must be at most 1/100 of the orbit period", "4000"],
     ),
     # [detumble], [momentum]
     ("unknown gain word", {"detumble.gain_Nms": "fast"}, "detumble.gain_Nms", ["expected a number"]),
