@@ -631,9 +631,12 @@ def plot_simulation(result: SimulationData) -> Figure:
         axes[3].legend(loc="upper right", ncols=4, fontsize=8)
     k = 3 + has_wheels
     if disturbances:
+        largest = max(float(np.max(np.linalg.norm(tau, axis=-1))) for tau in disturbances.values())
         for source, tau in disturbances.items():
             magnitude = 1e6 * np.linalg.norm(tau, axis=-1)
-            axes[k].semilogy(t, np.where(magnitude > 0.0, magnitude, np.nan), label=source.replace("_", " "))
+            # Below 1e-9 of the largest torque is rounding (gravity gradient on principal axes along LVLH).
+            shown = np.where(magnitude > 1e-9 * 1e6 * largest, magnitude, np.nan)
+            axes[k].semilogy(t, shown, label=source.replace("_", " "))
         if has_rods:
             rods = 1e6 * np.linalg.norm(result.torque_magnetorquer, axis=-1)
             axes[k].semilogy(t, np.where(rods > 0.0, rods, np.nan), color="black", lw=0.8, label="magnetorquers")

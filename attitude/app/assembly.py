@@ -47,6 +47,7 @@ from attitude.sensors import GYRO_PRESETS, Gyro, Magnetometer, StarTracker
 from controllers.lqr import LQRDesign, bryson_weights, design_lqr
 from controllers.magnetic import BDotController, CrossProductUnloading, bdot_gain
 from controllers.pd import QuaternionPD, RateLimitedPD
+from controllers.pointing import NadirPointing
 from controllers.slew.keep_out import KeepOutCone
 from controllers.tracking import ReferenceTrajectory, TrackingController
 from estimation.mekf import MEKF, initial_covariance
@@ -75,6 +76,7 @@ __all__ = [
     "mekf_tracker_covariance",
     "momentum_settings",
     "monte_carlo_requirements",
+    "nadir_pointing",
     "orbit",
     "orbit_environment",
     "pd_from_bandwidth",
@@ -480,7 +482,9 @@ def momentum_settings(config: SpacecraftConfig) -> MomentumSettings | None:
     )
 
 
-def unloading_controller(config: SpacecraftConfig, *, use_truth_field: bool = False) -> CrossProductUnloading | None:
+def unloading_controller(
+    config: SpacecraftConfig, *, use_truth_field: bool = False, period: float | None = None
+) -> CrossProductUnloading | None:
     """The ``[momentum]`` cross-product unloading law on the file's rods, or None.
 
     Parameters
@@ -489,6 +493,10 @@ def unloading_controller(config: SpacecraftConfig, *, use_truth_field: bool = Fa
         The spacecraft file.
     use_truth_field : bool
         Read the true field instead of the magnetometer (design studies).
+    period : float, optional
+        Sample period [s] instead of ``momentum.period_s`` (the design's
+        nadir-hold run samples it with the attitude controller, so that the
+        compiled engine folds both into one step).
 
     Returns
     -------
@@ -501,7 +509,7 @@ def unloading_controller(config: SpacecraftConfig, *, use_truth_field: bool = Fa
         return None
     return CrossProductUnloading(
         settings.unloading_gain,
-        period=settings.period,
+        period=settings.period if period is None else float(period),
         magnetorquers=magnetorquers(config),
         use_truth_field=use_truth_field,
     )
@@ -509,6 +517,33 @@ def unloading_controller(config: SpacecraftConfig, *, use_truth_field: bool = Fa
 
 # ---------------------------------------------------------------------------
 # Controllers of the [control] table
+
+
+def nadir_pointing(config: SpacecraftConfig, the_orbit: Any, body: RigidBody | None = None) -> NadirPointing:
+    """Nadir (LVLH) hold with the ``[control]`` bandwidth, damping and period.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file.
+    the_orbit : object
+        The orbit whose LVLH frame is held (:func:`orbit`).
+    body : RigidBody, optional
+        Design inertia (default :func:`rigid_body`).
+
+    Returns
+    -------
+    NadirPointing
+        Body axes on the LVLH axes (roll along the velocity, yaw to nadir).
+    """
+    c = config.control
+    return NadirPointing(
+        the_orbit,
+        rigid_body(config) if body is None else body,
+        wn=c.bandwidth_rad_per_s,
+        zeta=c.damping,
+        period=c.period_s,
+    )
 
 
 def pd_from_bandwidth(

@@ -345,8 +345,12 @@ def _cmd_momentum(args: argparse.Namespace) -> int:
             f"wheel {fmt(max(case['peak_per_wheel_mNms']))} of {fmt(min(case['allowed_per_wheel_mNms']))} mN m s "
             f"allowed ({fmt(plain['wheel_momentum_margin'])} of capacity)"
         )
-    rate = plain["no_dumping"]["secular_rate_body_uNms_per_orbit"]
-    print(f"  secular build-up without dumping: [{', '.join(fmt(v) for v in rate)}] uN m s per orbit (body axes)")
+    free = plain["no_dumping"]
+    rate = ", ".join(fmt(v) for v in free["secular_rate_inertial_uNms_per_orbit"])
+    print(
+        f"  secular build-up without dumping: {fmt(free['secular_rate_magnitude_uNms_per_orbit'])} uN m s per orbit "
+        f"([{rate}] in the inertial frame)"
+    )
     verdict = "PASS" if budget["pass"] else "FAIL"
     print(f"Wheel momentum ({plain['judged_case']}) within the margin: {verdict}")
     if targets:

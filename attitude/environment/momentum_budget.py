@@ -59,6 +59,8 @@ class MomentumBuildUp:
         The unloading torque ``m x B`` [N m] (zeros without unloading).
     dipole : ndarray (n, 3)
         The unloading dipole [A m^2] (zeros without unloading).
+    momentum_N : ndarray (n, 3)
+        Total angular momentum of the spacecraft (body and wheels) in N [N m s].
     """
 
     t: NDArray[np.float64]
@@ -66,12 +68,22 @@ class MomentumBuildUp:
     disturbance_torques: dict[str, NDArray[np.float64]]
     torque_magnetorquer: NDArray[np.float64]
     dipole: NDArray[np.float64]
+    momentum_N: NDArray[np.float64]
 
     @property
     def secular_rate_B(self) -> NDArray[np.float64]:
-        """Least-squares slope of ``h_wheels_B`` over the whole span [N m s / s] (the secular build-up rate)."""
-        t = self.t - self.t.mean()
-        return (t @ (self.h_wheels_B - self.h_wheels_B.mean(axis=0))) / (t @ t)
+        """Least-squares slope of ``h_wheels_B`` over the whole span [N m s / s].
+
+        Meaningful for an attitude fixed in N; for a rotating one (nadir hold)
+        the components across the rotation axis turn with the body and their
+        slope depends on the span: use :attr:`secular_rate_N`.
+        """
+        return _slope(self.t, self.h_wheels_B)
+
+    @property
+    def secular_rate_N(self) -> NDArray[np.float64]:
+        """Least-squares slope of the total momentum in N [N m s / s]: the secular build-up, any attitude."""
+        return _slope(self.t, self.momentum_N)
 
     @property
     def peak_B(self) -> float:
@@ -148,7 +160,7 @@ def held_attitude_momentum(
         H = H0 + np.concatenate([np.zeros((1, 3)), np.cumsum(increments, axis=0)])
         h = np.einsum("nji,nj->ni", rot_fine[::2], H) - i_w
         zeros = np.zeros((n, 3))
-        return MomentumBuildUp(t, h, torques, zeros, zeros.copy())
+        return MomentumBuildUp(t, h, torques, zeros, zeros.copy(), H)
 
     w_fine = np.concatenate([np.repeat(w[:-1], 2, axis=0), w[-1:]])
     i_w_fine = w_fine @ body.inertia.T
@@ -172,7 +184,13 @@ def held_attitude_momentum(
         H[k + 1] = H[k] + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
     _, dipole[-1], tau_mag[-1] = rate(H[-1], 2 * (n - 1))
     h = np.einsum("nji,nj->ni", rot_fine[::2], H) - i_w
-    return MomentumBuildUp(t, h, torques, tau_mag, dipole)
+    return MomentumBuildUp(t, h, torques, tau_mag, dipole, H)
+
+
+def _slope(t: NDArray[np.float64], values: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Least-squares slope of each column of ``values`` against ``t``."""
+    tc = t - t.mean()
+    return (tc @ (values - values.mean(axis=0))) / (tc @ tc)
 
 
 def _midpoint_attitudes(q: NDArray[np.float64]) -> NDArray[np.float64]:

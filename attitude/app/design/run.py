@@ -43,7 +43,13 @@ from matplotlib.figure import Figure
 from attitude.app.design.body import DEFAULT_SPIN_RATE_DEG_PER_S, body_analysis, body_figures
 from attitude.app.design.estimation import FRACTION_INSIDE_MIN, estimation_study
 from attitude.app.design.linear import linear_design
-from attitude.app.design.orbit import detumble_figures, detumble_study, momentum_budget, momentum_figures
+from attitude.app.design.orbit import (
+    detumble_figures,
+    detumble_study,
+    momentum_budget,
+    momentum_figures,
+    nadir_hold,
+)
 from attitude.app.design.slew import check_periods, fly_slew, plan_slews, slew_figures
 from attitude.config import SpacecraftConfig
 
@@ -231,11 +237,14 @@ def orbit_study(config: SpacecraftConfig, quick: bool = False) -> tuple[dict[str
     if budget is None:
         return None, {}
     figures = momentum_figures(budget)
+    hold = nadir_hold(config)
+    figures["orbit_nadir_hold"] = hold["_result"].plot()
     detumble = detumble_study(config, QUICK_DETUMBLE_ORBITS if quick else None)
     if detumble is not None:
         figures.update(detumble_figures(detumble))
     plain = {
         "momentum": {k: v for k, v in budget.items() if not k.startswith("_")},
+        "nadir_hold": {k: v for k, v in hold.items() if not k.startswith("_")},
         "detumble": None if detumble is None else {k: v for k, v in detumble.items() if not k.startswith("_")},
     }
     return plain, figures
@@ -441,9 +450,14 @@ def _caption_table() -> dict[str, tuple[str, str]]:
         "orbit_momentum": (
             "orbit",
             "Momentum of each wheel (minimum-norm distribution) over the budget, without dumping and with "
-            "cross-product unloading; dashed: the allowed momentum per wheel.",
+            "cross-product unloading; dashed: the allowed momentum per wheel (drawn when within the scale).",
         ),
         "detumble": ("orbit", "B-dot detumbling: body rates with the threshold, and the rods' dipole."),
+        "orbit_nadir_hold": (
+            "orbit",
+            "Nadir hold over one orbit in closed loop: error to the LVLH frame, rates, torques, wheel speeds, the "
+            "disturbance torques per source and the unloading dipole.",
+        ),
     }
 
 

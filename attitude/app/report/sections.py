@@ -448,7 +448,17 @@ def _closed_loop(results: dict[str, Any]) -> list[Block]:
             "(drawn from the filter's initial covariance; "
             f"{fmt(f['initial_knowledge_error_arcsec'])} arcsec after the first star-tracker update). The slew "
             f"ends at {fmt(f['slew_end_s'])} s; pointing is judged from {fmt(f['pointing_window_start_s'])} s "
-            "(end of slew plus the required settling time) to the end of the run."
+            "(end of slew plus the required settling time) to the end of the run. "
+            + (
+                "Flown in empty inertial space (no [orbit] in the file)."
+                if not f.get("environment")
+                else "Flown in the orbit of section 6 from its epoch, with "
+                + ", ".join(
+                    f"{k.replace('_', ' ')} (peak {fmt(v)} uN m)"
+                    for k, v in f.get("disturbance_torque_peak_uNm", {}).items()
+                )
+                + f": {f['environment']}."
+            )
         )
     ]
     rows = [
@@ -587,8 +597,10 @@ def _orbit(results: dict[str, Any]) -> list[Block]:
     text = (
         f"Momentum budget over {fmt(b['orbits'])} orbits ({fmt(b['step_s'])} s steps; the budget of a perfect "
         "attitude control: the wheels carry whatever the external torques add to the spacecraft's momentum). "
-        f"Without dumping the wheel momentum grows by {_vec(free['secular_rate_body_uNms_per_orbit'])} uN m s per "
-        f"orbit (body axes, least-squares slope) and peaks at {fmt(free['peak_body_mNms'])} mN m s; the largest "
+        f"Without dumping the spacecraft's momentum grows by {fmt(free['secular_rate_magnitude_uNms_per_orbit'])} "
+        f"uN m s per orbit ({_vec(free['secular_rate_inertial_uNms_per_orbit'])} in the inertial frame, "
+        "least-squares slope: the body components across the orbit normal turn with a nadir-pointing body) and "
+        f"the wheel momentum peaks at {fmt(free['peak_body_mNms'])} mN m s; the largest "
         f"wheel then stores {fmt(max(free['peak_per_wheel_mNms']))} mN m s of its "
         f"{fmt(min(free['capacity_per_wheel_mNms']))} mN m s."
     )
@@ -607,6 +619,23 @@ def _orbit(results: dict[str, Any]) -> list[Block]:
         + "."
     )
     out += [Paragraph(text), *_figure(results, "orbit_momentum")]
+    h = o.get("nadir_hold")
+    if h is not None:
+        unloading = (
+            f" and cross-product unloading on the true field (peak dipole {fmt(h['dipole_peak_Am2'])} A m^2)"
+            if h["unloading"]
+            else " (no unloading in the file)"
+        )
+        out += [
+            Paragraph(
+                f"Nadir hold flown in closed loop for {fmt(h['orbits'])} orbit ({fmt(h['duration_s'])} s, "
+                f"{h['engine']} engine): the [control] PD on the LVLH frame with the wheels, the four disturbance "
+                f"torques{unloading}. Pointing error to the LVLH frame: largest {fmt(h['pointing_error_max_deg'])} "
+                f"deg, RMS {fmt(h['pointing_error_rms_deg'])} deg; peak wheel speed "
+                f"{fmt(h['wheel_speed_peak_rpm'])} rpm, peak motor torque {fmt(h['motor_torque_peak_mNm'])} mN m."
+            ),
+            *_figure(results, "orbit_nadir_hold"),
+        ]
     d = o["detumble"]
     if d is None:
         out.append(Paragraph("No [detumble] table: detumbling not studied."))
