@@ -2,7 +2,7 @@
 atmosphere, the surface model and the disturbance torques, and the momentum they ask of the wheels."""
 
 from attitude.environment.atmosphere import NRLMSIS, ExponentialAtmosphere, geodetic_coordinates
-from attitude.environment.epoch import DEFAULT_EPOCH, Epoch, ecef_to_N
+from attitude.environment.epoch import DEFAULT_EPOCH, Epoch, earth_fixed_positions, ecef_to_N
 from attitude.environment.gravity_gradient import (
     GravityGradientStability,
     constant_plus_orbital_disturbance,
@@ -88,6 +88,7 @@ __all__ = [
     "aerodynamic_torque",
     "aerodynamic_torque_components",
     "constant_plus_orbital_disturbance",
+    "earth_fixed_positions",
     "ecef_to_N",
     "geodetic_coordinates",
     "gravity_gradient_stability",

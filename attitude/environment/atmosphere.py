@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from attitude.environment.epoch import earth_fixed_positions
 from attitude.validation import as_float_array, check_vector, describe, positive_scalar
 
 __all__ = ["NRLMSIS", "ExponentialAtmosphere", "geodetic_coordinates"]
@@ -77,26 +78,6 @@ _TABLE_8_4 = np.array(
 _BASE_ALTITUDE_M = 1e3 * _TABLE_8_4[:, 0]
 _NOMINAL_DENSITY = _TABLE_8_4[:, 1]
 _SCALE_HEIGHT_M = 1e3 * _TABLE_8_4[:, 2]
-
-
-def _earth_fixed_positions(
-    r_N: ArrayLike, epoch: Any, t: ArrayLike
-) -> tuple[NDArray[np.float64], NDArray[np.float64], tuple[int, ...]]:
-    """Positions (n, 3) in the Earth-fixed frame, the times (n,) and the broadcast shape."""
-    r = check_vector(r_N, "r_N", 3)
-    times = as_float_array(t, "t")
-    try:
-        shape = np.broadcast_shapes(r.shape[:-1], times.shape)
-    except ValueError as exc:
-        raise ValueError(
-            f"t must broadcast against r_N's leading shape {r.shape[:-1]}, got shape {times.shape}"
-        ) from exc
-    r_flat = np.broadcast_to(r, (*shape, 3)).reshape(-1, 3)
-    times = np.broadcast_to(times, shape).reshape(-1)
-    gmst = np.broadcast_to(np.asarray(epoch.gmst(times), dtype=float), times.shape)
-    c, s = np.cos(gmst), np.sin(gmst)
-    r_E = np.stack((c * r_flat[:, 0] + s * r_flat[:, 1], -s * r_flat[:, 0] + c * r_flat[:, 1], r_flat[:, 2]), axis=-1)
-    return r_E, times, shape
 
 
 def _utc_naive(epoch: Any) -> datetime:
@@ -187,7 +168,7 @@ class ExponentialAtmosphere:
         ValueError
             If a position is below the ellipsoid (altitude < 0).
         """
-        r_E, _, shape = _earth_fixed_positions(r_N, epoch, t)
+        r_E, _, _, shape = earth_fixed_positions(r_N, epoch, t)
         _, _, altitude = _altitudes_above_ground(r_E)
         return self.density_at_altitude(altitude).reshape(shape)
 
@@ -287,7 +268,7 @@ class NRLMSIS:
             import pymsis
         except ImportError as exc:
             raise ImportError("NRLMSIS needs the optional pymsis package: pip install attitude-toolkit[msis]") from exc
-        r_E, times, shape = _earth_fixed_positions(r_N, epoch, t)
+        r_E, times, _, shape = earth_fixed_positions(r_N, epoch, t)
         latitude, longitude, altitude = _altitudes_above_ground(r_E)
         start = np.datetime64(_utc_naive(epoch), "us")
         dates = start + np.round(times * 1e6).astype("timedelta64[us]")

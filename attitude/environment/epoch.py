@@ -20,9 +20,15 @@ from numpy.typing import ArrayLike, NDArray
 from sgp4.functions import jday
 from sgp4.propagation import gstime
 
-from attitude.validation import as_float_array
+from attitude.validation import as_float_array, check_vector, describe
 
-__all__ = ["DEFAULT_EPOCH", "SECONDS_PER_DAY", "Epoch", "ecef_to_N"]
+__all__ = [
+    "DEFAULT_EPOCH",
+    "SECONDS_PER_DAY",
+    "Epoch",
+    "earth_fixed_positions",
+    "ecef_to_N",
+]
 
 #: Seconds in a (UTC) day; leap seconds inside a run are ignored.
 SECONDS_PER_DAY = 86400.0
@@ -155,6 +161,49 @@ def ecef_to_N(gmst: ArrayLike) -> NDArray[np.float64]:
         [np.stack([c, -s, zero], -1), np.stack([s, c, zero], -1), np.stack([zero, zero, one], -1)],
         -2,
     )
+
+
+def earth_fixed_positions(
+    r_N: ArrayLike, epoch: Epoch, t: ArrayLike
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], tuple[int, ...]]:
+    """Positions in N at times ``t`` (broadcast together) in Earth-fixed axes, flattened for the field models.
+
+    Parameters
+    ----------
+    r_N : array_like, shape (..., 3)
+        Positions from the Earth's centre in N [m], non-zero.
+    epoch : Epoch
+        ``t = 0`` (anything with ``gmst(t)`` [rad]).
+    t : array_like, shape broadcasting against ``r_N[..., 0]``
+        Times since the epoch [s].
+
+    Returns
+    -------
+    tuple
+        ``(r_E (n, 3) [m], t (n,) [s], gmst (n,) [rad], shape)`` with ``shape`` the
+        broadcast leading shape (``n`` its size).
+
+    Raises
+    ------
+    ValueError
+        If ``r_N`` is not (..., 3), holds a zero vector, or ``t`` does not broadcast against it.
+    """
+    r = check_vector(r_N, "r_N", 3)
+    times = as_float_array(t, "t")
+    try:
+        shape = np.broadcast_shapes(r.shape[:-1], times.shape)
+    except ValueError as exc:
+        raise ValueError(
+            f"t must broadcast against r_N's leading shape {r.shape[:-1]}, got shape {times.shape}"
+        ) from exc
+    r_flat = np.broadcast_to(r, (*shape, 3)).reshape(-1, 3)
+    radius = np.linalg.norm(r_flat, axis=-1)
+    if np.any(radius <= 0.0):
+        raise ValueError(f"r_N must be away from the Earth's centre (|r_N| > 0), got {describe(r_flat[radius <= 0])}")
+    times = np.broadcast_to(times, shape).reshape(-1)
+    gmst = np.broadcast_to(np.asarray(epoch.gmst(times), dtype=float), times.shape)
+    r_E = np.einsum("nji,nj->ni", ecef_to_N(gmst), r_flat)  # the transpose takes N to Earth-fixed
+    return r_E, times, gmst, shape
 
 
 #: An arbitrary default epoch (the March 2026 equinox day, noon UTC) for runs that do not give one.

@@ -45,7 +45,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from attitude.validation import as_float_array, check_vector, describe
+from attitude.environment.epoch import earth_fixed_positions, ecef_to_N
+from attitude.validation import as_float_array, describe
 
 __all__ = ["IGRF", "IGRF_REFERENCE_RADIUS_M", "MU0_OVER_4PI", "TiltedDipole"]
 
@@ -72,40 +73,6 @@ def _utc_naive(epoch: Any) -> datetime:
     if utc.tzinfo is None:
         raise ValueError(f"epoch.utc must be timezone-aware (UTC), got the naive datetime {utc.isoformat()}")
     return utc.astimezone(UTC).replace(tzinfo=None)
-
-
-def _positions_and_times(r_N: ArrayLike, t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64], tuple]:
-    """Broadcast positions (..., 3) and times (...) together; flatten them to (n, 3) and (n,)."""
-    r = check_vector(r_N, "r_N", 3)
-    times = as_float_array(t, "t")
-    try:
-        shape = np.broadcast_shapes(r.shape[:-1], times.shape)
-    except ValueError as exc:
-        raise ValueError(
-            f"t must broadcast against r_N's leading shape {r.shape[:-1]}, got shape {times.shape}"
-        ) from exc
-    r_flat = np.broadcast_to(r, (*shape, 3)).reshape(-1, 3)
-    radius = np.linalg.norm(r_flat, axis=-1)
-    if np.any(radius <= 0.0):
-        raise ValueError(f"r_N must be away from the Earth's centre (|r_N| > 0), got {describe(r_flat[radius <= 0])}")
-    return r_flat, np.broadcast_to(times, shape).reshape(-1), shape
-
-
-def _earth_fixed(v_N: NDArray[np.float64], gmst: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``R3(gmst) v_N``: N components to Earth-fixed ones (rows of (n, 3) with gmst (n,))."""
-    c, s = np.cos(gmst), np.sin(gmst)
-    return np.stack((c * v_N[:, 0] + s * v_N[:, 1], -s * v_N[:, 0] + c * v_N[:, 1], v_N[:, 2]), axis=-1)
-
-
-def _inertial(v_E: NDArray[np.float64], gmst: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``R3(gmst)^T v_E``: Earth-fixed components to N ones."""
-    c, s = np.cos(gmst), np.sin(gmst)
-    return np.stack((c * v_E[:, 0] - s * v_E[:, 1], s * v_E[:, 0] + c * v_E[:, 1], v_E[:, 2]), axis=-1)
-
-
-def _gmst(epoch: Any, t: NDArray[np.float64]) -> NDArray[np.float64]:
-    gmst = np.broadcast_to(np.asarray(epoch.gmst(t), dtype=float), t.shape)
-    return gmst
 
 
 def _coefficient_file(coefficient_file: str | None) -> str:
@@ -187,9 +154,7 @@ class IGRF:
         """
         from ppigrf import ppigrf
 
-        r, times, shape = _positions_and_times(r_N, t)
-        gmst = _gmst(epoch, times)
-        r_E = _earth_fixed(r, gmst)
+        r_E, times, gmst, shape = earth_fixed_positions(r_N, epoch, t)
         radius = np.linalg.norm(r_E, axis=-1)
         theta = np.clip(
             np.degrees(np.arccos(np.clip(r_E[:, 2] / radius, -1.0, 1.0))), _POLE_GUARD_DEG, 180.0 - _POLE_GUARD_DEG
@@ -216,7 +181,7 @@ class IGRF:
         theta_hat = np.stack((ct * cp, ct * sp, -st), axis=-1)
         phi_hat = np.stack((-sp, cp, np.zeros_like(sp)), axis=-1)
         b_E = 1e-9 * (b_spherical[:, :1] * r_hat + b_spherical[:, 1:2] * theta_hat + b_spherical[:, 2:] * phi_hat)
-        return _inertial(b_E, gmst).reshape(*shape, 3)
+        return np.einsum("nij,nj->ni", ecef_to_N(gmst), b_E).reshape(*shape, 3)
 
     def describe(self) -> str:
         """One line for reports.
@@ -300,14 +265,12 @@ class TiltedDipole:
         ndarray, shape (..., 3)
             Field in N [T].
         """
-        r, times, shape = _positions_and_times(r_N, t)
-        gmst = _gmst(epoch, times)
-        m_N = _inertial(np.broadcast_to(self._moment_E, r.shape), gmst)
-        radius = np.linalg.norm(r, axis=-1, keepdims=True)
-        r_hat = r / radius
-        m_dot_r = np.sum(m_N * r_hat, axis=-1, keepdims=True)
-        b = MU0_OVER_4PI * (3.0 * m_dot_r * r_hat - m_N) / radius**3
-        return b.reshape(*shape, 3)
+        r_E, _, gmst, shape = earth_fixed_positions(r_N, epoch, t)
+        radius = np.linalg.norm(r_E, axis=-1, keepdims=True)
+        r_hat = r_E / radius
+        m_dot_r = np.sum(self._moment_E * r_hat, axis=-1, keepdims=True)
+        b_E = MU0_OVER_4PI * (3.0 * m_dot_r * r_hat - self._moment_E) / radius**3
+        return np.einsum("nij,nj->ni", ecef_to_N(gmst), b_E).reshape(*shape, 3)
 
     def describe(self) -> str:
         """One line for reports.
