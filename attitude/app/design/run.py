@@ -7,7 +7,7 @@ toolkit together and import :mod:`controllers` and :mod:`estimation`; no
 ground-floor module imports them. Writing the report (markdown, HTML, JSON,
 PNG) is :mod:`attitude.app.report.writer`'s job; these modules only compute.
 
-:func:`run_design` runs the six steps of the report in order and returns a
+:func:`run_design` runs the seven steps of the report in order and returns a
 :class:`DesignResult`: ``results``, a JSON-ready dict holding every number
 the report shows (keys carry their units as in the spacecraft file: ``_s``,
 ``_deg``, ``_deg_per_s``, ``_mNm``, ``_arcsec`` ...), and ``figures``

@@ -1,4 +1,4 @@
-"""The content of the design report: the six sections as a list of blocks, built from ``results`` only.
+"""The content of the design report: the seven sections as a list of blocks, built from ``results`` only.
 
 Every number in a block comes from the results dict of
 :func:`attitude.app.design.run.run_design` (the same dict ``results.json`` holds),
