@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml | $(PY)
 	touch $(STAMP)
 
 demo: $(STAMP)
-	MPLBACKEND=Agg $(VENV)/bin/attitude design --out attitude-report
+	MPLBACKEND=Agg $(VENV)/bin/attitude design --out attitude-report --force
 
 test: $(STAMP)
 	$(PY) -m ruff check .

@@ -90,6 +90,28 @@ class Trajectory(ResultIO):
         """The propagated body."""
         return RigidBody(self.inertia)
 
+    def check_loaded(self, path: str) -> None:
+        """A loaded trajectory must hold finite unit quaternions, finite rates and a valid inertia.
+
+        Parameters
+        ----------
+        path : str
+            The file read, named in the error.
+
+        Raises
+        ------
+        ValueError
+            For NaN or infinite values, quaternions off the unit norm, or an invalid inertia.
+        """
+        for name in ("t", "q", "omega"):
+            values = np.asarray(getattr(self, name), dtype=float)
+            if not np.all(np.isfinite(values)):
+                raise ValueError(
+                    f"{path}: {name} must be finite everywhere, found {int(np.sum(~np.isfinite(values)))} NaN/inf"
+                )
+        quat.as_unit_quaternion(self.q, f"{path}: q")
+        RigidBody(self.inertia)
+
     def _inertia_b(self) -> NDArray[np.float64]:
         return self.inertia[..., None, :, :]
 

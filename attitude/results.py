@@ -110,7 +110,23 @@ class ResultIO:
                     kwargs[f.name] = d
                 else:
                     kwargs[f.name] = entry["value"]
-        return cls(**kwargs)
+        result = cls(**kwargs)
+        result.check_loaded(str(path))
+        return result
+
+    def check_loaded(self, path: str) -> None:
+        """Refuse a loaded file whose contents break the result's own rules (a subclass says which).
+
+        Parameters
+        ----------
+        path : str
+            The file read, named in the error.
+
+        Raises
+        ------
+        ValueError
+            When the contents are not a valid result (the base class accepts anything).
+        """
 
 
 def _plain(value: Any, name: str) -> Any:

@@ -787,7 +787,7 @@ def delayed_loop(loop: LTI, *, delay: float, pade_order: int = 6) -> control.Tra
     if _is_discrete(tf):
         raise ValueError(f"loop must be continuous, got dt = {tf.dt}")
     delay = float(check_positive(delay, "delay", allow_zero=True))
-    if not isinstance(pade_order, int) or pade_order < 1:
+    if isinstance(pade_order, bool) or not isinstance(pade_order, int) or pade_order < 1:
         raise ValueError(f"pade_order must be a positive integer, got {pade_order!r}")
     if delay == 0.0:
         return tf

@@ -116,12 +116,35 @@ def _load(file: str | None) -> SpacecraftConfig:
 # design
 
 
+#: What ``attitude design`` writes into its folder (besides figures/*.png).
+REPORT_FILES = ("report.md", "report.html", "results.json", "spacecraft.toml")
+
+
+def _check_report_folder(out: Path, input_file: str | None, force: bool) -> None:
+    """Refuse to overwrite the input file (ever) or an existing report (without ``--force``)."""
+    if input_file is not None:
+        resolved = out / "spacecraft.toml"
+        source = Path(input_file)
+        if resolved.exists() and source.exists() and resolved.samefile(source):
+            raise UsageError(
+                f"--out {out}: the report's resolved copy spacecraft.toml would overwrite the input file "
+                f"{input_file}; choose another folder"
+            )
+    existing = [str(out / name) for name in REPORT_FILES if (out / name).exists()]
+    if existing and not force:
+        raise UsageError(
+            f"--out {out}: holds a report already ({', '.join(existing)}); use --force to replace it, or "
+            "choose another folder"
+        )
+
+
 def _cmd_design(args: argparse.Namespace) -> int:
     from attitude.app.design.run import DesignOptions, run_design
     from attitude.app.report.writer import dumps_json, requirements_text, write_report
 
     if args.out.exists() and not args.out.is_dir():
         raise UsageError(f"--out {args.out}: exists and is not a folder")
+    _check_report_folder(args.out, args.file, args.force)
     config = _load(args.file)
     options = DesignOptions(quick=args.quick, spin_rate_deg_per_s=args.spin_rate_deg_per_s, seed=args.seed)
     start = time.perf_counter()
@@ -481,7 +504,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="a first look: 30 planner intervals instead of 60, 8 MEKF and 4 rate-EKF Monte Carlo runs "
         "instead of 50 and 20 (same verdict rules)",
     )
-    p.add_argument("--seed", type=int, default=None, help="master seed (default: montecarlo.seed of the file, else 0)")
+    p.add_argument(
+        "--force", action="store_true", help="replace a report already in DIR (the input file is never overwritten)"
+    )
+    p.add_argument(
+        "--seed", type=_count(0), default=None, help="master seed (default: montecarlo.seed of the file, else 0)"
+    )
     p.add_argument(
         "--spin-rate-deg-per-s",
         type=_positive,

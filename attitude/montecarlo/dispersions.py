@@ -363,7 +363,7 @@ class RelativeScale(Dispersion):
         self.scale = float(scale)
         if self.distribution == "uniform" and self.scale > 1.0:
             raise ValueError(f"half_width must be at most 1 (the factor must stay >= 0), got {self.scale!r}")
-        if not isinstance(max_tries, int) or max_tries < 1:
+        if isinstance(max_tries, bool) or not isinstance(max_tries, int) or max_tries < 1:
             raise ValueError(f"max_tries must be a positive integer, got {max_tries!r}")
         self.max_tries = max_tries
 
@@ -511,7 +511,7 @@ class InertiaDispersion(Dispersion):
             raise ValueError(f"the moment dispersion must be one relative value, got shape {scale.shape}")
         self.scale = float(scale)
         self.axis_sigma = float(check_positive(axis_sigma, "axis_sigma", allow_zero=True))
-        if not isinstance(max_tries, int) or max_tries < 1:
+        if isinstance(max_tries, bool) or not isinstance(max_tries, int) or max_tries < 1:
             raise ValueError(f"max_tries must be a positive integer, got {max_tries!r}")
         self.max_tries = max_tries
 

@@ -235,11 +235,11 @@ def simulate_batch(
     dt = period if dt is None else float(check_positive(dt, "dt"))
     every = ticks_per_period(period, dt, "controller")
     n_ticks = whole_ticks(duration, dt)
-    if not isinstance(substeps, int) or substeps < 1:
+    if isinstance(substeps, bool) or not isinstance(substeps, int) or substeps < 1:
         raise ValueError(f"substeps must be a positive integer, got {substeps!r}")
     tau_ext = None if disturbance is None else _batch(disturbance, "disturbance", 3, n)
     stride = history_stride
-    if stride is not None and (not isinstance(stride, int) or stride < 1):
+    if stride is not None and (isinstance(stride, bool) or not isinstance(stride, int) or stride < 1):
         raise ValueError(f"history_stride must be a positive integer or None, got {stride!r}")
 
     if backend not in ("auto", "compiled", "numpy"):

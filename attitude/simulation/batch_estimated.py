@@ -147,7 +147,7 @@ def simulate_batch_estimated(
         raise ValueError("controller has per-run state (a prepare hook); the batch shares one input table")
     if backend not in ("auto", "compiled", "numpy"):
         raise ValueError(f"backend must be 'auto', 'compiled' or 'numpy', got {backend!r}")
-    if not isinstance(substeps, int) or substeps < 1:
+    if isinstance(substeps, bool) or not isinstance(substeps, int) or substeps < 1:
         raise ValueError(f"substeps must be a positive integer, got {substeps!r}")
     dt = gyro.period if dt is None else float(check_positive(dt, "dt"))
     every = {

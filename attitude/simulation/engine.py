@@ -142,7 +142,8 @@ class SimulationResult(ResultIO):
         threshold_rad : float
             Error-angle threshold [rad].
         """
-        above = np.nonzero(self.error_angle > threshold_rad)[0]
+        threshold = float(check_positive(threshold_rad, "threshold_rad"))
+        above = np.nonzero(self.error_angle > threshold)[0]
         return float(settling_time_after(self.t, above[-1] if above.size else -1))
 
     def plot(self) -> matplotlib.figure.Figure:
@@ -286,7 +287,7 @@ def simulate(
     if q0.shape != (4,) or omega0.shape != (3,):
         raise ValueError(f"q0 must have shape (4,) and omega0 shape (3,), got {q0.shape} and {omega0.shape}")
     duration = float(check_positive(duration, "duration"))
-    if not isinstance(substeps, int) or substeps < 1:
+    if isinstance(substeps, bool) or not isinstance(substeps, int) or substeps < 1:
         raise ValueError(f"substeps must be a positive integer, got {substeps!r}")
     if engine not in ("auto", "python", "compiled"):
         raise ValueError(f"engine must be 'auto', 'python' or 'compiled', got {engine!r}")

@@ -342,3 +342,14 @@ class TestDivergenceIsReported:
     def test_a_mistyped_max_step_is_named(self):
         with pytest.raises(ValueError, match="max_step = 1e-300 s makes"):
             propagate(BODY, Q0, W0, np.linspace(0, 10, 11), max_step=1e-300)
+
+
+def test_trajectory_load_refuses_nan_quaternions(tmp_path):
+    """Issue 13, item 17: ``Trajectory.load`` accepted a file with NaN in ``q``."""
+    traj = propagate(RigidBody([10.0, 12.0, 8.0]), [1.0, 0.0, 0.0, 0.0], [0.1, 0.2, 0.3], np.linspace(0.0, 1.0, 11))
+    good = traj.save(tmp_path / "good")
+    assert np.array_equal(Trajectory.load(good).q, traj.q)  # a valid file still loads
+    traj.q[3, 0] = np.nan
+    bad = traj.save(tmp_path / "bad")
+    with pytest.raises(ValueError, match="q must be finite"):
+        Trajectory.load(bad)

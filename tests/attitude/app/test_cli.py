@@ -316,6 +316,37 @@ def test_out_must_be_a_folder(tmp_path, capsys):
     assert "is not a folder" in capsys.readouterr().err
 
 
+def test_design_never_overwrites_its_input_file(tmp_path, capsys):
+    """Issue 13, item 4: ``--out .`` beside the input once replaced the commented file by its resolved copy."""
+    source = tmp_path / "spacecraft.toml"
+    source.write_text(default_config_text(), encoding="utf-8")
+    before = source.read_bytes()
+    for extra in ([], ["--force"]):
+        assert main(["design", str(source), "--out", str(tmp_path), "--quick", *extra]) == 2
+        err = capsys.readouterr().err
+        assert "would overwrite the input file" in err and str(source) in err
+    assert source.read_bytes() == before
+
+
+def test_design_refuses_to_replace_a_report_without_force(tmp_path, capsys):
+    """Issue 13, item 4: an existing report is not overwritten without notice."""
+    out = tmp_path / "report"
+    out.mkdir()
+    (out / "report.md").write_text("my notes", encoding="utf-8")
+    assert main(["design", "--out", str(out), "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert "holds a report already" in err and "--force" in err
+    assert (out / "report.md").read_text(encoding="utf-8") == "my notes"
+
+
+def test_design_refuses_a_negative_seed(tmp_path, capsys):
+    """Issue 13, item 10: ``--seed -1`` was a traceback (exit 1); now exit 2 naming the rule, as montecarlo."""
+    with pytest.raises(SystemExit) as info:
+        main(["design", "--out", str(tmp_path / "out"), "--seed", "-1"])
+    assert info.value.code == 2
+    assert "--seed" in capsys.readouterr().err
+
+
 def test_missing_file_and_no_command(tmp_path, capsys):
     assert main(["physics", str(tmp_path / "nowhere.toml")]) == 2
     assert "nowhere.toml" in capsys.readouterr().err

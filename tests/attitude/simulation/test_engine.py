@@ -234,3 +234,30 @@ def test_duration_ends_at_the_first_tick_at_or_after_it():
     result = simulate(BODY, quat.identity(), np.zeros(3), 10.05, controller=pd())
     assert result.t[-1] == pytest.approx(10.1)
     assert simulate(BODY, quat.identity(), np.zeros(3), 600.0, controller=pd()).t.size == 6001
+
+
+# Issue 13, item 17: edge inputs once accepted silently.
+
+
+def test_settling_time_refuses_a_negative_threshold():
+    """``settling_time(-1)`` returned inf (no error is below a negative threshold)."""
+    body = RigidBody([10.0, 12.0, 8.0])
+    pd = QuaternionPD.from_bandwidth(body, wn=0.3, zeta=0.8, period=0.1, q_ref=quat.identity())
+    run = simulate(body, quat.from_axis_angle([0, 0, 1], 0.1), np.zeros(3), 5.0, controller=pd)
+    with pytest.raises(ValueError, match="threshold_rad"):
+        run.settling_time(-1.0)
+
+
+@pytest.mark.parametrize("value", [True, 0, 1.5])
+def test_substeps_must_be_a_positive_integer_not_a_bool(value):
+    """``substeps=True`` ran one substep (``True`` is an ``int``); the batch path had the same flaw."""
+    from attitude.simulation.batch import simulate_batch
+
+    body = RigidBody([10.0, 12.0, 8.0])
+    pd = QuaternionPD.from_bandwidth(body, wn=0.3, zeta=0.8, period=0.1, q_ref=quat.identity())
+    with pytest.raises(ValueError, match="substeps must be a positive integer"):
+        simulate(body, quat.identity(), np.zeros(3), 1.0, controller=pd, substeps=value)
+    with pytest.raises(ValueError, match="substeps must be a positive integer"):
+        simulate_batch(body, quat.identity()[None], np.zeros(3), 1.0, controller=pd, substeps=value)
+    with pytest.raises(ValueError, match="history_stride"):
+        simulate_batch(body, quat.identity()[None], np.zeros(3), 1.0, controller=pd, history_stride=True)
