@@ -144,7 +144,16 @@ def is_numeric(text: str) -> bool:
 
 
 def _md_cell(text: str) -> str:
-    return text.replace("|", "\\|").replace("\n", " ")
+    return _md_text(text).replace("|", "\\|").replace("\n", " ")
+
+
+#: Markup that opens an HTML tag or comment (``<script``, ``</p``, ``<!--``); a bare ``<`` or ``<=`` is text.
+_HTML_OPENING = re.compile(r"<(?=[A-Za-z/!?])")
+
+
+def _md_text(text: str) -> str:
+    """Text with raw HTML neutralised: Markdown renderers pass tags through, so ``<`` before a tag becomes ``&lt;``."""
+    return _HTML_OPENING.sub("&lt;", text)
 
 
 def render_markdown(blocks: list[Block]) -> str:
@@ -158,13 +167,13 @@ def render_markdown(blocks: list[Block]) -> str:
     out: list[str] = []
     for b in blocks:
         if isinstance(b, Heading):
-            out.append(f"{'#' * b.level} {b.text}")
+            out.append(f"{'#' * b.level} {_md_text(b.text)}")
         elif isinstance(b, Paragraph):
-            out.append(b.text)
+            out.append(_md_text(b.text))
         elif isinstance(b, Table):
             lines = []
             if b.caption:
-                lines.append(f"*{b.caption}*")
+                lines.append(f"*{_md_text(b.caption)}*")
                 lines.append("")
             lines.append("| " + " | ".join(_md_cell(c) for c in b.header) + " |")
             right = [i > 0 and all(is_numeric(row[i]) for row in b.rows) for i in range(len(b.header))]
@@ -172,7 +181,8 @@ def render_markdown(blocks: list[Block]) -> str:
             lines += ["| " + " | ".join(_md_cell(c) for c in row) + " |" for row in b.rows]
             out.append("\n".join(lines))
         elif isinstance(b, Figure):
-            out.append(f"![{b.caption}](figures/{b.name}.png)\n\n*Figure: {b.caption}*")
+            caption = _md_text(b.caption)
+            out.append(f"![{caption}](figures/{b.name}.png)\n\n*Figure: {caption}*")
     return "\n\n".join(out) + "\n"
 
 

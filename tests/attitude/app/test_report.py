@@ -140,6 +140,23 @@ def test_markdown_and_html_render_the_same_blocks():
     assert '<span class="verdict fail">FAIL</span>' in html
 
 
+def test_markdown_neutralises_raw_html_from_the_spacecraft_file():
+    """Issue 13, item 15: report.md copied raw HTML from the file (a name or description with ``<script>``
+    or ``<img onerror>``) that a Markdown viewer would run; report.html already escaped it."""
+    hostile = 'Sat <script>alert(1)</script> <img src=x onerror="alert(2)"> <!-- c -->'
+    blocks = [
+        Heading(1, hostile, "top"),
+        Paragraph(hostile),
+        Table(("name", "value"), ((hostile, "1.5"),), hostile),
+        Figure("fig", hostile),
+    ]
+    md = render_markdown(blocks)
+    assert "<script" not in md and "<img" not in md and "</script" not in md and "<!--" not in md
+    assert md.count("&lt;script>") == 6  # heading, paragraph, table caption, cell, figure alt text and caption
+    # The report's own comparisons stay readable text.
+    assert "<= 120 s" in render_markdown([Paragraph("slew time <= 120 s, error < 0.05 deg")])
+
+
 def test_report_folder(report):
     out, results = report
     md = (out / "report.md").read_text(encoding="utf-8")
