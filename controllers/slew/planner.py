@@ -52,7 +52,7 @@ from controllers.slew.problem import (
 )
 from controllers.slew.reference import axis_angle
 from controllers.slew.refine import REFINEMENT_SLACK, drop_empty, refine_phases
-from controllers.slew.transcription import solve_grid
+from controllers.slew.transcription import check_ipopt_options, solve_grid
 
 __all__ = [
     "plan_slew",
@@ -210,7 +210,7 @@ def plan_slew(
         raise ValueError("q0 equals qf and omega0 equals omegaf: the minimum-time slew is empty")
     check_not_blocked(prob)
     gen = as_generator(rng)
-    options = dict(ipopt_options or {})
+    options = check_ipopt_options(ipopt_options)
     duration_s = None if duration is None else duration / prob.t_s
     notes: list[str] = []
 

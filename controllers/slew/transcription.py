@@ -19,7 +19,15 @@ from attitude.quaternion import multiply_components
 from controllers.slew.keep_out import cone_rows
 from controllers.slew.problem import CONVERGED, Problem
 
-__all__ = ["IPOPT_DEFAULTS", "IntervalFunction", "Solution", "Transcription", "interval_function", "solve_grid"]
+__all__ = [
+    "IPOPT_DEFAULTS",
+    "IntervalFunction",
+    "Solution",
+    "Transcription",
+    "check_ipopt_options",
+    "interval_function",
+    "solve_grid",
+]
 
 #: Default IPOPT options (overridable with ``ipopt_options``). ``tol`` 1e-9 on
 #: the nondimensional problem puts the duration to ~1e-9 T_s, far below the
@@ -237,6 +245,44 @@ class Transcription:
         stats = opti.stats()
         out = {k: np.atleast_1d(np.asarray(opti.debug.value(v), dtype=float)) for k, v in values.items()}
         return str(stats.get("return_status", "unknown")), int(stats.get("iter_count", -1)), elapsed, out
+
+
+def check_ipopt_options(options: Any) -> dict[str, Any]:
+    """The caller's IPOPT options, checked by IPOPT itself on a one-variable problem.
+
+    An unknown option or a value of the wrong type made every solve fail
+    with casadi's "not solved"; it is refused up front instead.
+
+    Parameters
+    ----------
+    options : mapping or None
+        IPOPT options (names and values as IPOPT documents them).
+
+    Returns
+    -------
+    dict
+        The options as a plain dict.
+
+    Raises
+    ------
+    ValueError
+        Naming ``ipopt_options``, the option IPOPT refused and its message.
+    """
+    if options is None:
+        return {}
+    if not isinstance(options, Mapping):
+        raise ValueError(f"ipopt_options must be a mapping of IPOPT option names to values, got {options!r}")
+    opts = dict(options)
+    x = ca.SX.sym("x")
+    quiet = {"print_level": 0, "sb": "yes"}
+    try:
+        ca.nlpsol(
+            "ipopt_options_check", "ipopt", {"x": x, "f": x * x}, {"print_time": False, "ipopt": {**opts, **quiet}}
+        )
+    except RuntimeError as exc:
+        reason = str(exc).strip().splitlines()[-1].split(": ", 1)[-1]
+        raise ValueError(f"ipopt_options {opts!r}: IPOPT refuses them: {reason}") from None
+    return opts
 
 
 def ipopt_setup(tr: Transcription, max_iter: int) -> None:

@@ -568,6 +568,19 @@ class TestBadInput:
         with pytest.raises(ValueError, match=message):
             plan_slew(UNIT, args.pop("q0"), args.pop("qf"), **args)
 
+    @pytest.mark.parametrize(
+        ("options", "message"),
+        [
+            ({"bogus_option": 3}, r"ipopt_options .*IPOPT refuses them: No such IPOPT option: bogus_option"),
+            ({"max_iter": "many"}, r"ipopt_options .*IPOPT refuses them"),
+            ([("tol", 1e-6)], r"ipopt_options must be a mapping"),
+        ],
+    )
+    def test_ipopt_options_checked_before_solving(self, options, message):
+        """Issue 13, item 16: an unknown IPOPT option gave casadi's "not solved" after every start."""
+        with pytest.raises(ValueError, match=message):
+            plan_slew(UNIT, Q_ID, Q_180X, torque_max=1.0, ipopt_options=options)
+
     def test_batched_body(self):
         with pytest.raises(ValueError, match="single"):
             plan_slew(RigidBody(np.ones((2, 3))), Q_ID, Q_180X, torque_max=1.0)
