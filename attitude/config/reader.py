@@ -1221,6 +1221,12 @@ def parse_config(text: str, file: str = "<config>") -> SpacecraftConfig:
     """
     try:
         data = tomllib.loads(text)
+    except RecursionError:
+        raise ConfigError(
+            "TOML nested too deeply for Python's parser (a spacecraft file nests a few levels, not hundreds)",
+            None,
+            file,
+        ) from None
     except tomllib.TOMLDecodeError as exc:
         message = str(exc)
         match = _TOML_POSITION.search(message)
@@ -1234,6 +1240,11 @@ def parse_config(text: str, file: str = "<config>") -> SpacecraftConfig:
             where = "at the end of the file: "
         raise ConfigError(f"{where}TOML syntax error: {message}", None, file, line, column) from exc
     return config_from_dict(data, file)
+
+
+#: Largest spacecraft file read [bytes]: a thousand times the built-in one. Reading stops there, so a
+#: device or a huge file (``/dev/zero``) is refused instead of filling the memory.
+CONFIG_SIZE_MAX_BYTES = 16 * 2**20
 
 
 def load_config(path: str | Path) -> SpacecraftConfig:
@@ -1251,7 +1262,16 @@ def load_config(path: str | Path) -> SpacecraftConfig:
     """
     path = Path(path)
     try:
-        text = path.read_bytes().decode("utf-8")
+        with path.open("rb") as handle:
+            raw = handle.read(CONFIG_SIZE_MAX_BYTES + 1)
+        if len(raw) > CONFIG_SIZE_MAX_BYTES:
+            raise ConfigError(
+                f"larger than {CONFIG_SIZE_MAX_BYTES // 2**20} MiB: not a spacecraft file (the built-in one is "
+                f"{len(default_config_text().encode()) // 1024} kiB)",
+                None,
+                str(path),
+            )
+        text = raw.decode("utf-8")
     except OSError as exc:
         raise ConfigError(f"cannot read the file: {exc.strerror or exc}", None, str(path)) from exc
     except UnicodeDecodeError as exc:

@@ -50,6 +50,7 @@ from attitude.config import (
     load_config,
     parse_config,
 )
+from attitude.config.reader import CONFIG_SIZE_MAX_BYTES
 from attitude.config.schema import RENAMED_KEYS, children
 from attitude.environment.orbit import CircularOrbit
 from attitude.rigid_body import RigidBody
@@ -614,6 +615,20 @@ def test_unreadable_and_non_utf8_files(tmp_path):
     latin.write_bytes('name = "caf\xe9"\n'.encode("latin-1"))
     with pytest.raises(ConfigError, match="not UTF-8"):
         load_config(latin)
+
+
+def test_deep_nesting_and_endless_files_are_clear_errors(tmp_path):
+    """Issue 13, item 9: deeply nested TOML raised RecursionError, and /dev/zero filled the memory."""
+    deep = tmp_path / "deep.toml"
+    deep.write_text("a = " + "[" * 5000 + "]" * 5000 + "\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match="nested too deeply") as info:
+        load_config(deep)
+    assert info.value.file == str(deep)
+    big = tmp_path / "big.toml"
+    with big.open("wb") as handle:  # sparse: the size without the disk use
+        handle.truncate(CONFIG_SIZE_MAX_BYTES + 1)
+    with pytest.raises(ConfigError, match="larger than 16 MiB: not a spacecraft file"):
+        load_config(big)
 
 
 def test_config_error_pickles():
