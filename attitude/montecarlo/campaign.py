@@ -91,9 +91,18 @@ from attitude.montecarlo.executors import (
     run_processes,
     run_serial,
 )
-from attitude.montecarlo.results import CampaignResult, Requirement
+from attitude.montecarlo.results import CampaignResult, Requirement, check_metric_name
+
+#: Most runs a campaign may have. What a run costs the parent process until the table is written: its
+#: RunRecord with a dict of metrics (about 1 kB of Python objects for ten metrics) and its row of the table
+#: (8 bytes per column, some 30 columns, plus the status and error strings: about 0.3 kB), so 10**7 runs
+#: hold some 13 GB, the memory of a large workstation, and write a CSV of several GB. Statistically,
+#: 10**7 runs without a failure prove a failure probability below 3e-7 at 95 % confidence (rule of three),
+#: beyond any attitude requirement. A larger count is a typing mistake, refused before anything is drawn.
+MAX_RUNS = 10_000_000
 
 __all__ = [
+    "MAX_RUNS",
     "Campaign",
     "run_campaign",
     "usable_cpus",
@@ -130,6 +139,11 @@ class Campaign:
             raise ValueError(f"scenario must be callable as scenario(params, rng), got {type(self.scenario).__name__}")
         if isinstance(self.runs, bool) or not isinstance(self.runs, (int, np.integer)) or self.runs < 1:
             raise ValueError(f"runs must be a positive integer, got {self.runs!r}")
+        if self.runs > MAX_RUNS:
+            raise ValueError(
+                f"runs must be at most {MAX_RUNS} (the table and records of more runs outgrow a workstation's "
+                f"memory; see MAX_RUNS), got {self.runs!r}"
+            )
         for name, d in self.dispersions.items():
             if not isinstance(name, str) or not name:
                 raise ValueError(f"dispersion names must be non-empty strings, got {name!r}")
@@ -149,6 +163,12 @@ class Campaign:
         object.__setattr__(self, "runs", int(self.runs))
         object.__setattr__(self, "dispersions", dict(self.dispersions))
         object.__setattr__(self, "requirements", reqs)
+        for r in reqs:  # a requirement on a reserved name could only ever read a column, never a metric
+            check_metric_name(r.metric, self.parameter_columns(), what="requirements: metric")
+
+    def parameter_columns(self) -> dict[str, list[str]]:
+        """Each dispersion's name -> its columns in the table (``{"inertia": ["inertia.xx", ...]}``)."""
+        return {name: list(d.columns(name)) for name, d in self.dispersions.items()}
 
     def parameters(self, run: int) -> dict[str, Any]:
         """The dispersed parameters of run ``run`` (the same on every machine).
@@ -299,11 +319,11 @@ def run_campaign(
             }
         checkpoint.start(resume)
     resumed = len(done)
-    params = {run: campaign.parameters(run) for run in range(campaign.runs)}
-    todo = [run for run in range(campaign.runs) if run not in done]
-    tasks = [[(r, params[r]) for r in todo[i : i + runs_per_task]] for i in range(0, len(todo), runs_per_task)]
+    rows: dict[int, list[float]] = {}
+    tasks = _Tasks(campaign, done, runs_per_task, rows)
     bar = Progress(campaign.runs, sys.stderr.isatty() if progress is None else bool(progress))
-    collector = Collector(bar, checkpoint, done)
+    reserved = campaign.parameter_columns()
+    collector = Collector(bar, checkpoint, done, check_metric=lambda name: check_metric_name(name, reserved))
     if scheduler is not None:
         executor = "dask"
         interrupted = run_dask(
@@ -338,7 +358,7 @@ def run_campaign(
         "wall_time_s": time.perf_counter() - wall0,
         "parent_cpu_time_s": time.process_time() - cpu0,
     }
-    result = _assemble(campaign, params, collector.records, info)
+    result = _assemble(campaign, rows, collector.records, info)
     if out_dir is not None:
         result.save(out_dir)
     return result
@@ -350,12 +370,69 @@ def _scheduler_address(scheduler: Any) -> str | None:
     return str(getattr(getattr(scheduler, "scheduler", None), "address", None) or repr(scheduler))
 
 
+class _Tasks(Sequence[list[tuple[int, dict[str, Any]]]]):
+    """The tasks of a campaign, drawn when asked for: memory does not grow with the run count.
+
+    Task ``i`` holds the runs ``runs_per_task * i ...`` of the runs not yet done, in order (the same
+    chunks as a list of every run would give), with their parameters drawn only when the task is
+    taken. Each drawn run's flattened parameters go to ``rows`` for the table (they grow with the runs
+    that ran, like their records).
+
+    Parameters
+    ----------
+    campaign : Campaign
+        The campaign.
+    done : collection of int
+        Runs already complete (resumed from a checkpoint).
+    runs_per_task : int
+        Runs per task, >= 1.
+    rows : dict of int to list of float
+        Receives each drawn run's flattened parameters.
+    """
+
+    def __init__(self, campaign: Campaign, done: Any, runs_per_task: int, rows: dict[int, list[float]]) -> None:
+        self._campaign = campaign
+        self._per_task = runs_per_task
+        self._rows = rows
+        finished = np.array(sorted(done), dtype=np.int64)
+        # finished[k] - k runs are left to do before the k-th finished one: the j-th run to do is j plus
+        # the number of finished runs whose count is <= j (binary search; memory in the finished runs only).
+        self._before = finished - np.arange(finished.size)
+        self._todo = campaign.runs - finished.size
+
+    def __len__(self) -> int:
+        return -(-self._todo // self._per_task)
+
+    def _run(self, j: int) -> int:
+        return j + int(np.searchsorted(self._before, j, side="right"))
+
+    def __getitem__(self, i: Any) -> Any:
+        if isinstance(i, slice):
+            return [self[k] for k in range(*i.indices(len(self)))]
+        n = len(self)
+        if i < 0:
+            i += n
+        if not 0 <= i < n:
+            raise IndexError(f"task index {i} out of range for {n} tasks")
+        items = []
+        for j in range(i * self._per_task, min((i + 1) * self._per_task, self._todo)):
+            run = self._run(j)
+            params = self._campaign.parameters(run)
+            self._rows[run] = flatten_parameters(self._campaign.dispersions, params)
+            items.append((run, params))
+        return items
+
+
 def _assemble(
-    campaign: Campaign, params: dict[int, dict[str, Any]], records: dict[int, RunRecord], info: dict[str, Any]
+    campaign: Campaign, rows: dict[int, list[float]], records: dict[int, RunRecord], info: dict[str, Any]
 ) -> CampaignResult:
     n = campaign.runs
     columns = parameter_columns(campaign.dispersions)
-    table = np.array([flatten_parameters(campaign.dispersions, params[r]) for r in range(n)]).reshape(n, len(columns))
+    # Row by row: the runs drawn for their tasks, and the others (resumed, not run) drawn now, the same values.
+    table = np.empty((n, len(columns)))
+    for r in range(n):
+        row = rows.get(r)
+        table[r] = row if row is not None else flatten_parameters(campaign.dispersions, campaign.parameters(r))
     names: list[str] = []
     for r in sorted(records):
         names.extend(k for k in records[r].metrics if k not in names)

@@ -9,7 +9,15 @@ task never raises because a scenario raised: the exception becomes an
 Faults
 ------
 * **A run that raises**: recorded (status ``"error"``, the exception type and
-  message, the run index and so its seed); the others continue.
+  message, the run index and so its seed); the others continue. ``SystemExit``
+  (``sys.exit`` in a scenario or in a library it calls) is a failed run too,
+  recorded with its message or exit code; only ``KeyboardInterrupt`` stops
+  the campaign.
+* **A metric named like a column of the table** (``run``, ``seed``,
+  ``status``, a dispersion's name or columns:
+  :func:`attitude.montecarlo.results.check_metric_name`): the run is recorded
+  as an error with the ``ValueError`` that names it, instead of silently
+  replacing the column.
 * **A worker process that dies** (segfault, out-of-memory kill,
   ``os._exit``): under :class:`concurrent.futures.ProcessPoolExecutor` every
   unfinished future fails with ``BrokenProcessPool``. The pool is rebuilt,
@@ -49,8 +57,8 @@ import signal
 import sys
 import time
 import uuid
-from collections import deque
-from collections.abc import Iterable, Mapping, Sequence
+from collections import defaultdict, deque
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
@@ -79,6 +87,8 @@ CHECKPOINT_FILE = "checkpoint.jsonl"
 WORKER_DIED = "worker process died"
 CLUSTER_FAILED = "task failed on the cluster"
 _HISTORY_DIR = "checkpoint_histories"
+#: Fewest tasks kept in flight on a Dask cluster (``run_dask``); more with more worker threads.
+_DASK_WINDOW_MIN = 256
 
 Task = list[tuple[int, dict[str, Any]]]
 
@@ -176,7 +186,10 @@ def _as_output(value: Any) -> RunOutput:
 
 
 def _describe_error(exc: BaseException) -> str:
-    text = f"{type(exc).__name__}: {exc}"
+    if isinstance(exc, SystemExit) and not isinstance(exc.code, str):
+        text = f"SystemExit: exit code {exc.code}"  # str(SystemExit()) is empty, str(SystemExit(3)) a bare "3"
+    else:
+        text = f"{type(exc).__name__}: {exc}"
     return " ".join(text.split())
 
 
@@ -208,7 +221,9 @@ def execute_task(scenario: Any, seed: int, items: Task, vectorized: bool) -> lis
             out = _as_output(scenario(params, scenario_generator(seed, run)))
             status, error = ("error", out.error) if out.error else ("ok", "")
             record = RunRecord(run, status, out.metrics, error, history=out.history)
-        except Exception as exc:  # a failing run is data, not a crash of the campaign
+        except (Exception, SystemExit) as exc:  # a failing run is data, not a crash of the campaign
+            # SystemExit too: a scenario (or a library) calling sys.exit fails its run, not the campaign.
+            # KeyboardInterrupt is left to propagate: Ctrl-C means stop.
             record = RunRecord(run, "error", {}, _describe_error(exc))
         record.cpu_s = time.process_time() - cpu0
         record.wall_s = time.perf_counter() - wall0
@@ -224,7 +239,7 @@ def _execute_batch(scenario: Any, seed: int, items: Task) -> list[RunRecord]:
         outputs = [_as_output(o) for o in outputs]
         if len(outputs) != len(items):
             raise ValueError(f"run_batch returned {len(outputs)} outputs for {len(items)} runs")
-    except Exception as exc:
+    except (Exception, SystemExit) as exc:  # as in execute_task: only KeyboardInterrupt stops the campaign
         message = "batch failed: " + _describe_error(exc)
         outputs = [RunOutput({}, None, message) for _ in items]
     cpu = (time.process_time() - cpu0) / len(items)
@@ -402,16 +417,59 @@ class Checkpoint:
 
 
 class Collector:
-    """Gathers records as tasks finish: progress bar and checkpoint."""
+    """Gathers records as tasks finish: progress bar and checkpoint.
 
-    def __init__(self, progress: Progress, checkpoint: Checkpoint | None, records: dict[int, RunRecord]) -> None:
+    Parameters
+    ----------
+    progress : Progress
+        The progress bar.
+    checkpoint : Checkpoint or None
+        Where completed records are appended.
+    records : dict of int to RunRecord
+        Records already complete (resumed); completed ones are added to it.
+    check_metric : callable, optional
+        ``check_metric(name)`` raises ValueError for a metric name the table
+        reserves; a run that returns one is recorded as an error with that
+        message (module docstring).
+    """
+
+    def __init__(
+        self,
+        progress: Progress,
+        checkpoint: Checkpoint | None,
+        records: dict[int, RunRecord],
+        check_metric: Callable[[str], None] | None = None,
+    ) -> None:
         self.progress = progress
         self.checkpoint = checkpoint
         self.records = records
+        self.check_metric = check_metric
         self.errors = sum(r.status != "ok" for r in records.values())
         self.progress.update(len(records), self.errors, force=True)
 
+    def _checked(self, record: RunRecord) -> RunRecord:
+        if self.check_metric is None:
+            return record
+        try:
+            for name in record.metrics:
+                self.check_metric(name)
+        except ValueError as exc:
+            return RunRecord(
+                record.run, "error", {}, _describe_error(exc), record.attempts, record.cpu_s, record.wall_s
+            )
+        return record
+
     def add(self, records: Sequence[RunRecord], attempts: int = 1) -> None:
+        """Record completed runs: table, checkpoint and progress bar.
+
+        Parameters
+        ----------
+        records : sequence of RunRecord
+            The runs of a finished task.
+        attempts : int, optional
+            Attempts the task took.
+        """
+        records = [self._checked(r) for r in records]
         for r in records:
             r.attempts = attempts
             self.records[r.run] = r
@@ -447,6 +505,43 @@ def run_serial(scenario: Any, seed: int, tasks: Sequence[Task], vectorized: bool
     except KeyboardInterrupt:
         return True
     return False
+
+
+class _TaskQueue:
+    """Indices ``0 .. n - 1`` in order, with a few handed back to the front; O(1) memory in ``n``.
+
+    Parameters
+    ----------
+    n : int
+        Number of tasks.
+    """
+
+    def __init__(self, n: int) -> None:
+        self._next = 0
+        self._n = n
+        self._back: deque[int] = deque()
+
+    def __bool__(self) -> bool:
+        return bool(self._back) or self._next < self._n
+
+    def popleft(self) -> int:
+        """The next index (IndexError when none is left)."""
+        if self._back:
+            return self._back.popleft()
+        if self._next >= self._n:
+            raise IndexError("pop from an empty task queue")
+        self._next += 1
+        return self._next - 1
+
+    def appendleft(self, i: int) -> None:
+        """Hand index ``i`` back: it comes out next.
+
+        Parameters
+        ----------
+        i : int
+            A task index taken from this queue.
+        """
+        self._back.appendleft(i)
 
 
 _WORKER_SCENARIO: Any = None
@@ -515,9 +610,11 @@ def run_processes(
     def new_pool() -> ProcessPoolExecutor:
         return ProcessPoolExecutor(workers, mp_context=mp_context, initializer=_init_worker, initargs=(payload,))
 
-    queue: deque[int] = deque(range(len(tasks)))
+    # Task indices are handed out by a counter (and a deque of the few handed back), not a deque of
+    # every index: memory must not grow with the run count before the runs start (tasks is lazy).
+    queue = _TaskQueue(len(tasks))
     suspects: deque[int] = deque()
-    lone_deaths = [0] * len(tasks)
+    lone_deaths: defaultdict[int, int] = defaultdict(int)  # only the tasks whose worker died
     in_flight: dict[Future, int] = {}
     pool = new_pool()
     limit = 2 * workers
@@ -627,13 +724,24 @@ def run_dask(
     own = not isinstance(scheduler, Client)
     client = Client(scheduler) if own else scheduler
     tag = uuid.uuid4().hex[:8]
-    futures = {}
+    futures: dict[Any, Task] = {}
     try:
         # The scenario (a planned slew, a spacecraft) goes to the cluster once, not once per task, as the
         # result of a task: unlike scattered data, the scheduler can compute it again if every worker
         # holding it dies.
         shared = client.submit(_identity, scenario, pure=False, key=f"attitude-montecarlo-{tag}-scenario")
-        for i, task in enumerate(tasks):
+        # A window of tasks in flight, not every task at once: submitting all of them would draw every run's
+        # parameters and hold a future per task (here and on the scheduler) before the first run completes,
+        # so memory would grow with the run count. The window keeps each worker thread busy with a few
+        # queued tasks; its floor covers workers that join later.
+        window = max(_DASK_WINDOW_MIN, 4 * sum(client.nthreads().values()))
+        pending = as_completed()
+        next_task = 0
+
+        def submit_next() -> None:
+            nonlocal next_task
+            task = tasks[next_task]
+            next_task += 1
             fut = client.submit(
                 execute_task,
                 shared,
@@ -644,14 +752,20 @@ def run_dask(
                 pure=False,
                 retries=max_retries,
             )
-            futures[fut] = i
-        for fut in as_completed(list(futures)):
-            i = futures[fut]
+            futures[fut] = task
+            pending.add(fut)
+
+        while next_task < len(tasks) and len(futures) < window:
+            submit_next()
+        for fut in pending:
+            task = futures.pop(fut)
             try:
                 collector.add(fut.result())
             except Exception as exc:  # KilledWorker, lost data, cancelled ...
                 message = f"{CLUSTER_FAILED}: {_describe_error(exc)}"
-                collector.add([RunRecord(run, "error", {}, message) for run, _ in tasks[i]])
+                collector.add([RunRecord(run, "error", {}, message) for run, _ in task])
+            if next_task < len(tasks):
+                submit_next()
     except KeyboardInterrupt:
         client.cancel(list(futures))
         return True

@@ -27,7 +27,7 @@ from __future__ import annotations
 import csv
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -41,10 +41,47 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 from attitude.montecarlo.statistics import DEFAULT_PERCENTILES, percentiles, success_lower_bound, success_statement
 
-__all__ = ["EXECUTION_COLUMNS", "CampaignResult", "Requirement"]
+__all__ = ["EXECUTION_COLUMNS", "RESERVED_COLUMNS", "CampaignResult", "Requirement", "check_metric_name"]
 
 #: Columns that describe how a run executed (they vary from one execution to another).
 EXECUTION_COLUMNS = ("attempts", "cpu_s", "wall_s")
+#: Columns of every table that are not metrics (and ``pass.<requirement>``): no metric may take these names.
+RESERVED_COLUMNS = ("run", "seed", "status", "error", "pass", *EXECUTION_COLUMNS)
+
+
+def check_metric_name(name: str, parameters: Mapping[str, Sequence[str]] | None = None, what: str = "metric") -> None:
+    """Refuse a metric name that the table reserves (ValueError naming it and the rule).
+
+    A metric shares the table with the run's index, seed, status, error, pass
+    flags, execution details and dispersed parameters; one named like any of
+    them would replace that column (and the saved table would not load back).
+
+    Parameters
+    ----------
+    name : str
+        The metric's name.
+    parameters : mapping of str to sequence of str, optional
+        Each dispersion's name -> its table columns (``{"inertia": ["inertia.xx", ...]}``).
+    what : str, optional
+        How the name is introduced in the message (``"metric"``, ``"requirements: metric"``).
+    """
+    if name in RESERVED_COLUMNS:
+        reason = f"it names a column of every table ({', '.join(RESERVED_COLUMNS)})"
+    elif name.startswith("pass."):
+        reason = "names starting with 'pass.' are the requirement columns (pass.<requirement>)"
+    else:
+        reason = ""
+        for dispersion, columns in (parameters or {}).items():
+            if name == dispersion:
+                reason = f"it is the name of the dispersion {dispersion!r}"
+            elif name in columns:
+                reason = f"it names a column of the dispersion {dispersion!r} ({', '.join(columns)})"
+            if reason:
+                break
+    if reason:
+        raise ValueError(f"{what} {name!r} is reserved: {reason}; rename the metric")
+
+
 _STATUS = ("ok", "error", "not run")
 
 
@@ -181,6 +218,12 @@ class CampaignResult:
             "error": self.errors,
         }
         cols.update(self.parameters)
+        for m in self.metrics:  # a metric must never silently replace a column (check_metric_name)
+            if m in cols or m in RESERVED_COLUMNS or m.startswith("pass."):
+                raise ValueError(
+                    f"metrics: {m!r} names a column of the table (reserved: {', '.join(RESERVED_COLUMNS)}, "
+                    "pass.<requirement> and the dispersed parameters); rename the metric"
+                )
         cols.update(self.metrics)
         for r in self.requirements:
             cols[f"pass.{r.name}"] = self.requirement_passed(r)

@@ -608,3 +608,92 @@ def test_the_summary_speaks_review_units():
     median = np.degrees(np.median(result.metrics["final_pointing_error"]))
     assert f"final_pointing_error [deg]: median {median:.4g}" in text
     assert "rate_peak [deg/s]: median 5.73" in text  # 0.1 rad/s
+
+
+# ---------------------------------------------------------------------------
+# Reserved metric names and the run count (issue 13, items 5 and 8)
+
+
+class ReturnsMetric:
+    """Returns one metric of the given name (e.g. ``seed``, which names a column of the table)."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self.fingerprint = f"ReturnsMetric({name})"
+
+    def __call__(self, params, rng):
+        return {"y": 1.0, self.name: 7.0}
+
+
+class CountingNormal(Normal):
+    """A normal dispersion that counts its draws (class-wide, so copies count too)."""
+
+    draws = 0
+
+    def sample(self, rng):
+        type(self).draws += 1
+        return super().sample(rng)
+
+
+class StopsAtOnce(Quadratic):
+    """Notes how many parameters had been drawn when the first run started, then stops (Ctrl-C)."""
+
+    fingerprint = "StopsAtOnce"
+
+    def __init__(self) -> None:
+        self.draws_at_first_run: int | None = None
+
+    def __call__(self, params, rng):
+        self.draws_at_first_run = CountingNormal.draws
+        raise KeyboardInterrupt
+
+
+class TestReservedMetricNames:
+    @pytest.mark.parametrize("name", ["run", "seed", "status", "error", "pass", "cpu_s", "q", "q.w", "x"])
+    def test_a_metric_named_like_a_column_fails_its_run_and_the_table_loads(self, name, tmp_path):
+        dispersions = {"x": Normal(0.0, 1.0), "q": RandomAttitude()}
+        result = run_campaign(Campaign(ReturnsMetric(name), dispersions, runs=3, seed=5), workers=1, out_dir=tmp_path)
+        assert list(result.status) == ["error"] * 3
+        for message in result.errors:
+            assert message.startswith("ValueError: metric")
+            assert repr(name) in message and "reserved" in message
+        assert name not in result.metrics
+        table = result.table()
+        assert list(table["run"]) == [0, 1, 2] and list(table["seed"]) == [5, 5, 5]
+        loaded = CampaignResult.load(tmp_path)
+        assert list(loaded.status) == ["error"] * 3
+        assert np.array_equal(loaded.parameters["x"], result.parameters["x"])
+
+    def test_a_requirement_on_a_reserved_name_is_refused(self):
+        with pytest.raises(ValueError, match=r"requirements.*'x'.*reserved"):
+            Campaign(Quadratic(), X, runs=2, requirements=[Requirement("x", max=1.0)])
+        with pytest.raises(ValueError, match=r"requirements.*'wall_s'.*reserved"):
+            Campaign(Quadratic(), X, runs=2, requirements=[Requirement("wall_s", max=1.0)])
+
+    def test_a_result_whose_metric_shadows_a_column_refuses_to_make_a_table(self):
+        result = run_campaign(Campaign(Quadratic(), X, runs=2, seed=1), workers=1)
+        result.metrics["status"] = np.zeros(2)
+        with pytest.raises(ValueError, match=r"metrics.*'status'.*column"):
+            result.table()
+
+
+class TestRunCount:
+    def test_an_absurd_run_count_is_refused_with_the_bound(self):
+        with pytest.raises(ValueError, match=r"runs must be at most 10000000.*999999999999999999"):
+            Campaign(Quadratic(), X, runs=999999999999999999)
+
+    def test_the_bound_itself_is_accepted(self):
+        from attitude.montecarlo.campaign import MAX_RUNS
+
+        assert Campaign(Quadratic(), X, runs=MAX_RUNS).runs == MAX_RUNS
+
+    def test_parameters_are_drawn_as_the_runs_start_not_all_before(self):
+        CountingNormal.draws = 0
+        scenario = StopsAtOnce()
+        result = run_campaign(Campaign(scenario, {"x": CountingNormal(0.0, 1.0)}, runs=2000, seed=3), workers=1)
+        assert result.info["interrupted"]
+        # Today's code drew all 2000 before the first run; lazily, only the first run's.
+        assert scenario.draws_at_first_run == 1
+        # The table still holds every run's parameters, as a campaign run to the end would.
+        reference = [Campaign(Quadratic(), X, runs=2000, seed=3).parameters(r)["x"] for r in range(2000)]
+        assert list(result.parameters["x"]) == reference
