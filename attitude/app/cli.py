@@ -8,7 +8,9 @@ Exit codes
     0: every requirement passes (``physics`` and ``init``: done);
     1: a requirement fails (or the slew could not be planned);
     2: bad input: the file or the command line cannot be used. The message
-    names the file and the key, with no traceback.
+    names the file and the key, with no traceback;
+    130: interrupted (Ctrl-C): one line with the command that starts the
+    work again (a Monte Carlo campaign resumes from its checkpoint).
 
 Progress of long steps goes to stderr; results go to stdout (with
 ``--json``, stdout holds only the JSON document).
@@ -43,11 +45,13 @@ from attitude.config import (
 __all__ = ["main"]
 
 EXIT_PASS, EXIT_FAIL, EXIT_BAD_INPUT = 0, 1, 2
+#: Exit code after Ctrl-C: 128 + SIGINT, what a shell reports for a tool stopped by it.
+EXIT_INTERRUPTED = 130
 
 _FILE_HELP = "spacecraft file (TOML); default: the built-in 12U CubeSat (write it out with `attitude init FILE`)"
 _EPILOG = """\
 exit codes: 0 all requirements pass, 1 a requirement fails, 2 bad input
-(the message names the file and the key).
+(the message names the file and the key), 130 interrupted (Ctrl-C).
 
 examples:
   attitude init my_sat.toml              # a commented starting point
@@ -724,6 +728,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         except (OSError, ValueError):
             pass
         return 141  # 128 + SIGPIPE, what a shell reports for a tool killed by the broken pipe
+    except KeyboardInterrupt:
+        # Ctrl-C outside a campaign's run loop (planning, figures): one line, not a traceback.
+        again = " ".join(["attitude", *(sys.argv[1:] if argv is None else argv)])
+        what = "resumes the campaign from its checkpoint" if args.command == "montecarlo" else "starts it again"
+        print(f"attitude {args.command}: interrupted (Ctrl-C); the same command {what}: {again}", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except ConfigError as exc:
         print(f"attitude {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT

@@ -347,6 +347,20 @@ def test_design_refuses_a_negative_seed(tmp_path, capsys):
     assert "--seed" in capsys.readouterr().err
 
 
+def test_ctrl_c_outside_the_run_loop_is_one_line_and_exit_130(monkeypatch, capsys):
+    """Issue 13, item 14: Ctrl-C while planning or saving figures printed a raw traceback (exit -2)."""
+    from attitude.app import cli
+
+    def interrupted(args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "_cmd_physics", interrupted)
+    assert main(["physics", "--json"]) == 130
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert "interrupted (Ctrl-C)" in err and "starts it again: attitude physics --json" in err
+
+
 def test_missing_file_and_no_command(tmp_path, capsys):
     assert main(["physics", str(tmp_path / "nowhere.toml")]) == 2
     assert "nowhere.toml" in capsys.readouterr().err
