@@ -361,6 +361,21 @@ def test_ctrl_c_outside_the_run_loop_is_one_line_and_exit_130(monkeypatch, capsy
     assert "interrupted (Ctrl-C)" in err and "starts it again: attitude physics --json" in err
 
 
+def test_design_refuses_sample_periods_a_thousand_times_too_short(tmp_path, capsys):
+    """Issue 13, item 19: ``period_s = 1e-5`` everywhere (a units mistake) ran step 4 for many minutes
+    with no word; it is refused up front, naming the shortest period, the tick count and the time."""
+    text = default_config_text()
+    lines = text.splitlines()
+    for i in (90, 108, 118):  # gyro, star tracker and control period_s (checked below)
+        assert lines[i].startswith("period_s = ")
+        lines[i] = "period_s = " + ("2e-5" if i == 108 else "1e-5")
+    path = tmp_path / "units.toml"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    assert main(["design", str(path), "--out", str(tmp_path / "out"), "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert "control.period_s" in err and "2.4e+07 ticks" in err and "720 minutes" in err and "check the unit" in err
+
+
 def test_missing_file_and_no_command(tmp_path, capsys):
     assert main(["physics", str(tmp_path / "nowhere.toml")]) == 2
     assert "nowhere.toml" in capsys.readouterr().err
