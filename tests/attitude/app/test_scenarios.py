@@ -211,6 +211,10 @@ def test_vectorised_runs_are_the_per_run_runs(scenario):
         # Each run's arithmetic is independent of its batch: bit for bit whatever the chunks.
         np.testing.assert_array_equal(chunked.metrics[name], batch.metrics[name], err_msg=name)
     np.testing.assert_array_equal(batch.metrics["settling_time"], per_run.metrics["settling_time"])
+    # Issue 13, item 18 (what the README promises): the verdicts are the same run by run.
+    for requirement in campaign.requirements:
+        np.testing.assert_array_equal(batch.requirement_passed(requirement), per_run.requirement_passed(requirement))
+    np.testing.assert_array_equal(batch.passed, per_run.passed)
     for key in ("error_angle", "tracking_error", "omega", "wheel_speed", "estimation_error"):
         np.testing.assert_allclose(batch.histories[2][key], per_run.histories[2][key], atol=1e-11, err_msg=key)
     np.testing.assert_array_equal(batch.histories[2]["t"], per_run.histories[2]["t"])
