@@ -31,6 +31,8 @@ from attitude.quaternion import derivative_components as quaternion_rate
 from attitude.validation import as_float_array, check_vector, describe
 
 __all__ = [
+    "INERTIA_MAX_KG_M2",
+    "INERTIA_MIN_KG_M2",
     "REALISABILITY_TOLERANCE",
     "SYMMETRY_TOLERANCE",
     "ParametricBody",
@@ -208,6 +210,13 @@ class _EulerEquations:
         return quaternion_rate(q, w) + self.omega_dot_components(w, torque, h)
 
 
+#: Range of the largest inertia entry accepted [kg m^2]. The kinetic energy I w^2 and the gyroscopic term
+#: w x (I w) square the entries' scale; beyond 1e100 they overflow (a 1e300 inertia gave inf energy and NaN
+#: accelerations), below 1e-100 they underflow. Real bodies lie between 1e-12 (a chip) and 1e10 (a station).
+INERTIA_MAX_KG_M2 = 1e100
+INERTIA_MIN_KG_M2 = 1e-100
+
+
 class RigidBody(_EulerEquations):
     """A rigid spacecraft: inertia tensor, checks, and Euler's equations.
 
@@ -247,6 +256,12 @@ class RigidBody(_EulerEquations):
                 f"inertia must be 3 principal moments (..., 3) or a tensor (..., 3, 3) in kg m^2, got shape {arr.shape}"
             )
         scale = np.max(np.abs(tensor), axis=(-1, -2))
+        if np.any(scale > INERTIA_MAX_KG_M2) or np.any(scale < INERTIA_MIN_KG_M2):
+            raise ValueError(
+                f"inertia must lie within [{INERTIA_MIN_KG_M2:g}, {INERTIA_MAX_KG_M2:g}] kg m^2 (beyond it the "
+                "energy and the gyroscopic terms overflow or underflow in floating point; use other units), "
+                f"got entries up to {float(np.max(scale)):.6g} and down to {float(np.min(scale)):.6g} kg m^2"
+            )
         asym = np.max(np.abs(tensor - np.swapaxes(tensor, -1, -2)), axis=(-1, -2))
         if np.any(asym > SYMMETRY_TOLERANCE * scale):
             raise ValueError(
