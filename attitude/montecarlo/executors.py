@@ -182,6 +182,13 @@ def _as_output(value: Any) -> RunOutput:
     history = None
     if out.history is not None:
         history = {str(k): np.asarray(v) for k, v in out.history.items()}
+        for key, v in history.items():
+            # Checkpoints store histories without pickle (safe to load): object arrays cannot go there.
+            if v.dtype.kind not in "biufcUS":
+                raise ValueError(
+                    f"history[{key!r}] must be an array of numbers, booleans or strings (histories are stored "
+                    f"without pickle), got dtype {v.dtype}"
+                )
     return RunOutput(metrics, history, out.error)
 
 
@@ -405,7 +412,7 @@ class Checkpoint:
             if r.history is not None:
                 path = self._history_path(r.run)
                 path.parent.mkdir(exist_ok=True)
-                np.savez(path, **r.history)
+                np.savez(path, allow_pickle=False, **r.history)
             self._file.write(r.to_json() + "\n")
         self._file.flush()
         os.fsync(self._file.fileno())

@@ -4,13 +4,15 @@ What each test checks against: the campaign's own rule (module docstring of
 :mod:`attitude.montecarlo.executors`: "a task never raises because a scenario
 raised"), applied to ``SystemExit`` (``sys.exit`` in a scenario, or a library
 calling it), which is a ``BaseException`` and not an ``Exception``. Ctrl-C
-(``KeyboardInterrupt``) still stops the campaign.
+(``KeyboardInterrupt``) still stops the campaign. And a history that cannot be stored without pickle
+(an object array) is refused when the run returns it, so a checkpoint always resumes.
 """
 
 from __future__ import annotations
 
 import sys
 
+import numpy as np
 import pytest
 
 from attitude.montecarlo.campaign import Campaign, run_campaign
@@ -86,3 +88,26 @@ def test_a_bare_system_exit_names_its_code():
 
     (record,) = execute_task(bare, 1, [(0, {})], vectorized=False)
     assert (record.status, record.error) == ("error", "SystemExit: exit code None")
+
+
+class ObjectHistory:
+    """Returns a history holding Python objects (what ``np.asarray`` of a list of dicts gives)."""
+
+    fingerprint = "ObjectHistory"
+
+    def __call__(self, params, rng):
+        from attitude.montecarlo.executors import RunOutput
+
+        t = np.arange(3.0)
+        return RunOutput({"y": float(params["x"])}, {"t": t, "events": np.array([{"a": 1}] * 3, dtype=object)})
+
+
+def test_object_history_is_refused_when_written_and_the_campaign_resumes(tmp_path):
+    """Issue 13, item 12: an object-array history was checkpointed with pickle, then refused on resume."""
+    campaign = Campaign(ObjectHistory(), X, runs=3, seed=1)
+    first = run_campaign(campaign, workers=1, out_dir=tmp_path / "mc")
+    assert list(first.status) == ["error"] * 3
+    assert all("history['events'] must be an array of numbers" in e and "dtype object" in e for e in first.errors)
+    # Nothing pickled was written: the same command resumes (and redoes the failed runs the same way).
+    again = run_campaign(campaign, workers=1, out_dir=tmp_path / "mc")
+    assert list(again.status) == ["error"] * 3
