@@ -2,7 +2,7 @@
 atmosphere, the surface model and the disturbance torques, and the momentum they ask of the wheels."""
 
 from attitude.environment.atmosphere import NRLMSIS, ExponentialAtmosphere, geodetic_coordinates
-from attitude.environment.epoch import DEFAULT_EPOCH, Epoch, earth_fixed_positions, ecef_to_N
+from attitude.environment.epoch import DEFAULT_EPOCH, Epoch, earth_fixed_positions, ecef_to_N, utc_naive
 from attitude.environment.gravity_gradient import (
     GravityGradientStability,
     constant_plus_orbital_disturbance,
@@ -109,4 +109,5 @@ __all__ = [
     "solve_kepler",
     "sun_direction_N",
     "sun_position_N",
+    "utc_naive",
 ]

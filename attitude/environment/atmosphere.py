@@ -31,13 +31,12 @@ sub-millimetre at satellite altitudes).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from datetime import UTC, datetime
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from attitude.environment.epoch import earth_fixed_positions
+from attitude.environment.epoch import earth_fixed_positions, utc_naive
 from attitude.validation import as_float_array, check_vector, describe, positive_scalar
 
 __all__ = ["NRLMSIS", "ExponentialAtmosphere", "geodetic_coordinates"]
@@ -78,14 +77,6 @@ _TABLE_8_4 = np.array(
 _BASE_ALTITUDE_M = 1e3 * _TABLE_8_4[:, 0]
 _NOMINAL_DENSITY = _TABLE_8_4[:, 1]
 _SCALE_HEIGHT_M = 1e3 * _TABLE_8_4[:, 2]
-
-
-def _utc_naive(epoch: Any) -> datetime:
-    """The epoch's UTC instant as a naive datetime (what pymsis takes)."""
-    utc = getattr(epoch, "utc", None)
-    if not isinstance(utc, datetime) or utc.tzinfo is None:
-        raise ValueError(f"epoch.utc must be a timezone-aware datetime (an Epoch), got {utc!r}")
-    return utc.astimezone(UTC).replace(tzinfo=None)
 
 
 def geodetic_coordinates(r_E: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
@@ -270,7 +261,7 @@ class NRLMSIS:
             raise ImportError("NRLMSIS needs the optional pymsis package: pip install attitude-toolkit[msis]") from exc
         r_E, times, _, shape = earth_fixed_positions(r_N, epoch, t)
         latitude, longitude, altitude = _altitudes_above_ground(r_E)
-        start = np.datetime64(_utc_naive(epoch), "us")
+        start = np.datetime64(utc_naive(epoch), "us")
         dates = start + np.round(times * 1e6).astype("timedelta64[us]")
         n = times.size
         out = pymsis.calculate(

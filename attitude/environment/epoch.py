@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from datetime import UTC, datetime
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -28,6 +29,7 @@ __all__ = [
     "Epoch",
     "earth_fixed_positions",
     "ecef_to_N",
+    "utc_naive",
 ]
 
 #: Seconds in a (UTC) day; leap seconds inside a run are ignored.
@@ -204,6 +206,32 @@ def earth_fixed_positions(
     gmst = np.broadcast_to(np.asarray(epoch.gmst(times), dtype=float), times.shape)
     r_E = np.einsum("nji,nj->ni", ecef_to_N(gmst), r_flat)  # the transpose takes N to Earth-fixed
     return r_E, times, gmst, shape
+
+
+def utc_naive(epoch: Any) -> datetime:
+    """An epoch's UTC instant as a naive datetime (what ppigrf and pymsis compare dates against).
+
+    Parameters
+    ----------
+    epoch : Epoch
+        Anything with a timezone-aware ``utc`` datetime.
+
+    Returns
+    -------
+    datetime.datetime
+        The same instant in UTC, without a zone.
+
+    Raises
+    ------
+    ValueError
+        If ``epoch.utc`` is missing, not a datetime, or naive.
+    """
+    utc = getattr(epoch, "utc", None)
+    if not isinstance(utc, datetime):
+        raise ValueError(f"epoch must have a datetime attribute utc (an Epoch), got {epoch!r}")
+    if utc.tzinfo is None:
+        raise ValueError(f"epoch.utc must be timezone-aware (UTC), got the naive datetime {utc.isoformat()}")
+    return utc.astimezone(UTC).replace(tzinfo=None)
 
 
 #: An arbitrary default epoch (the March 2026 equinox day, noon UTC) for runs that do not give one.

@@ -39,13 +39,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from datetime import UTC, datetime, timedelta
+from datetime import datetime, timedelta
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from attitude.environment.epoch import earth_fixed_positions, ecef_to_N
+from attitude.environment.epoch import earth_fixed_positions, ecef_to_N, utc_naive
 from attitude.validation import as_float_array, describe
 
 __all__ = ["IGRF", "IGRF_REFERENCE_RADIUS_M", "MU0_OVER_4PI", "TiltedDipole"]
@@ -63,16 +63,6 @@ _IGRF_MAX_DEGREE = 13
 #: sin(colatitude) for the eastward component. The move is 1e-9 rad, 7 mm at 7000 km: the field
 #: changes by about 1e-12 of itself.
 _POLE_GUARD_DEG = math.degrees(1e-9)
-
-
-def _utc_naive(epoch: Any) -> datetime:
-    """The epoch's UTC instant as a naive datetime (what ppigrf and pymsis compare against)."""
-    utc = getattr(epoch, "utc", None)
-    if not isinstance(utc, datetime):
-        raise ValueError(f"epoch must have a datetime attribute utc (an Epoch), got {epoch!r}")
-    if utc.tzinfo is None:
-        raise ValueError(f"epoch.utc must be timezone-aware (UTC), got the naive datetime {utc.isoformat()}")
-    return utc.astimezone(UTC).replace(tzinfo=None)
 
 
 def _coefficient_file(coefficient_file: str | None) -> str:
@@ -163,7 +153,7 @@ class IGRF:
 
         coefficient_file = _coefficient_file(self.coefficient_file)
         g, _ = ppigrf.read_shc(coefficient_file)
-        start = _utc_naive(epoch)
+        start = utc_naive(epoch)
         steps = np.round(times / self.date_resolution).astype(np.int64)
         b_spherical = np.empty((times.size, 3))
         for step in np.unique(steps):
@@ -227,7 +217,7 @@ class TiltedDipole:
         from ppigrf import ppigrf
 
         g, h = ppigrf.read_shc(_coefficient_file(self.coefficient_file))
-        date = _utc_naive(self.epoch)
+        date = utc_naive(self.epoch)
         _check_date(date, g.index, "epoch.utc")
         known = (g.index - g.index[0]).total_seconds().to_numpy()
         at = (date - g.index[0].to_pydatetime()).total_seconds()
@@ -282,5 +272,5 @@ class TiltedDipole:
         """
         return (
             f"tilted dipole {np.linalg.norm(self._moment_E):.4g} A m^2, tilt {math.degrees(self.tilt_rad):.2f} deg "
-            f"(IGRF degree 1 at {_utc_naive(self.epoch).date()})"
+            f"(IGRF degree 1 at {utc_naive(self.epoch).date()})"
         )

@@ -558,8 +558,85 @@ def _check_eccentricity(eccentricity: Any) -> float:
     return float(e)
 
 
+class _StateOrbit:
+    """Position, velocity and the LVLH frame of an orbit that computes its state ``(r_N, v_N)`` in ``_state(t)``.
+
+    The one home of these members for :class:`KeplerOrbit` and :class:`TLEOrbit`
+    (the circular orbit builds its LVLH frame by rotations instead).
+    """
+
+    def _state(self, t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        raise NotImplementedError
+
+    def position_N(self, t: ArrayLike) -> NDArray[np.float64]:
+        """Position from the Earth's centre in N [m] (for a TLE: SGP4's, in TEME).
+
+        Parameters
+        ----------
+        t : array_like, shape (...)
+            Time since the epoch [s].
+
+        Returns
+        -------
+        ndarray, shape (..., 3)
+
+        Raises
+        ------
+        ValueError
+            For a TLE, if sgp4 reports an error at one of the times (e.g. decayed).
+        """
+        return self._state(t)[0]
+
+    def velocity_N(self, t: ArrayLike) -> NDArray[np.float64]:
+        """Inertial velocity in N [m/s] (for a TLE: SGP4's, in TEME).
+
+        Parameters
+        ----------
+        t : array_like, shape (...)
+            Time since the epoch [s].
+
+        Returns
+        -------
+        ndarray, shape (..., 3)
+        """
+        return self._state(t)[1]
+
+    def q_LN(self, t: ArrayLike) -> NDArray[np.float64]:
+        """Attitude of the LVLH frame relative to N, from the state (:func:`lvlh_attitude`).
+
+        Parameters
+        ----------
+        t : array_like, shape (...)
+            Time since the epoch [s].
+
+        Returns
+        -------
+        ndarray, shape (..., 4)
+            Scalar-first ``q_LN``, scalar part ``>= 0``.
+        """
+        return lvlh_attitude(*self._state(t))
+
+    def omega_LN_L(self, t: ArrayLike) -> NDArray[np.float64]:
+        """Angular velocity of L relative to N in L: ``[0, -|r x v| / |r|^2, 0]`` [rad/s].
+
+        Two-body motion keeps the orbit plane fixed, so L turns about ``o2``
+        only, at the rate of the true anomaly (for a TLE the osculating state's,
+        without the slow J2 turn of the plane).
+
+        Parameters
+        ----------
+        t : array_like, shape (...)
+            Time since the epoch [s].
+
+        Returns
+        -------
+        ndarray, shape (..., 3)
+        """
+        return _omega_from_state(*self._state(t))
+
+
 @dataclass(frozen=True)
-class KeplerOrbit:
+class KeplerOrbit(_StateOrbit):
     """A two-body Keplerian orbit from its classical elements, with its LVLH frame.
 
     The plane is placed as in :class:`CircularOrbit` (``raan`` about z, then
@@ -732,66 +809,6 @@ class KeplerOrbit:
         v = speed_scale * (-sin_e * p_axis + root * cos_e * q_axis)
         return r, v
 
-    def position_N(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Position from the planet's centre in N [m].
-
-        Parameters
-        ----------
-        t : array_like, shape (...)
-            Time since the epoch [s].
-
-        Returns
-        -------
-        ndarray, shape (..., 3)
-        """
-        return self._state(t)[0]
-
-    def velocity_N(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Inertial velocity in N [m/s].
-
-        Parameters
-        ----------
-        t : array_like, shape (...)
-            Time since the epoch [s].
-
-        Returns
-        -------
-        ndarray, shape (..., 3)
-        """
-        return self._state(t)[1]
-
-    def q_LN(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Attitude of the LVLH frame relative to N, from :func:`lvlh_attitude`.
-
-        Parameters
-        ----------
-        t : array_like, shape (...)
-            Time since the epoch [s].
-
-        Returns
-        -------
-        ndarray, shape (..., 4)
-            Scalar-first ``q_LN``, scalar part ``>= 0``.
-        """
-        return lvlh_attitude(*self._state(t))
-
-    def omega_LN_L(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Angular velocity of L relative to N in L: ``[0, -|r x v| / |r|^2, 0]`` [rad/s].
-
-        Two-body motion keeps the orbit plane fixed, so L turns about ``o2``
-        only, at the rate of the true anomaly.
-
-        Parameters
-        ----------
-        t : array_like, shape (...)
-            Time since the epoch [s].
-
-        Returns
-        -------
-        ndarray, shape (..., 3)
-        """
-        return _omega_from_state(*self._state(t))
-
     def describe(self) -> str:
         """One line for reports: perigee and apogee altitudes, inclination, period, epoch.
 
@@ -815,7 +832,7 @@ _SECONDS_PER_MINUTE = 60.0
 
 
 @dataclass(frozen=True)
-class TLEOrbit:
+class TLEOrbit(_StateOrbit):
     """An orbit from a NORAD two-line element set, propagated by SGP4/SDP4 (the ``sgp4`` package).
 
     Positions and velocities are SGP4's, in TEME of date (the frame N of the
@@ -911,72 +928,6 @@ class TLEOrbit:
                 f"t = {float(flat[k])!r} s after the TLE epoch: sgp4 error {code}: {SGP4_ERRORS.get(code, 'unknown')}"
             )
         return r.reshape(*t.shape, 3) * _KM, v.reshape(*t.shape, 3) * _KM
-
-    def position_N(self, t: ArrayLike) -> NDArray[np.float64]:
-        """SGP4 position in TEME (N) [m].
-
-        Parameters
-        ----------
-        t : array_like, shape (...)
-            Time since the TLE epoch [s].
-
-        Returns
-        -------
-        ndarray, shape (..., 3)
-
-        Raises
-        ------
-        ValueError
-            If sgp4 reports an error at one of the times (e.g. decayed).
-        """
-        return self._state(t)[0]
-
-    def velocity_N(self, t: ArrayLike) -> NDArray[np.float64]:
-        """SGP4 velocity in TEME (N) [m/s].
-
-        Parameters
-        ----------
-        t : array_like, shape (...)
-            Time since the TLE epoch [s].
-
-        Returns
-        -------
-        ndarray, shape (..., 3)
-
-        Raises
-        ------
-        ValueError
-            If sgp4 reports an error at one of the times.
-        """
-        return self._state(t)[1]
-
-    def q_LN(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Attitude of the LVLH frame relative to N, from the SGP4 state (:func:`lvlh_attitude`).
-
-        Parameters
-        ----------
-        t : array_like, shape (...)
-            Time since the TLE epoch [s].
-
-        Returns
-        -------
-        ndarray, shape (..., 4)
-        """
-        return lvlh_attitude(*self._state(t))
-
-    def omega_LN_L(self, t: ArrayLike) -> NDArray[np.float64]:
-        """Angular velocity of L relative to N in L, ``[0, -|r x v|/|r|^2, 0]`` of the SGP4 state [rad/s].
-
-        Parameters
-        ----------
-        t : array_like, shape (...)
-            Time since the TLE epoch [s].
-
-        Returns
-        -------
-        ndarray, shape (..., 3)
-        """
-        return _omega_from_state(*self._state(t))
 
     def describe(self) -> str:
         """One line for reports: catalogue number, epoch, inclination, eccentricity, period.

@@ -642,7 +642,7 @@ def _run_python(
         if flight.active:
             tau_ext = tau_ext + env_torques[k].sum(axis=0)
             if flight.magnetorquers is not None:
-                tau_m = np.cross(m_B, field_B)
+                tau_m = flight.magnetorquer_torque(m_B, field_B)
                 m_cmd_all[k], m_B_all[k], tau_m_all[k] = m_cmd, m_B, tau_m
                 tau_ext = tau_ext + tau_m
         x_all[k + 1] = np.array(step(x, u, tau_ext, dt)).ravel()
@@ -652,7 +652,7 @@ def _run_python(
     orbit = None
     if flight.active:
         if flight.magnetorquers is not None:  # the last row, as the other commands: what would be held from t_end
-            m_cmd_all[-1], m_B_all[-1], tau_m_all[-1] = m_cmd, m_B, np.cross(m_B, field_all[-1])
+            m_cmd_all[-1], m_B_all[-1], tau_m_all[-1] = m_cmd, m_B, flight.magnetorquer_torque(m_B, field_all[-1])
         orbit = _orbit_histories(
             flight, env_torques, field_all, flight.track.illumination.copy(), m_cmd_all, m_B_all, tau_m_all
         )

@@ -23,6 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from attitude.actuators import Magnetorquers
 from attitude.environment.orbit_environment import SURFACE_PARAMETERS, OrbitEnvironment
+from attitude.environment.torques import magnetic_torque_components
 from attitude.rigid_body import RigidBody
 from attitude.validation import as_float_array, check_vector
 
@@ -169,6 +170,22 @@ class OrbitFlight:
         per_rod = self.magnetorquers.command_components([float(v) for v in command_B])
         return np.array([float(v) for v in self.magnetorquers.dipole_components(per_rod)])
 
+    def magnetorquer_torque(self, dipole_B: NDArray[np.float64], field_B: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The rods' torque ``m x B`` [N m] (:func:`attitude.environment.magnetic_torque_components`).
+
+        Parameters
+        ----------
+        dipole_B : ndarray (3,)
+            Delivered dipole in body axes [A m^2].
+        field_B : ndarray (3,)
+            Field in body axes [T].
+
+        Returns
+        -------
+        ndarray (3,)
+        """
+        return np.array([float(v) for v in magnetic_torque_components(list(dipole_B), list(field_B))])
+
     def compiled_pieces(self, q: list, row: list, dipole_B: list | None) -> tuple[list, list, list, list]:
         """The tick's torques on casadi symbols: per source, the field and Sun in body axes, the rods' torque.
 
@@ -189,8 +206,5 @@ class OrbitFlight:
         params = [ca.DM(float(v)) for v in self.parameters]
         torques = self.environment.torque_components(self.body, q, row, params)
         field_B, sun_B = self.environment.body_vectors_components(q, row)
-        if dipole_B is None:
-            mtq = [0.0 * field_B[0]] * 3
-        else:
-            mtq = list(ca.cross(ca.vertcat(*dipole_B), ca.vertcat(*field_B)).nz)
+        mtq = [0.0 * field_B[0]] * 3 if dipole_B is None else magnetic_torque_components(dipole_B, field_B)
         return [c for s in self.sources for c in torques[s]], field_B, sun_B, mtq
