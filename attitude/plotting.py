@@ -624,9 +624,15 @@ def plot_simulation(result: SimulationData) -> Figure:
             axes[3].plot(t, rpm[:, i], label=f"wheel {i + 1}")
         limits = result.info.get("wheel_speed_limit_rpm")
         if limits is not None:
-            for lim in np.atleast_1d(limits):
-                axes[3].axhline(lim, color="red", ls="--", lw=0.8)
-                axes[3].axhline(-lim, color="red", ls="--", lw=0.8)
+            peak = float(np.max(np.abs(rpm))) if rpm.size else 0.0
+            if peak >= 0.1 * float(np.min(limits)):
+                for lim in np.atleast_1d(limits):
+                    axes[3].axhline(lim, color="red", ls="--", lw=0.8)
+                    axes[3].axhline(-lim, color="red", ls="--", lw=0.8)
+            else:  # the limits would flatten the speeds into a line at zero
+                axes[3].set_title(
+                    f"wheel speeds (limit +-{float(np.min(limits)):.4g} rpm, off this scale)", fontsize=10
+                )
         axes[3].set_ylabel("wheel speed [rpm]")
         axes[3].legend(loc="upper right", ncols=4, fontsize=8)
     k = 3 + has_wheels
@@ -641,7 +647,11 @@ def plot_simulation(result: SimulationData) -> Figure:
             rods = 1e6 * np.linalg.norm(result.torque_magnetorquer, axis=-1)
             axes[k].semilogy(t, np.where(rods > 0.0, rods, np.nan), color="black", lw=0.8, label="magnetorquers")
         axes[k].set_ylabel("external torque [uN m]")
-        axes[k].set_title("disturbance torques per source (magnitude; none drawn where zero)", fontsize=10)
+        axes[k].set_title(
+            "external torques: disturbances per source and the magnetorquers' control torque (magnitude; none "
+            "drawn where zero)",
+            fontsize=10,
+        )
         axes[k].legend(loc="upper right", ncols=5, fontsize=8)
         k += 1
     if has_rods:

@@ -506,7 +506,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--quick",
         action="store_true",
         help="a first look: 30 planner intervals instead of 60, 8 MEKF and 4 rate-EKF Monte Carlo runs "
-        "instead of 50 and 20 (same verdict rules)",
+        "instead of 50 and 20, and in orbit a 3-orbit momentum budget and a 2-orbit detumbling run instead of "
+        "the file's spans (same verdict rules)",
     )
     p.add_argument(
         "--force", action="store_true", help="replace a report already in DIR (the input file is never overwritten)"
