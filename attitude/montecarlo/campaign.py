@@ -23,9 +23,15 @@ Scenario protocol (duck-typed; this module never imports ``controllers`` or
     state for all runs (:func:`attitude.simulation.batch.simulate_batch`).
     A run that fails inside the batch gets ``RunOutput(error=...)``.
 ``scenario.fingerprint`` (optional str)
-    A stable description of the scenario's settings; it guards checkpoint
-    resumption (default: ``repr`` when it does not contain a memory address,
-    else the class name).
+    A stable description of the scenario's code and settings; it guards
+    checkpoint resumption. Without it the scenario is identified by its
+    content (:mod:`attitude.montecarlo.identity`): a function by its code,
+    defaults, closure and the globals it names, a callable object by its
+    class's code and its state, never by its name alone, so editing the
+    scenario and resuming its old checkpoint is refused instead of mixing old
+    and new runs. A scenario whose content cannot be identified (it holds a
+    lock, an open file, a C callable...) runs afresh but never resumes: give
+    it a ``fingerprint`` then.
 
 Executors (:mod:`attitude.montecarlo.executors`, faults and checkpoint there)
 
@@ -91,6 +97,7 @@ from attitude.montecarlo.executors import (
     run_processes,
     run_serial,
 )
+from attitude.montecarlo.identity import UnidentifiableScenario, scenario_identity
 from attitude.montecarlo.results import CampaignResult, Requirement, check_metric_name
 
 #: Most runs a campaign may have. What a run costs the parent process until the table is written: its
@@ -208,11 +215,16 @@ class Campaign:
         ----------
         vectorized : bool, optional
             Whether the campaign runs the vectorised path (``run_batch``); part of the hash.
+
+        Raises
+        ------
+        UnidentifiableScenario
+            A ValueError: the scenario has no ``fingerprint`` string and its content cannot be identified
+            (:mod:`attitude.montecarlo.identity`).
         """
         ident = getattr(self.scenario, "fingerprint", None)
         if not isinstance(ident, str):
-            text = repr(self.scenario)
-            ident = type(self.scenario).__qualname__ if " at 0x" in text else text
+            ident = "content " + scenario_identity(self.scenario)
         payload = {
             "seed": self.seed,
             "dispersions": {k: repr(v) for k, v in self.dispersions.items()},
@@ -311,7 +323,10 @@ def run_campaign(
     checkpoint = None
     done: dict[int, RunRecord] = {}
     if out_dir is not None:
-        checkpoint = Checkpoint(out_dir, campaign.fingerprint(vectorized))
+        try:
+            checkpoint = Checkpoint(out_dir, campaign.fingerprint(vectorized))
+        except UnidentifiableScenario as exc:  # a fresh run is fine; resuming it is refused (Checkpoint.load)
+            checkpoint = Checkpoint(out_dir, None, unidentified=str(exc))
         if resume:
             lost = (WORKER_DIED, CLUSTER_FAILED)  # infrastructure, not the scenario: try again
             done = {

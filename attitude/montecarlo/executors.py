@@ -334,16 +334,20 @@ class Checkpoint:
     ----------
     out_dir : path
         The campaign's output directory (created).
-    fingerprint : str
+    fingerprint : str or None
         Identity of the campaign; a checkpoint written by another campaign
-        raises ValueError instead of being mixed in.
+        raises ValueError instead of being mixed in. None: the campaign cannot
+        be identified, so it may start a checkpoint but never resume one.
+    unidentified : str, optional
+        Why the campaign cannot be identified (with ``fingerprint=None``), for the refusal.
     """
 
-    def __init__(self, out_dir: str | Path, fingerprint: str) -> None:
+    def __init__(self, out_dir: str | Path, fingerprint: str | None, unidentified: str = "") -> None:
         self.dir = Path(out_dir)
         self.dir.mkdir(parents=True, exist_ok=True)
         self.path = self.dir / CHECKPOINT_FILE
         self.fingerprint = fingerprint
+        self.unidentified = unidentified
         self._file: TextIO | None = None
 
     def load(self) -> dict[int, RunRecord]:
@@ -359,10 +363,18 @@ class Checkpoint:
             header = json.loads(lines[0])
         except json.JSONDecodeError:
             header = {}
+        if self.fingerprint is None:
+            raise ValueError(
+                f"out_dir {str(self.dir)!r} holds a checkpoint, but this campaign cannot resume it: its scenario "
+                f"cannot be identified by its content ({self.unidentified}), so its runs could be mixed with those "
+                "of another scenario; give the scenario a `fingerprint` string attribute that names its code and "
+                "settings, or use resume=False to start afresh"
+            )
         if not isinstance(header, dict) or header.get("fingerprint") != self.fingerprint:
             raise ValueError(
                 f"out_dir {str(self.dir)!r} holds the checkpoint of a different campaign (other seed, dispersions, "
-                "scenario or mode); use another out_dir, or resume=False to start afresh"
+                "scenario code or parameters, or mode; or a scenario that could not be identified); use another "
+                "out_dir, or resume=False to start afresh"
             )
         for line in lines[1:]:
             try:
@@ -393,7 +405,10 @@ class Checkpoint:
             self._file = self.path.open("a")
             return
         self._file = self.path.open("w")
-        self._file.write(json.dumps({"fingerprint": self.fingerprint, "format": 1}) + "\n")
+        header: dict[str, Any] = {"fingerprint": self.fingerprint, "format": 1}
+        if self.fingerprint is None:
+            header["unidentified"] = self.unidentified
+        self._file.write(json.dumps(header) + "\n")
         self._file.flush()
 
     def _history_path(self, run: int) -> Path:

@@ -1,0 +1,200 @@
+"""A scenario is identified by its content: an edited scenario cannot resume its old checkpoint.
+
+What each test checks against: the rule of :mod:`attitude.montecarlo.identity` and of the
+checkpoint (:mod:`attitude.montecarlo.executors`): a checkpoint is resumed only by the campaign
+that wrote it. Each edit a user makes to a function or callable-object scenario between two
+runs of the same command (its body, a default, a closure value, a module constant it reads, a
+helper function it calls, a method, an attribute) is made here to a module built from source
+text under the same name, as a user editing their script does; the resume must be refused
+with the campaign's "different campaign" error, and the unedited scenario must resume. The
+identity is checked stable across processes with different ``PYTHONHASHSEED`` (string hashes
+and set order differ between them), where the built-in scenarios must also keep their identity.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+import threading
+import types
+from pathlib import Path
+
+import pytest
+
+from attitude.montecarlo.campaign import Campaign, run_campaign
+from attitude.montecarlo.dispersions import Normal
+from attitude.montecarlo.identity import UnidentifiableScenario, scenario_identity
+
+X = {"x": Normal(0.0, 1.0)}
+REPO = Path(__file__).resolve().parents[3]
+
+ORIGINAL = '''
+import numpy as np
+
+GAIN = 2.0
+TABLE = np.array([1.0, 2.0, 3.0])
+NAMES = {"alpha", "beta", "gamma"}
+
+
+def helper(x):
+    return x + 1.0
+
+
+def function(params, rng, offset=0.5, *, scale=1.0):
+    """A user's scenario."""
+    return {"y": scale * GAIN * helper(params["x"]) + offset + TABLE.sum() + len(NAMES) + rng.standard_normal()}
+
+
+def make(k):
+    def closure(params, rng):
+        return {"y": k * params["x"]}
+
+    return closure
+
+
+CLOSURE = make(3.0)
+
+
+class Callable:
+    def __init__(self, gain):
+        self.gain = gain
+
+    def __call__(self, params, rng):
+        return {"y": self.gain * params["x"]}
+
+
+OBJECT = Callable(1.5)
+'''
+
+# (scenario name, edit of the source): each changes what the scenario computes.
+EDITS = {
+    "body": ("function", ("+ offset +", "- offset +")),
+    "default": ("function", ("offset=0.5", "offset=0.25")),
+    "keyword default": ("function", ("scale=1.0", "scale=2.0")),
+    "global constant": ("function", ("GAIN = 2.0", "GAIN = 2.5")),
+    "global array": ("function", ("[1.0, 2.0, 3.0]", "[1.0, 2.0, 4.0]")),
+    "global set": ("function", ('"gamma"}', '"delta"}')),
+    "helper function": ("function", ("return x + 1.0", "return x + 2.0")),
+    "closure value": ("CLOSURE", ("make(3.0)", "make(4.0)")),
+    "method": ("OBJECT", ("self.gain * params", "self.gain / params")),
+    "attribute": ("OBJECT", ("Callable(1.5)", "Callable(1.25)")),
+}
+
+
+def user_module(monkeypatch, source: str, name: str = "user_campaign") -> types.ModuleType:
+    """The module a user's script makes of ``source`` (registered under ``name``, as an import does)."""
+    module = types.ModuleType(name)
+    monkeypatch.setitem(sys.modules, name, module)
+    exec(compile(source, f"{name}.py", "exec"), module.__dict__)
+    return module
+
+
+def campaign(scenario) -> Campaign:
+    return Campaign(scenario, X, runs=3, seed=11)
+
+
+@pytest.mark.parametrize("edit", list(EDITS))
+def test_an_edited_scenario_refuses_its_old_checkpoint(edit, monkeypatch, tmp_path):
+    attribute, (old, new) = EDITS[edit]
+    assert ORIGINAL.count(old) == 1
+    first = run_campaign(campaign(getattr(user_module(monkeypatch, ORIGINAL), attribute)), workers=1, out_dir=tmp_path)
+    assert list(first.status) == ["ok"] * 3
+    edited = getattr(user_module(monkeypatch, ORIGINAL.replace(old, new)), attribute)
+    with pytest.raises(ValueError, match="checkpoint of a different campaign"):
+        run_campaign(campaign(edited), workers=1, out_dir=tmp_path)
+    # The same scenario, made again from the same text (a new process, in effect), resumes.
+    same = getattr(user_module(monkeypatch, ORIGINAL), attribute)
+    again = run_campaign(campaign(same), workers=1, out_dir=tmp_path)
+    assert again.info["resumed_runs"] == 3
+
+
+def test_moving_a_function_in_its_file_keeps_its_identity(monkeypatch):
+    moved = "\n\n# a comment above\n\n" + ORIGINAL
+    assert scenario_identity(user_module(monkeypatch, ORIGINAL).function) == scenario_identity(
+        user_module(monkeypatch, moved).function
+    )
+
+
+class HoldsALock:
+    """A scenario whose state holds a lock: its content cannot be read, only its address."""
+
+    def __init__(self, fingerprint=None):
+        self.lock = threading.Lock()
+        if fingerprint is not None:
+            self.fingerprint = fingerprint
+
+    def __call__(self, params, rng):
+        return {"y": params["x"]}
+
+
+def test_an_unidentifiable_scenario_runs_afresh_but_never_resumes(tmp_path):
+    with pytest.raises(UnidentifiableScenario, match=r"\['lock'\].*_thread.lock"):
+        campaign(HoldsALock()).fingerprint()
+    first = run_campaign(campaign(HoldsALock()), workers=1, out_dir=tmp_path)
+    assert list(first.status) == ["ok"] * 3
+    with pytest.raises(ValueError, match=r"cannot be identified by its content.*`fingerprint` string attribute"):
+        run_campaign(campaign(HoldsALock()), workers=1, out_dir=tmp_path)
+    fresh = run_campaign(campaign(HoldsALock()), workers=1, out_dir=tmp_path, resume=False)
+    assert fresh.info["resumed_runs"] == 0
+    # Its checkpoint is not resumed by an identifiable scenario either: nothing says they are the same.
+    with pytest.raises(ValueError, match="checkpoint of a different campaign"):
+        run_campaign(campaign(HoldsALock("lock-v1")), workers=1, out_dir=tmp_path)
+
+
+def test_an_explicit_fingerprint_wins(tmp_path):
+    run_campaign(campaign(HoldsALock("lock-v1")), workers=1, out_dir=tmp_path, resume=False)
+    again = run_campaign(campaign(HoldsALock("lock-v1")), workers=1, out_dir=tmp_path)
+    assert again.info["resumed_runs"] == 3
+
+
+def test_builtin_callables_are_refused():
+    for scenario in (print, len):
+        with pytest.raises(UnidentifiableScenario, match="built-in"):
+            scenario_identity(scenario)
+
+
+FINGERPRINTS = """
+import json, sys
+sys.path.insert(0, sys.argv[1])
+from attitude.app.scenarios import ClosedLoopScenario, PDWheelsScenario
+from attitude.config import default_config
+from attitude.montecarlo.campaign import Campaign
+from attitude.montecarlo.dispersions import Normal
+import user_campaign
+
+config = default_config()
+X = {"x": Normal(0.0, 1.0)}
+scenarios = {
+    "pd": PDWheelsScenario.from_config(config, duration=10.0),
+    "closed loop": ClosedLoopScenario(config, duration=10.0, guidance="eigenaxis"),
+    "function": user_campaign.function,
+    "closure": user_campaign.CLOSURE,
+    "object": user_campaign.OBJECT,
+}
+print(json.dumps({k: Campaign(s, X, runs=3, seed=1).fingerprint() for k, s in scenarios.items()}))
+"""
+
+
+def test_identities_are_the_same_in_every_process_whatever_the_hash_seed(tmp_path):
+    (tmp_path / "user_campaign.py").write_text(ORIGINAL)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")]))}
+    procs = [
+        subprocess.Popen(
+            [sys.executable, "-c", textwrap.dedent(FINGERPRINTS), str(tmp_path)],
+            env={**env, "PYTHONHASHSEED": seed},
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        for seed in ("1", "2")
+    ]
+    outputs = []
+    for proc in procs:
+        out, err = proc.communicate(timeout=120)
+        assert proc.returncode == 0, err
+        outputs.append(json.loads(out))
+    assert outputs[0] == outputs[1]
+    assert len(set(outputs[0].values())) == len(outputs[0])
