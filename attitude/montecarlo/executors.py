@@ -35,6 +35,15 @@ Faults
   cancelled, worker processes stopped, and the runs completed so far are
   returned (and were already appended to the checkpoint). Pool workers
   ignore SIGINT so that only the parent decides.
+* **An exception in the parent** (a checkpoint that cannot be written, a
+  pool that keeps breaking): the worker processes are stopped, as after
+  Ctrl-C, and the exception propagates; no worker outlives ``run_processes``.
+* **The parent process dies** (killed, crashed): its pool workers exit too,
+  whatever the start method. On Linux the kernel kills them at once
+  (``prctl(PR_SET_PDEATHSIG, SIGKILL)``, for fork and spawn); and a thread
+  in each worker watches the campaign's process, through a pidfd where the
+  kernel offers one (Linux >= 5.3: at once), else by polling every
+  ``_PARENT_POLL_S`` (0.25 s), and exits the worker when it is gone.
 
 Checkpoint
 ----------
@@ -49,12 +58,15 @@ a failed cluster task, which are run again.
 
 from __future__ import annotations
 
+import ctypes
 import json
 import math
 import os
 import pickle
+import select
 import signal
 import sys
+import threading
 import time
 import uuid
 from collections import defaultdict, deque
@@ -569,9 +581,96 @@ class _TaskQueue:
 _WORKER_SCENARIO: Any = None
 
 
-def _init_worker(payload: bytes) -> None:
+#: How often a pool worker checks that its parent is still alive [s] (the bound on an orphan's life
+#: where the kernel cannot be asked to kill it).
+_PARENT_POLL_S = 0.25
+_PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
+
+
+def _set_parent_death_signal() -> bool:
+    """Linux: have the kernel SIGKILL this process when its parent dies. True when it was set.
+
+    The signal follows the parent *thread* that started the worker: the pool's workers are started by the
+    thread that runs the campaign (``submit``), which outlives the pool.
+    """
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        return libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0) == 0
+    except (OSError, AttributeError):  # no libc with prctl (another C library): the watcher alone
+        return False
+
+
+def _open_pidfd(pid: int) -> int | None:
+    """A file descriptor that becomes readable when process ``pid`` exits (Linux >= 5.3), else None.
+
+    Raises ProcessLookupError when the process is already gone.
+    """
+    if not hasattr(os, "pidfd_open"):
+        return None
+    try:
+        return os.pidfd_open(pid)
+    except ProcessLookupError:
+        raise
+    except OSError:  # an older kernel, or a sandbox that forbids the call: poll instead
+        return None
+
+
+def _parent_gone(parent_pid: int, ppid: int) -> bool:
+    if os.getppid() != ppid:  # reparented: the process that started this one died
+        return True
+    if ppid != parent_pid and os.name == "posix":  # started by a fork server: probe the campaign's process
+        try:
+            os.kill(parent_pid, 0)  # (on Windows this would kill, not probe)
+        except ProcessLookupError:
+            return True
+        except PermissionError:
+            pass
+    return False
+
+
+def _watch_parent(parent_pid: int, ppid: int, pidfd: int | None) -> None:
+    if pidfd is not None:
+        select.select([pidfd], [], [])  # returns when the parent exits
+        os._exit(1)
+    while not _parent_gone(parent_pid, ppid):
+        time.sleep(_PARENT_POLL_S)
+    os._exit(1)
+
+
+def _exit_with_parent(parent_pid: int) -> None:
+    """Make this worker exit when the campaign's process dies (killed, crashed): never an orphan asleep.
+
+    Two mechanisms, as neither covers every case alone. The kernel's parent-death signal (Linux) acts at
+    once, even while a run holds the GIL in C code, but follows the process that started the worker,
+    which under forkserver is the fork server, and that server outlives the campaign's process for as
+    long as its workers live. So a daemon thread also watches the campaign's process itself: it waits on
+    a pidfd where the kernel has them, else it polls every ``_PARENT_POLL_S`` whether this worker was
+    reparented or the campaign's process is gone, and exits the worker.
+
+    Parameters
+    ----------
+    parent_pid : int
+        Process id of the campaign's process.
+    """
+    _set_parent_death_signal()
+    ppid = os.getppid()
+    try:
+        pidfd = _open_pidfd(parent_pid)
+    except ProcessLookupError:  # died before this worker could watch it
+        os._exit(1)
+    if _parent_gone(parent_pid, ppid):
+        os._exit(1)
+    threading.Thread(
+        target=_watch_parent, args=(parent_pid, ppid, pidfd), name="attitude-watch-parent", daemon=True
+    ).start()
+
+
+def _init_worker(payload: bytes, parent_pid: int) -> None:
     global _WORKER_SCENARIO
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
+    _exit_with_parent(parent_pid)
     _WORKER_SCENARIO = pickle.loads(payload)
 
 
@@ -630,7 +729,9 @@ def run_processes(
         ) from exc
 
     def new_pool() -> ProcessPoolExecutor:
-        return ProcessPoolExecutor(workers, mp_context=mp_context, initializer=_init_worker, initargs=(payload,))
+        return ProcessPoolExecutor(
+            workers, mp_context=mp_context, initializer=_init_worker, initargs=(payload, os.getpid())
+        )
 
     # Task indices are handed out by a counter (and a deque of the few handed back), not a deque of
     # every index: memory must not grow with the run count before the runs start (tasks is lazy).
@@ -649,6 +750,7 @@ def run_processes(
             return False
         return True
 
+    finished = False
     try:
         while queue or suspects or in_flight:
             healthy = True
@@ -701,10 +803,16 @@ def run_processes(
                 else:
                     suspects.extend(sorted(broken))
                 pool = new_pool()
+        pool.shutdown(wait=True)
+        finished = True
     except KeyboardInterrupt:
-        _stop_pool(pool)
         return True
-    pool.shutdown(wait=True)
+    finally:
+        # Every other way out (Ctrl-C, a checkpoint that cannot be written, a pool that keeps breaking,
+        # any exception) stops the workers: left running, they would finish their queued tasks and then
+        # wait for work as long as the pool object lives (a traceback keeps it).
+        if not finished:
+            _stop_pool(pool)
     return False
 
 

@@ -6,18 +6,28 @@ raised"), applied to ``SystemExit`` (``sys.exit`` in a scenario, or a library
 calling it), which is a ``BaseException`` and not an ``Exception``. Ctrl-C
 (``KeyboardInterrupt``) still stops the campaign. And a history that cannot be stored without pickle
 (an object array) is refused when the run returns it, so a checkpoint always resumes.
+
+No worker process outlives its pool (module docstring, "Faults"): whichever way the pool ends
+(normally, by an exception in the parent, by Ctrl-C), and when the parent itself is killed, every
+worker is gone within a few seconds, read from the kernel's process table (``/proc/PID/stat``: a
+zombie, dead but not yet reaped by its new parent, counts as gone).
 """
 
 from __future__ import annotations
 
+import os
+import signal
+import subprocess
 import sys
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from attitude.montecarlo.campaign import Campaign, run_campaign
 from attitude.montecarlo.dispersions import Normal
-from attitude.montecarlo.executors import execute_task
+from attitude.montecarlo.executors import Checkpoint, execute_task
 
 X = {"x": Normal(0.0, 1.0)}
 
@@ -111,3 +121,147 @@ def test_object_history_is_refused_when_written_and_the_campaign_resumes(tmp_pat
     # Nothing pickled was written: the same command resumes (and redoes the failed runs the same way).
     again = run_campaign(campaign, workers=1, out_dir=tmp_path / "mc")
     assert list(again.status) == ["error"] * 3
+
+
+# ---------------------------------------------------------------------------
+# No pool worker outlives its campaign: every way out of the pool, and the parent's death.
+
+
+def alive(pid: int) -> bool:
+    """Whether process ``pid`` still runs (a zombie, dead but not yet reaped, does not)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except (FileNotFoundError, ProcessLookupError):
+        return False
+    return stat.rpartition(")")[2].split()[0] not in ("Z", "X")
+
+
+def wait_until_gone(pids: list[int], timeout_s: float) -> list[int]:
+    """The processes of ``pids`` still alive after waiting up to ``timeout_s`` for them to go."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline and any(alive(p) for p in pids):
+        time.sleep(0.05)
+    return [p for p in pids if alive(p)]
+
+
+def recorded_pids(directory: Path) -> list[int]:
+    return sorted(int(p.name) for p in directory.iterdir())
+
+
+class RecordsPid:
+    """Leaves a file named after its worker's pid in ``directory``, then works ``sleep_s``."""
+
+    fingerprint = "RecordsPid"
+
+    def __init__(self, directory: Path, sleep_s: float) -> None:
+        self.directory = str(directory)
+        self.sleep_s = sleep_s
+
+    def __call__(self, params, rng):
+        Path(self.directory, str(os.getpid())).touch()
+        time.sleep(self.sleep_s)
+        return {"y": float(params["x"])}
+
+
+needs_proc = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads process states from /proc")
+
+
+@needs_proc
+@pytest.mark.parametrize("way_out", ["normal", "exception", "ctrl-c"])
+def test_no_worker_outlives_the_pool_whichever_way_it_ends(way_out, tmp_path, monkeypatch):
+    """Normal end, an exception in the parent (a checkpoint that cannot be written), and Ctrl-C."""
+    pids_dir = tmp_path / "pids"
+    pids_dir.mkdir()
+    append = Checkpoint.append
+    calls = []
+
+    def failing_append(self, records):  # the third task's records cannot be written
+        calls.append(1)
+        if len(calls) == 3 and way_out == "exception":
+            raise OSError(28, "No space left on device")
+        if len(calls) == 3 and way_out == "ctrl-c":
+            raise KeyboardInterrupt
+        append(self, records)
+
+    monkeypatch.setattr(Checkpoint, "append", failing_append)
+    campaign = Campaign(RecordsPid(pids_dir, 0.05), X, runs=12, seed=1)
+    if way_out == "exception":
+        # The traceback keeps the pool object alive, as it does in a notebook or a debugger.
+        with pytest.raises(OSError, match="No space left") as excinfo:
+            run_campaign(campaign, workers=2, out_dir=tmp_path / "out")
+        assert excinfo.traceback
+    else:
+        result = run_campaign(campaign, workers=2, out_dir=tmp_path / "out")
+        assert result.info["interrupted"] == (way_out == "ctrl-c")
+    pids = recorded_pids(pids_dir)
+    assert pids
+    # Stopping a pool takes milliseconds; 5 s leaves room on a loaded machine.
+    assert wait_until_gone(pids, 5.0) == []
+
+
+KILLED_PARENT = """
+import multiprocessing, os, sys, time
+from pathlib import Path
+import attitude.montecarlo.executors as executors
+from attitude.montecarlo.campaign import Campaign, run_campaign
+from attitude.montecarlo.dispersions import Normal
+
+
+class Sleeps:
+    fingerprint = "Sleeps"
+
+    def __call__(self, params, rng):
+        Path(sys.argv[1], str(os.getpid())).touch()
+        time.sleep(60.0)  # a long run: the worker is busy when its parent dies
+        return {"y": 0.0}
+
+
+if __name__ == "__main__":
+    if sys.argv[3] == "polling":  # as where the kernel offers neither a parent-death signal nor pidfds
+        executors._set_parent_death_signal = lambda: False
+        executors._open_pidfd = lambda pid: None
+    elif sys.argv[3] == "pidfd":  # the watching thread alone
+        executors._set_parent_death_signal = lambda: False
+    campaign = Campaign(Sleeps(), {"x": Normal(0.0, 1.0)}, runs=4, seed=1)
+    run_campaign(campaign, workers=2, mp_context=multiprocessing.get_context(sys.argv[2]))
+"""
+
+
+@needs_proc
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("method", "mechanism"),
+    [("fork", "all"), ("fork", "pidfd"), ("fork", "polling"), ("forkserver", "all"), ("forkserver", "polling")],
+)
+def test_pool_workers_exit_when_the_parent_is_killed(method, mechanism, tmp_path):
+    pids_dir = tmp_path / "pids"
+    pids_dir.mkdir()
+    script = tmp_path / "campaign.py"
+    script.write_text(KILLED_PARENT)
+    repo = str(Path(__file__).resolve().parents[3])
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [repo, os.environ.get("PYTHONPATH")]))}
+    parent = subprocess.Popen(
+        [sys.executable, str(script), str(pids_dir), method, mechanism],
+        env=env,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+    )
+    pids: list[int] = []
+    try:
+        deadline = time.monotonic() + 60.0  # start-up and imports on a loaded machine
+        while time.monotonic() < deadline and len(pids) < 2 and parent.poll() is None:
+            time.sleep(0.05)
+            pids = recorded_pids(pids_dir)
+        assert len(pids) == 2, parent.stderr.read().decode() if parent.poll() is not None else "workers never ran"
+        parent.send_signal(signal.SIGKILL)
+        parent.wait(timeout=10)
+        # The kernel and a pidfd act at once, polling within 0.25 s: 5 s leaves room on a loaded machine.
+        assert wait_until_gone(pids, 5.0) == []
+    finally:
+        if parent.poll() is None:
+            parent.kill()
+            parent.wait()
+        for pid in pids:  # on failure, leave no orphan behind
+            if alive(pid):
+                os.kill(pid, signal.SIGKILL)
+        parent.stderr.close()
