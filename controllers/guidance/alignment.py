@@ -56,7 +56,7 @@ class VectorTrack(NamedTuple):
     only its direction is used, with the derivatives of that direction
     computed from these.
 
-    Attributes
+    Parameters
     ----------
     vector : ndarray
         The vector in N (non-zero).

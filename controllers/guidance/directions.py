@@ -34,7 +34,7 @@ ORBIT_DIRECTIONS = ("orbit_normal", "velocity", "nadir", "zenith")
 class OrbitMotion(NamedTuple):
     """Position [m], velocity [m/s], acceleration [m/s^2] and jerk [m/s^3] in N, each (n, 3).
 
-    Attributes
+    Parameters
     ----------
     r : ndarray
         Position from the Earth's centre.
