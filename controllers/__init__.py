@@ -1,4 +1,4 @@
-"""Attitude controllers: PD, LQR, loop analysis, tracking, slews, nadir hold, magnetic laws; imports ``attitude`` only.
+"""Attitude controllers: PD, LQR, analysis, tracking, slews, guidance, magnetic laws; imports ``attitude`` only.
 
 The front door: ``from controllers import QuaternionPD, design_lqr, margins, plan_slew``.
 """
@@ -13,6 +13,17 @@ from controllers.analysis import (
     sample_time_study,
     sampled_loop,
 )
+from controllers.guidance import (
+    GroundTarget,
+    GroundTargetReference,
+    GuidanceController,
+    InertialReference,
+    NadirReference,
+    PointingReference,
+    SunReference,
+    VectorAlignmentReference,
+    VectorTrack,
+)
 from controllers.lqr import LQRController, LQRDesign, bryson_weights, design_lqr
 from controllers.magnetic import BDotController, CrossProductUnloading, bdot_gain
 from controllers.pd import QuaternionPD, RateLimitedPD
@@ -24,16 +35,25 @@ __all__ = [
     "BDotController",
     "CrossProductUnloading",
     "EigenaxisSlew",
+    "GroundTarget",
+    "GroundTargetReference",
+    "GuidanceController",
+    "InertialReference",
     "KeepOutCone",
     "LQRController",
     "LQRDesign",
     "Margins",
     "NadirPointing",
+    "NadirReference",
+    "PointingReference",
     "QuaternionPD",
     "RateLimitedPD",
     "ReferenceTrajectory",
     "SlewPlan",
+    "SunReference",
     "TrackingController",
+    "VectorAlignmentReference",
+    "VectorTrack",
     "attitude_closed_loop",
     "bdot_gain",
     "bryson_weights",

@@ -22,8 +22,10 @@ from attitude.environment.orbit import (
     KeplerOrbit,
     Orbit,
     TLEOrbit,
+    lvlh_angular_acceleration,
     lvlh_attitude,
     solve_kepler,
+    two_body_motion,
 )
 from attitude.environment.orbit_environment import (
     DISTURBANCE_SOURCES,
@@ -38,6 +40,7 @@ from attitude.environment.sun import (
     SUN_RADIUS_M,
     illumination_fraction,
     sun_direction_N,
+    sun_motion_N,
     sun_position_N,
 )
 from attitude.environment.surface import DEFAULT_DRAG_COEFFICIENT, SurfaceModel
@@ -98,6 +101,7 @@ __all__ = [
     "held_attitude_momentum",
     "illumination_fraction",
     "linearize_gravity_gradient",
+    "lvlh_angular_acceleration",
     "lvlh_attitude",
     "lvlh_relative_dynamics",
     "magnetic_torque",
@@ -108,6 +112,8 @@ __all__ = [
     "solar_pressure_torque_components",
     "solve_kepler",
     "sun_direction_N",
+    "sun_motion_N",
     "sun_position_N",
+    "two_body_motion",
     "utc_naive",
 ]

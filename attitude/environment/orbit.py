@@ -37,8 +37,10 @@ __all__ = [
     "Orbit",
     "TLEOrbit",
     "check_mu",
+    "lvlh_angular_acceleration",
     "lvlh_attitude",
     "solve_kepler",
+    "two_body_motion",
 ]
 
 #: Earth's gravitational parameter [m^3/s^2], WGS-84 value including the
@@ -486,6 +488,85 @@ def lvlh_attitude(r_N: ArrayLike, v_N: ArrayLike) -> NDArray[np.float64]:
     o1 = np.cross(o2, o3)
     c_NL = np.stack([o1, o2, o3], axis=-1)  # columns: the L axes in N
     return quat.from_dcm(np.swapaxes(c_NL, -1, -2))
+
+
+def lvlh_angular_acceleration(r_N: ArrayLike, v_N: ArrayLike) -> NDArray[np.float64]:
+    """Angular acceleration of the LVLH frame, ``omega_dot_LN_L = [0, 2 |h| (r . v) / |r|^4, 0]`` [rad/s^2].
+
+    The time derivative of ``omega_LN_L = [0, -|h| / |r|^2, 0]`` under
+    two-body motion (``h = r x v`` constant, ``d|r|/dt = r . v / |r|``):
+    zero on a circular orbit, of order ``e n^2`` on an orbit of eccentricity
+    ``e``. L turns about its fixed ``o2`` axis only, so the derivative in L
+    and in N agree. For a TLE it is the osculating state's, without the slow
+    turn of the plane (as :meth:`TLEOrbit.omega_LN_L`).
+
+    Parameters
+    ----------
+    r_N : array_like, shape (..., 3)
+        Position from the Earth's centre in N [m].
+    v_N : array_like, shape (..., 3)
+        Inertial velocity in N [m/s].
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        ``omega_dot_LN_L`` [rad/s^2].
+
+    Raises
+    ------
+    ValueError
+        If the shapes are not ``(..., 3)`` or ``r_N`` is zero.
+    """
+    r = check_vector(r_N, "r_N", 3)
+    v = check_vector(v_N, "v_N", 3)
+    r2 = np.sum(r * r, axis=-1)
+    if np.any(r2 == 0.0):
+        raise ValueError(f"r_N must be non-zero (a position from the Earth's centre), got {r!r}")
+    h = np.linalg.norm(np.cross(r, v), axis=-1)
+    out = np.zeros(np.broadcast_shapes(r.shape, v.shape))
+    out[..., 1] = 2.0 * h * np.sum(r * v, axis=-1) / (r2 * r2)
+    return out
+
+
+def two_body_motion(r_N: ArrayLike, v_N: ArrayLike, mu: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Acceleration ``a = -mu r / |r|^3`` and its rate (the jerk) of two-body motion.
+
+    ``da/dt = -mu (v / |r|^3 - 3 (r . v) r / |r|^5)`` (Newton's two-body
+    equation, differentiated once). Exact for :class:`CircularOrbit` and :class:`KeplerOrbit`
+    with their own ``mu``; for a TLE it leaves out what SGP4 adds to the
+    central term (J2 and the other zonal terms, drag: about 1e-3 of ``a`` in
+    low orbit).
+
+    Parameters
+    ----------
+    r_N : array_like, shape (..., 3)
+        Position from the central body's centre in N [m], non-zero.
+    v_N : array_like, shape (..., 3)
+        Inertial velocity in N [m/s].
+    mu : float
+        Gravitational parameter [m^3/s^2].
+
+    Returns
+    -------
+    a_N : ndarray, shape (..., 3)
+        Acceleration [m/s^2].
+    jerk_N : ndarray, shape (..., 3)
+        Its time derivative [m/s^3].
+
+    Raises
+    ------
+    ValueError
+        If the shapes are not ``(..., 3)``, ``r_N`` is zero or ``mu`` is not positive.
+    """
+    r = check_vector(r_N, "r_N", 3)
+    v = check_vector(v_N, "v_N", 3)
+    mu = check_mu(mu)
+    radius = np.linalg.norm(r, axis=-1, keepdims=True)
+    if np.any(radius == 0.0):
+        raise ValueError(f"r_N must be non-zero (a position from the central body's centre), got {r!r}")
+    a = -mu * r / radius**3
+    jerk = -mu * (v / radius**3 - 3.0 * np.sum(r * v, axis=-1, keepdims=True) * r / radius**5)
+    return a, jerk
 
 
 def _omega_from_state(r: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:

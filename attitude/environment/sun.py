@@ -23,10 +23,11 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from attitude.environment.epoch import SECONDS_PER_DAY
 from attitude.environment.orbit import R_EARTH
 from attitude.validation import as_float_array, check_vector
 
-__all__ = ["AU_M", "SUN_RADIUS_M", "illumination_fraction", "sun_direction_N", "sun_position_N"]
+__all__ = ["AU_M", "SUN_RADIUS_M", "illumination_fraction", "sun_direction_N", "sun_motion_N", "sun_position_N"]
 
 #: The astronomical unit [m] (IAU 2012 Resolution B2, exact).
 AU_M = 149_597_870_700.0
@@ -79,6 +80,61 @@ def sun_position_N(julian_date: ArrayLike) -> NDArray[np.float64]:
     c_lon, s_lon = np.cos(longitude), np.sin(longitude)
     unit = np.stack([c_lon, np.cos(obliquity) * s_lon, np.sin(obliquity) * s_lon], axis=-1)
     return (distance_au * AU_M)[..., None] * unit
+
+
+def sun_motion_N(julian_date: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Position of the Sun [m] and its first two time derivatives [m/s, m/s^2] in N.
+
+    The exact derivatives of :func:`sun_position_N`'s formulae (chain rule
+    through the ecliptic longitude, distance and obliquity, each a function
+    of the Julian centuries ``T``), so a pointing reference built on the Sun
+    has rates consistent with its attitude. The apparent motion is about
+    1 deg/day (2e-7 rad/s).
+
+    Parameters
+    ----------
+    julian_date : array_like, shape (...)
+        UTC Julian date [days].
+
+    Returns
+    -------
+    position : ndarray, shape (..., 3)
+        Earth-Sun vector [m] (:func:`sun_position_N`).
+    velocity : ndarray, shape (..., 3)
+        Its rate [m/s].
+    acceleration : ndarray, shape (..., 3)
+        Its second derivative [m/s^2].
+    """
+    jd = as_float_array(julian_date, "julian_date")
+    centuries = (jd - _J2000_JD) / _DAYS_PER_CENTURY
+    anomaly = np.radians(357.5291092 + 35999.05034 * centuries)
+    anomaly_rate = np.radians(35999.05034)  # [rad per century], as the two below
+    longitude_rate_mean = np.radians(36000.771)
+    obliquity_rate = np.radians(-0.0130042)
+    longitude, distance_au, obliquity = _ecliptic(jd)
+    s1, c1, s2, c2 = np.sin(anomaly), np.cos(anomaly), np.sin(2.0 * anomaly), np.cos(2.0 * anomaly)
+    lam1 = longitude_rate_mean + np.radians(1.914666471 * c1 + 2.0 * 0.019994643 * c2) * anomaly_rate
+    lam2 = -np.radians(1.914666471 * s1 + 4.0 * 0.019994643 * s2) * anomaly_rate**2
+    d1 = (0.016708617 * s1 + 2.0 * 0.000139589 * s2) * anomaly_rate
+    d2 = (0.016708617 * c1 + 4.0 * 0.000139589 * c2) * anomaly_rate**2
+    sl, cl, se, ce = np.sin(longitude), np.cos(longitude), np.sin(obliquity), np.cos(obliquity)
+    e1 = obliquity_rate
+    u0 = np.stack([cl, ce * sl, se * sl], axis=-1)
+    u1 = np.stack([-sl * lam1, -se * e1 * sl + ce * cl * lam1, ce * e1 * sl + se * cl * lam1], axis=-1)
+    u2 = np.stack(
+        [
+            -cl * lam1**2 - sl * lam2,
+            -ce * e1**2 * sl - 2.0 * se * e1 * cl * lam1 - ce * sl * lam1**2 + ce * cl * lam2,
+            -se * e1**2 * sl + 2.0 * ce * e1 * cl * lam1 - se * sl * lam1**2 + se * cl * lam2,
+        ],
+        axis=-1,
+    )
+    d0, d1, d2 = (x[..., None] for x in (distance_au, d1, d2))
+    per_second = 1.0 / (_DAYS_PER_CENTURY * SECONDS_PER_DAY)
+    position = AU_M * d0 * u0
+    velocity = AU_M * (d1 * u0 + d0 * u1) * per_second
+    acceleration = AU_M * (d2 * u0 + 2.0 * d1 * u1 + d0 * u2) * per_second**2
+    return position, velocity, acceleration
 
 
 def sun_direction_N(julian_date: ArrayLike) -> NDArray[np.float64]:

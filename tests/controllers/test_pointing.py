@@ -75,5 +75,5 @@ def test_steady_error_under_a_body_fixed_disturbance_is_exactly_k_inverse_d():
 
 
 def test_orbit_without_lvlh_is_refused():
-    with pytest.raises(ValueError, match=r"orbit must have q_LN\(t\) and omega_LN_L"):
+    with pytest.raises(ValueError, match=r"orbit must have q_LN\(t\), omega_LN_L"):
         NadirPointing(object(), BODY, wn=0.05, zeta=0.7, period=0.5)
