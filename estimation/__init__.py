@@ -13,8 +13,8 @@ from estimation.mekf import MEKF, MEKFResult, initial_covariance, run_mekf, stea
 from estimation.rate_ekf import RateEKF, RateEKFResult, run_rate_ekf
 
 __all__ = [
-    "AttitudeSolution",
     "MEKF",
+    "AttitudeSolution",
     "MEKFResult",
     "RateEKF",
     "RateEKFResult",

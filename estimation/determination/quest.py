@@ -155,14 +155,20 @@ def _largest_root(profile: NDArray[np.float64]) -> tuple[NDArray[np.float64], ND
     s = profile + np.swapaxes(profile, -1, -2)
     trace = np.trace(profile, axis1=-2, axis2=-1)
     z = np.stack(
-        [profile[..., 1, 2] - profile[..., 2, 1], profile[..., 2, 0] - profile[..., 0, 2],
-         profile[..., 0, 1] - profile[..., 1, 0]],
+        [
+            profile[..., 1, 2] - profile[..., 2, 1],
+            profile[..., 2, 0] - profile[..., 0, 2],
+            profile[..., 0, 1] - profile[..., 1, 0],
+        ],
         axis=-1,
     )
     kappa = (
-        s[..., 0, 0] * s[..., 1, 1] - s[..., 0, 1] ** 2
-        + s[..., 0, 0] * s[..., 2, 2] - s[..., 0, 2] ** 2
-        + s[..., 1, 1] * s[..., 2, 2] - s[..., 1, 2] ** 2
+        s[..., 0, 0] * s[..., 1, 1]
+        - s[..., 0, 1] ** 2
+        + s[..., 0, 0] * s[..., 2, 2]
+        - s[..., 0, 2] ** 2
+        + s[..., 1, 1] * s[..., 2, 2]
+        - s[..., 1, 2] ** 2
     )
     sz = np.einsum("...ij,...j->...i", s, z)
     coef_a = trace**2 - kappa

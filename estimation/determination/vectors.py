@@ -44,9 +44,9 @@ OBSERVABILITY_MIN = 1e-12
 
 
 class VectorPairs(NamedTuple):
-    """Checked observations, broadcast to one batch shape.
+    """Checked observations, broadcast to one batch shape (fields in order).
 
-    Attributes
+    Parameters
     ----------
     vectors_B : ndarray, shape (..., m, 3)
         Measured directions in the body frame, unit norm.
@@ -243,7 +243,7 @@ def davenport_matrix(profile: ArrayLike) -> NDArray[np.float64]:
 
 
 def observability(vectors_B: ArrayLike, weights: ArrayLike) -> NDArray[np.float64]:
-    """Observability ``rho`` (...,) in ``[0, 2/3]`` of a set of weighted directions.
+    """Observability ``rho`` (...,) in ``[0, 2/9]`` of a set of weighted directions.
 
     With the information matrix ``F = sum_i a_i (I - b_i b_i^T)``
     (:func:`information_matrix`), ``rho = det(F) / (kappa(F) sum_i a_i)``,
@@ -252,9 +252,10 @@ def observability(vectors_B: ArrayLike, weights: ArrayLike) -> NDArray[np.float6
     an eigenvalue solver). It is 0 when all directions are parallel (the
     rotation about them is unobserved), ``(1 - c^2) / (5 - c^2)`` for two
     equally weighted directions with ``c`` the cosine of their angle
-    (``theta^2 / 4`` for a small angle ``theta``), and 2/3 for an isotropic
-    set. The gap between the two largest eigenvalues of Davenport's matrix,
-    relative to the largest, is between ``2 rho`` and ``6 rho``.
+    (``theta^2 / 4`` for a small angle ``theta``), and 2/9 for an isotropic
+    set (a third of its smallest eigenvalue, 2/3). For exact vectors the gap
+    between the two largest eigenvalues of Davenport's matrix, relative to
+    the largest, is twice that eigenvalue: between ``2 rho`` and ``6 rho``.
 
     Parameters
     ----------

@@ -71,7 +71,7 @@ def test_exact_on_noise_free_vectors(solver, m):
 def test_non_unit_vectors_are_normalised():
     """Measured vectors in physical units (a field in tesla) give the attitude of their directions."""
     rng = np.random.default_rng(3)
-    q_true, r, b = noise_free(rng, 20, 3)
+    _q_true, r, b = noise_free(rng, 20, 3)
     scale = rng.uniform(1e-5, 1e5, (20, 3, 1))
     err = quat.error_angle(quest(b * scale, r * scale[::-1]).q_BN, quest(b, r).q_BN)
     assert np.max(err) < 1e-12  # the same unit vectors up to one rounding each
@@ -146,7 +146,7 @@ def test_ahrs_returns_q_BN_itself():
 def test_quest_equals_q_method_on_noisy_sets():
     """QUEST finds the same optimum as the eigenvalue solver, including sets it hands over to it."""
     rng = np.random.default_rng(8)
-    q_true, r, b = noise_free(rng, 2000, 4)
+    _q_true, r, b = noise_free(rng, 2000, 4)
     sigma = 10.0 ** rng.uniform(-6, -2, (2000, 4))  # weights differing by up to 1e8: some sets below QUEST_RHO_MIN
     b = qmm_noise(rng, b, sigma)
     rho = observability(b, sigma**-2)
