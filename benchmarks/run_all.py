@@ -16,6 +16,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from benchmarks import (
     bench_closed_loop,
+    bench_determination,
     bench_mekf,
     bench_montecarlo,
     bench_orbit,
@@ -30,6 +31,7 @@ SUITES = {
     "slew": bench_slew.run,
     "rate_ekf": bench_rate_ekf.run,
     "mekf": bench_mekf.run,
+    "determination": bench_determination.run,
     "montecarlo": bench_montecarlo.run,
     "orbit": bench_orbit.run,
 }
