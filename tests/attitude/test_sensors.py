@@ -102,7 +102,11 @@ class TestConversions:
     def test_presets_carry_their_datasheet_figures(self):
         mems = Gyro.preset("mems", period=0.01)
         assert mems.sigma_v == pytest.approx(0.34 * DEG / 60, rel=1e-14)
-        assert mems.sigma_u == pytest.approx(bias_instability_to_sigma_u(8.0, 100.0), rel=1e-14)
+        # The bias instability is a Gauss-Markov term (no rate random walk is published for it).
+        assert mems.sigma_u == 0.0 and mems.sigma_b > 0.0
+        old_mapping = Gyro.preset("mems", period=0.01, bias_instability_model="random_walk")
+        assert old_mapping.sigma_u == pytest.approx(bias_instability_to_sigma_u(8.0, 100.0), rel=1e-14)
+        assert old_mapping.sigma_b == 0.0
         assert mems.saturation == pytest.approx(2000 * DEG, rel=1e-14)
         assert mems.period == 0.01
         tactical = Gyro.preset("tactical")
@@ -111,10 +115,14 @@ class TestConversions:
         assert nav.sigma_v == pytest.approx(0.002 * DEG / 60, rel=1e-14)
         # The grades are ordered as their names say.
         assert mems.sigma_v > tactical.sigma_v > nav.sigma_v
-        assert mems.sigma_u > tactical.sigma_u > nav.sigma_u
+        assert mems.filter_sigma_u > tactical.filter_sigma_u > nav.filter_sigma_u
         assert all("source" in entry for entry in GYRO_PRESETS.values())
-        # An override replaces a figure; an RRW override replaces the bias-instability pair.
-        assert Gyro.preset("mems", rrw_deg_per_h_per_sqrt_h=1.0).sigma_u == pytest.approx(rrw_to_sigma_u(1.0))
+        # An RRW override adds its own random walk to the Gauss-Markov bias; with the random-walk model it
+        # replaces the bias-instability pair (one bias-driving noise).
+        with_rrw = Gyro.preset("mems", rrw_deg_per_h_per_sqrt_h=1.0)
+        assert with_rrw.sigma_u == pytest.approx(rrw_to_sigma_u(1.0)) and with_rrw.sigma_b > 0.0
+        replaced = Gyro.preset("mems", rrw_deg_per_h_per_sqrt_h=1.0, bias_instability_model="random_walk")
+        assert replaced.sigma_u == pytest.approx(rrw_to_sigma_u(1.0)) and replaced.sigma_b == 0.0
 
     def test_star_tracker_preset_and_datasheet_constructor(self):
         st = StarTracker.preset("typical")
@@ -315,7 +323,18 @@ class TestGyroValidation:
         [
             ({"arw_deg_per_sqrt_h": 0.0}, "arw_deg_per_sqrt_h must be strictly positive"),
             ({"arw_deg_per_sqrt_h": -0.1}, "arw_deg_per_sqrt_h must be strictly positive"),
-            ({"rrw_deg_per_h_per_sqrt_h": 0.1, "bias_instability_deg_per_h": 1.0}, "not both"),
+            (
+                {"rrw_deg_per_h_per_sqrt_h": 0.1, "bias_instability_deg_per_h": 1.0, "bias_instability_time_s": 300.0,
+                 "bias_instability_model": "random_walk"},
+                "not both",
+            ),
+            ({"bias_instability_deg_per_h": 1.0, "bias_instability_time_s": 1.0, "bias_instability_model": "flicker"},
+             "bias_instability_model must be one of"),
+            # The floor 0.664 B = 0.0664 deg/h at 300 s sits below sqrt(2) x the ARW line 6/sqrt(300) deg/h.
+            ({"bias_instability_deg_per_h": 0.1, "bias_instability_time_s": 300.0}, "within sqrt\\(2\\) of the angle"),
+            # ... and below sqrt(2) x the RRW line (60 deg/h/sqrt(h) = 1 deg/h/sqrt(s): 10 deg/h at 300 s).
+            ({"bias_instability_deg_per_h": 10.0, "bias_instability_time_s": 300.0, "rrw_deg_per_h_per_sqrt_h": 60.0},
+             "within sqrt\\(2\\) of the rate random walk"),
             ({"bias_instability_deg_per_h": 1.0}, "bias_instability_time_s .* is required"),
             ({"bias_instability_deg_per_h": 0.0, "bias_instability_time_s": 10.0}, "strictly positive"),
             ({"bias_instability_deg_per_h": 1.0, "bias_instability_time_s": -1.0}, "bias_instability_time_s"),
