@@ -32,8 +32,10 @@ __all__ = ["AllanDeviation", "allan_deviation", "gyro_allan_deviation"]
 
 _DEG_PER_H = np.pi / 180.0 / 3600.0  # 1 deg/h in rad/s
 _ONE_SIGMA = 0.6826894921370859  # erf(1 / sqrt(2))
-#: Fewest samples per averaging time for the lag-1 autocorrelation noise identification (allantools' advice).
-_MIN_ID_SAMPLES = 32
+#: Fewest averaged samples for the lag-1 autocorrelation noise identification. Below it the identified
+#: exponent scatters (with 39 samples a Gauss-Markov record read as flicker phase noise, alpha = +1, and an
+#: interval 5 times too narrow), so the random walk (alpha = -2, the fewest degrees of freedom) is used.
+_MIN_ID_SAMPLES = 100
 
 
 @dataclasses.dataclass(frozen=True)
@@ -106,7 +108,7 @@ class AllanDeviation(ResultIO):
         -------
         matplotlib.figure.Figure
         """
-        import matplotlib.pyplot as plt  # noqa: PLC0415 (figures only when asked for)
+        import matplotlib.pyplot as plt
 
         if ax is None:
             fig, ax = plt.subplots(figsize=(7.5, 5.0), layout="constrained")
@@ -114,7 +116,11 @@ class AllanDeviation(ResultIO):
             fig = ax.figure
         tau = self.tau
         ax.fill_between(
-            tau, self.adev_low / _DEG_PER_H, self.adev_high / _DEG_PER_H, color="C0", alpha=0.25,
+            tau,
+            self.adev_low / _DEG_PER_H,
+            self.adev_high / _DEG_PER_H,
+            color="C0",
+            alpha=0.25,
             label=f"{100 * self.confidence:.0f} % confidence (chi-square)",
         )
         ax.loglog(tau, self.adev / _DEG_PER_H, "o-", color="C0", ms=3, label="Allan deviation of the data")
@@ -124,17 +130,30 @@ class AllanDeviation(ResultIO):
         sheet = self.datasheet
         if sheet.get("arw_deg_per_sqrt_h"):
             n = sheet["arw_deg_per_sqrt_h"] * 60.0
-            ax.loglog(lines, n / np.sqrt(lines), "--", color="C2", label=f"ARW {sheet['arw_deg_per_sqrt_h']:g} deg/sqrt(h)")
+            ax.loglog(
+                lines, n / np.sqrt(lines), "--", color="C2", label=f"ARW {sheet['arw_deg_per_sqrt_h']:g} deg/sqrt(h)"
+            )
         if sheet.get("bias_instability_deg_per_h"):
             b = sheet["bias_instability_deg_per_h"]
             ax.axhline(BIAS_INSTABILITY_FLOOR_FACTOR * b, ls="--", color="C3", label=f"floor 0.664 B, B = {b:g} deg/h")
             if sheet.get("bias_instability_time_s"):
-                ax.plot([sheet["bias_instability_time_s"]], [BIAS_INSTABILITY_FLOOR_FACTOR * b], "D", color="C3", ms=7,
-                        label=f"datasheet averaging time {sheet['bias_instability_time_s']:g} s")
+                ax.plot(
+                    [sheet["bias_instability_time_s"]],
+                    [BIAS_INSTABILITY_FLOOR_FACTOR * b],
+                    "D",
+                    color="C3",
+                    ms=7,
+                    label=f"datasheet averaging time {sheet['bias_instability_time_s']:g} s",
+                )
         if sheet.get("rrw_deg_per_h_per_sqrt_h"):
             k = sheet["rrw_deg_per_h_per_sqrt_h"] / 60.0
-            ax.loglog(lines, k * np.sqrt(lines / 3.0), "--", color="C4",
-                      label=f"RRW {sheet['rrw_deg_per_h_per_sqrt_h']:g} deg/h/sqrt(h)")
+            ax.loglog(
+                lines,
+                k * np.sqrt(lines / 3.0),
+                "--",
+                color="C4",
+                label=f"RRW {sheet['rrw_deg_per_h_per_sqrt_h']:g} deg/h/sqrt(h)",
+            )
         ax.set_xlabel("averaging time tau [s]")
         ax.set_ylabel("Allan deviation [deg/h]")
         ax.grid(True, which="both", alpha=0.3)
@@ -153,7 +172,7 @@ class AllanDeviation(ResultIO):
         title : str, optional
             Figure title.
         """
-        import matplotlib.pyplot as plt  # noqa: PLC0415
+        import matplotlib.pyplot as plt
 
         out = Path(path)
         out.parent.mkdir(parents=True, exist_ok=True)
@@ -195,7 +214,7 @@ def allan_deviation(
         Power-law exponent for the degrees of freedom at every ``tau`` (0 white rate
         noise, -1 flicker, -2 random walk); default identified at each ``tau`` from the
         data's lag-1 autocorrelation (Riley and Greenhall, 2004), rounded and clipped to
-        [-2, 2] (random walk when too few samples remain to identify it).
+        [-2, 2] (random walk, the widest interval, when fewer than 100 averages remain to identify it).
     datasheet : dict, optional
         Figures to draw as lines in :meth:`AllanDeviation.plot` (keys as in
         :attr:`AllanDeviation.datasheet`).
@@ -211,7 +230,7 @@ def allan_deviation(
         ``period`` <= 0, ``taus`` that are not multiples of ``period`` in
         ``[period, n period / 3]``, or a ``confidence`` outside (0, 1).
     """
-    import allantools  # noqa: PLC0415 (0.9 s to import with scipy; only when a curve is asked for)
+    import allantools
 
     y = as_float_array(rate_samples, "rate_samples")
     if y.ndim != 1 or y.size < 16:

@@ -346,7 +346,9 @@ def gauss_markov_equivalent_sigma_u(sigma_b: float, correlation_time: float, hor
     return float(s * np.sqrt(2.0 * -np.expm1(-d / big_t) / d))
 
 
-def _gm_step_coefficients(h: float, sigma_b: float, correlation_time: float) -> tuple[float, float, float, float, float]:
+def _gm_step_coefficients(
+    h: float, sigma_b: float, correlation_time: float
+) -> tuple[float, float, float, float, float]:
     """Exact sampling of a Gauss-Markov state over ``h`` [s]: ``(phi, s, a, c, d)``.
 
     ``x_{k+1} = phi x_k + s N1`` and the interval mean ``m_k = a x_k + c N1 + d N2`` (the
@@ -600,7 +602,7 @@ class Gyro:
         return (
             f"Gyro(name={self.name!r}, sigma_v={self.sigma_v:.4g} rad/s^0.5 "
             f"({arw_from_sigma_v(self.sigma_v):.4g} deg/sqrt(h)), sigma_u={self.sigma_u:.4g} rad/s^1.5, "
-            + (f"sigma_b={self.sigma_b:.4g} rad/s, correlation_time={self.correlation_time:.4g} s, " if self.sigma_b else "")
+            + (f"sigma_b={self.sigma_b:.4g} rad/s, T={self.correlation_time:.4g} s, " if self.sigma_b else "")
             + f"period={self.period:g} s)"
         )
 
@@ -838,7 +840,7 @@ class Gyro:
         return self.sigma_v**2 / dt + self.filter_sigma_u**2 * dt / 12.0
 
     def bias_step_variance(self, dt: float | None = None) -> float:
-        """Variance [rad^2/s^2] of the bias increment over ``dt`` [s], per axis: ``sigma_u**2 dt`` (:attr:`filter_sigma_u`).
+        """Variance [rad^2/s^2] of the bias increment over ``dt`` [s], per axis: ``filter_sigma_u**2 dt``.
 
         Parameters
         ----------
@@ -962,7 +964,7 @@ class Gyro:
         states = np.empty((*drive.shape[:-2], n + 1, 3))
         states[..., 0, :] = markov0
         if n > 1 and np.all(phi == phi[0]):
-            from scipy.signal import lfilter  # noqa: PLC0415 (scipy.signal costs 0.3 s to import; only long runs need it)
+            from scipy.signal import lfilter
 
             zi = (phi[0] * markov0)[..., None, :]
             states[..., 1:, :] = lfilter([1.0], [1.0, -float(phi[0, 0])], drive, axis=-2, zi=zi)[0]
@@ -990,7 +992,8 @@ class Gyro:
         which draws the Gauss-Markov state from its stationary distribution)
         and ``dt_noise`` (n,) the averaging interval. Returns the rate errors
         (..., n, 3), the random-walk biases (..., n + 1, 3) starting with ``bias0``
-        and the Gauss-Markov states (..., n + 1, 3) (None without the term). Sequential sums (``cumsum`` along the steps)
+        and the Gauss-Markov states (..., n + 1, 3) (None without the term).
+        Sequential sums (``cumsum`` along the steps)
         make a batch bit-identical to one-at-a-time calls.
         """
         steps = (self.sigma_u * np.sqrt(dt_bias))[:, None] * normals[..., 0, :]
