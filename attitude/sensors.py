@@ -28,6 +28,9 @@ from attitude.validation import as_float_array, check_positive, check_vector, de
 __all__ = [
     "ARCSEC",
     "BIAS_INSTABILITY_FLOOR_FACTOR",
+    "BIAS_INSTABILITY_MODELS",
+    "GAUSS_MARKOV_PEAK_FACTOR",
+    "GAUSS_MARKOV_PEAK_RATIO",
     "GYRO_PRESETS",
     "GYRO_SAMPLING",
     "SAMPLING_CHECKS",
@@ -39,8 +42,11 @@ __all__ = [
     "StarTracker",
     "arw_from_sigma_v",
     "arw_to_sigma_v",
+    "bias_instability_to_gauss_markov",
     "bias_instability_to_sigma_u",
     "deg_per_h_to_rad_per_s",
+    "gauss_markov_allan_variance",
+    "gauss_markov_equivalent_sigma_u",
     "rrw_from_sigma_u",
     "rrw_to_sigma_u",
 ]
@@ -161,6 +167,207 @@ def bias_instability_to_sigma_u(bias_instability_deg_per_h: float, correlation_t
 
 
 # ---------------------------------------------------------------------------
+# First-order Gauss-Markov bias (the bias instability)
+
+#: ``tau / T`` at which the Allan deviation of a first-order Gauss-Markov process peaks
+#: (the root of ``d ln f / d ln u = 0`` for :func:`gauss_markov_allan_variance`; verified by a
+#: bounded search in tests/attitude/test_sensors.py).
+GAUSS_MARKOV_PEAK_RATIO = 1.8926
+#: Peak Allan deviation of a first-order Gauss-Markov process over its stationary standard
+#: deviation ``sigma_b`` (``0.6174 sigma_b = 0.4366 q sqrt(T)`` with ``q = sigma_b sqrt(2 / T)``
+#: its driving density; the "0.437" of IEEE Std 952-1997 Annex C is the second form).
+GAUSS_MARKOV_PEAK_FACTOR = 0.6174
+
+#: Coefficients of ``H(u) = u - 2 (1 - e^-u) + (1 - e^-2u) / 2 = sum_k c_k u^k`` (k = 3..10), used for u < 0.1
+#: where the closed form cancels (``H' = (1 - e^-u)^2``, integrated term by term).
+_H_SERIES = (1 / 3, -1 / 4, 7 / 60, -1 / 24, 31 / 2520, -1 / 320, 127 / 181440, -17 / 120960)
+
+
+def _gm_h(u: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``H(u) = integral_0^u (1 - e^-s)^2 ds`` for ``u >= 0``, accurate to rounding for every ``u``."""
+    u = np.asarray(u, dtype=np.float64)
+    one_minus = -np.expm1(-u)
+    closed = u - 2.0 * one_minus + 0.5 * (-np.expm1(-2.0 * u))
+    series = np.zeros_like(u)
+    for c in reversed(_H_SERIES):
+        series = (series + c) * u
+    series = series * u * u
+    return np.where(u < 0.1, series, closed)
+
+
+def gauss_markov_allan_variance(tau: ArrayLike, sigma_b: float, correlation_time: float) -> NDArray[np.float64]:
+    """Allan variance [rad^2/s^2] of a first-order Gauss-Markov rate of stationary deviation ``sigma_b``.
+
+    For ``db/dt = -b / T + w`` (``w`` white, density ``q = sigma_b sqrt(2 / T)``), with
+    ``u = tau / T``:
+
+    ``sigma^2(tau) = (q T)^2 / tau [1 - T / (2 tau) (3 - 4 e^-u + e^-2u)] = 2 sigma_b^2 H(u) / u^2``,
+
+    ``H(u) = u - 2 (1 - e^-u) + (1 - e^-2u) / 2`` (IEEE Std 952-1997, Annex C, the
+    exponentially correlated noise; El-Sheimy, Hou and Niu, "Analysis and modeling of inertial
+    sensors using Allan variance", IEEE Trans. Instrum. Meas. 57(1), 2008, eq. 18). It rises as
+    a rate random walk of density ``q`` (``q^2 tau / 3``) for ``tau << T``, peaks at ``tau =``
+    :data:`GAUSS_MARKOV_PEAK_RATIO` ``T`` with ``sigma =`` :data:`GAUSS_MARKOV_PEAK_FACTOR`
+    ``sigma_b``, and falls as white noise (``2 sigma_b^2 T / tau``) for ``tau >> T``.
+
+    Parameters
+    ----------
+    tau : array_like
+        Averaging times [s] (> 0).
+    sigma_b : float
+        Stationary standard deviation of the process [rad/s] (>= 0).
+    correlation_time : float
+        Correlation time ``T`` [s] (> 0).
+
+    Returns
+    -------
+    ndarray
+        Allan variance at each ``tau`` [rad^2/s^2].
+    """
+    t = check_positive(tau, "tau")
+    s = positive_scalar(sigma_b, "sigma_b", allow_zero=True)
+    big_t = positive_scalar(correlation_time, "correlation_time")
+    u = t / big_t
+    return 2.0 * s**2 * _gm_h(u) / u**2
+
+
+def _gm_log_slope(u: float) -> float:
+    """``d ln(sigma^2) / d ln(tau)`` of the Gauss-Markov Allan variance at ``u = tau / T``: ``u b^2 / H - 2``."""
+    b = -np.expm1(-u)
+    return float(u * b * b / _gm_h(np.array(u)) - 2.0)
+
+
+def bias_instability_to_gauss_markov(
+    bias_instability_deg_per_h: float,
+    bias_instability_time_s: float,
+    *,
+    arw_deg_per_sqrt_h: float = 0.0,
+    rrw_deg_per_h_per_sqrt_h: float = 0.0,
+) -> tuple[float, float]:
+    """The Gauss-Markov bias ``(sigma_b [rad/s], T [s])`` that puts the gyro's Allan floor where its datasheet does.
+
+    A datasheet's bias instability ``B`` is read on the measured Allan-deviation curve: its
+    minimum is ``0.664 B`` (:data:`BIAS_INSTABILITY_FLOOR_FACTOR`, IEEE Std 952-1997 Annex C)
+    at the averaging time ``tau_B``. That curve holds every noise, so the Gauss-Markov term is
+    solved for the *whole* model (ARW ``N``, the Gauss-Markov term ``GM``, RRW ``K``)
+
+    ``sigma^2(tau) = N^2 / tau + GM(tau; sigma_b, T) + K^2 tau / 3``
+
+    to have its minimum at ``tau_B`` with the value ``(0.664 B)^2``: two equations (value, zero
+    slope) for two unknowns. With ``R = (0.664 B)^2 - N^2 / tau_B - K^2 tau_B / 3`` and
+    ``S = N^2 / tau_B - K^2 tau_B / 3``, the log-slope of ``GM`` at ``tau_B`` must be
+    ``rho = S / R``; it falls monotonically from 1 (``tau << T``) to -1 (``tau >> T``), which
+    fixes ``u = tau_B / T`` (a bracketed root), then ``sigma_b^2 = R / (2 H(u) / u^2)``. When the
+    ARW and RRW lines are far below the floor, ``rho -> 0``: ``T = tau_B / 1.89`` and
+    ``sigma_b = 0.664 B / 0.617``, the peak of the Gauss-Markov curve on the floor.
+
+    A solution needs the floor at least ``sqrt(2)`` above both lines at ``tau_B``
+    (``(0.664 B)^2 > 2 N^2 / tau_B`` and ``> 2 K^2 tau_B / 3``; otherwise the curve cannot
+    have a minimum there, whatever the bias does): a ValueError names the violated bound.
+
+    Parameters
+    ----------
+    bias_instability_deg_per_h : float
+        Bias instability ``B`` [deg/h] (> 0; the Allan floor divided by 0.664).
+    bias_instability_time_s : float
+        Averaging time ``tau_B`` [s] at the Allan floor (> 0).
+    arw_deg_per_sqrt_h : float, optional
+        Angle random walk [deg/sqrt(h)] (>= 0).
+    rrw_deg_per_h_per_sqrt_h : float, optional
+        Rate random walk [deg/h/sqrt(h)] (>= 0), modelled as its own random walk.
+
+    Returns
+    -------
+    sigma_b : float
+        Stationary standard deviation of the Gauss-Markov bias [rad/s].
+    correlation_time : float
+        Its correlation time ``T`` [s].
+
+    Raises
+    ------
+    ValueError
+        For a non-positive ``B`` or ``tau_B``, negative noise figures, or a floor too close to
+        the ARW or RRW line (see above).
+    """
+    from scipy.optimize import brentq  # the root of one scalar equation, once per gyro
+
+    floor = float(check_positive(bias_instability_deg_per_h, "bias_instability_deg_per_h"))
+    floor *= BIAS_INSTABILITY_FLOOR_FACTOR * _DEG / _HOUR
+    tau_b = float(check_positive(bias_instability_time_s, "bias_instability_time_s"))
+    n2 = arw_to_sigma_v(arw_deg_per_sqrt_h) ** 2 / tau_b
+    k2 = rrw_to_sigma_u(rrw_deg_per_h_per_sqrt_h) ** 2 * tau_b / 3.0
+    for line, what in ((n2, "angle random walk N^2 / tau_B"), (k2, "rate random walk K^2 tau_B / 3")):
+        if not floor**2 > 2.0 * line:
+            raise ValueError(
+                f"bias_instability_deg_per_h = {bias_instability_deg_per_h!r} at bias_instability_time_s = "
+                f"{bias_instability_time_s!r} s puts the Allan floor (0.664 B)^2 = {floor**2:.4g} rad^2/s^2 within "
+                f"sqrt(2) of the {what} = {line:.4g} rad^2/s^2: no Allan curve of these noises has its minimum "
+                "there; check the datasheet figures (a longer averaging time or a larger B)"
+            )
+    rho = (n2 - k2) / (floor**2 - n2 - k2)
+    lo, hi = 1e-6, 1e6
+    u = brentq(lambda x: _gm_log_slope(x) - rho, lo, hi, xtol=1e-14, rtol=1e-13)
+    correlation_time = tau_b / u
+    sigma_b = float(np.sqrt((floor**2 - n2 - k2) / (2.0 * float(_gm_h(np.array(u))) / u**2)))
+    return sigma_b, float(correlation_time)
+
+
+def gauss_markov_equivalent_sigma_u(sigma_b: float, correlation_time: float, horizon_s: float | None = None) -> float:
+    """The random-walk density ``sigma_u`` [rad/s^1.5] a filter uses for a Gauss-Markov bias.
+
+    A filter that models the bias as a random walk (``estimation.mekf``, ``estimation.rate_ekf``)
+    sees a Gauss-Markov bias through its tuning. Over a horizon ``D`` the Gauss-Markov bias
+    moves by ``Var[b(t + D) - b(t)] = 2 sigma_b^2 (1 - e^(-D/T))``, a random walk by
+    ``sigma_u^2 D``. Without a horizon this returns ``sigma_b sqrt(2 / T)`` (the driving density
+    ``q``), which matches the short-term growth and bounds it at *every* horizon (``1 - e^-x <= x``):
+    the filter never under-states how far the bias can move, at the price of some conservatism
+    over horizons beyond ``T``. With a horizon (e.g. the filter's bias time constant) the random
+    walk matches the increment at ``D`` exactly, and bounds every shorter one from below only.
+
+    Parameters
+    ----------
+    sigma_b : float
+        Stationary standard deviation of the Gauss-Markov bias [rad/s] (>= 0).
+    correlation_time : float
+        Its correlation time ``T`` [s] (> 0).
+    horizon_s : float, optional
+        Horizon ``D`` [s] (> 0) at which to match the bias increment; None: the bound for every horizon.
+
+    Returns
+    -------
+    float
+        ``sigma_u`` [rad/s^1.5].
+    """
+    s = positive_scalar(sigma_b, "sigma_b", allow_zero=True)
+    big_t = positive_scalar(correlation_time, "correlation_time")
+    if horizon_s is None:
+        return float(s * np.sqrt(2.0 / big_t))
+    d = positive_scalar(horizon_s, "horizon_s")
+    return float(s * np.sqrt(2.0 * -np.expm1(-d / big_t) / d))
+
+
+def _gm_step_coefficients(
+    h: float, sigma_b: float, correlation_time: float
+) -> tuple[float, float, float, float, float]:
+    """Exact sampling of a Gauss-Markov state over ``h`` [s]: ``(phi, s, a, c, d)``.
+
+    ``x_{k+1} = phi x_k + s N1`` and the interval mean ``m_k = a x_k + c N1 + d N2`` (the
+    conditional Gaussian of the state and its mean over the interval; docs/sensors.md). ``h = 0``
+    is a first sample: ``x = m = sigma_b N1`` drawn from the stationary distribution.
+    """
+    if h == 0.0:
+        return 0.0, sigma_b, 0.0, sigma_b, 0.0
+    x = h / correlation_time
+    b1 = -np.expm1(-x)
+    b2 = -np.expm1(-2.0 * x)
+    big_h = float(_gm_h(np.array(x)))
+    s = sigma_b * np.sqrt(b2)
+    c = sigma_b * b1 * b1 / (x * np.sqrt(b2))
+    d = sigma_b / x * np.sqrt(max(2.0 * big_h - b1**4 / b2, 0.0))
+    return float(np.exp(-x)), float(s), float(b1 / x), float(c), float(d)
+
+
+# ---------------------------------------------------------------------------
 # Validation helpers
 
 
@@ -266,6 +473,8 @@ _DIAG_B = np.arange(3, 6)
 
 #: Gyro sampling models (see :class:`Gyro`).
 GYRO_SAMPLING = ("instantaneous", "mean")
+#: Models of a datasheet's bias instability (see :meth:`Gyro.from_datasheet`).
+BIAS_INSTABILITY_MODELS = ("gauss_markov", "random_walk")
 #: What :meth:`Gyro.check_sampling` does on a mismatch.
 SAMPLING_CHECKS = ("raise", "warn", "ignore")
 
@@ -295,6 +504,14 @@ class Gyro:
         a constant bias).
     period : float
         Sample period [s] (> 0); the engine samples at multiples of its tick.
+    sigma_b : float
+        Stationary standard deviation [rad/s] of a first-order Gauss-Markov
+        bias term, the bias instability (>= 0; 0: none, and the gyro draws
+        exactly the numbers of a Farrenkopf gyro). See
+        :func:`bias_instability_to_gauss_markov`.
+    correlation_time : float
+        Correlation time ``T`` [s] of the Gauss-Markov term (> 0; used only
+        with ``sigma_b > 0``).
     bias : array_like (3,) or float
         Bias at the first sample [rad/s] (the constant part of the bias; a
         Monte Carlo draws it from the turn-on bias repeatability).
@@ -334,6 +551,8 @@ class Gyro:
         sigma_u: float = 0.0,
         *,
         period: float,
+        sigma_b: float = 0.0,
+        correlation_time: float = np.inf,
         bias: ArrayLike = 0.0,
         scale_factor: ArrayLike = 0.0,
         misalignment: ArrayLike = (0.0, 0.0, 0.0),
@@ -348,6 +567,17 @@ class Gyro:
         self.sigma_v = positive_scalar(sigma_v, "sigma_v", allow_zero=True)
         self.sigma_u = positive_scalar(sigma_u, "sigma_u", allow_zero=True)
         self.period = positive_scalar(period, "period")
+        self.sigma_b = positive_scalar(sigma_b, "sigma_b", allow_zero=True)
+        time_b = as_float_array(correlation_time, "correlation_time", allow_nonfinite=True)
+        if time_b.ndim != 0 or np.isnan(time_b) or time_b <= 0 or (self.sigma_b > 0 and not np.isfinite(time_b)):
+            raise ValueError(
+                "correlation_time must be a positive scalar [s] (finite when sigma_b > 0), "
+                f"got {describe(time_b)} with sigma_b = {self.sigma_b!r}"
+            )
+        self.correlation_time = float(time_b)
+        #: Rows of standard normals per sample: [N_u, N_v], plus the Gauss-Markov pair [N_b1, N_b2].
+        self._normal_rows = 4 if self.sigma_b > 0 else 2
+        self._gm_cache: tuple[float, tuple[float, float, float, float, float]] | None = None
         self.initial_bias = _per_axis(bias, "bias")
         self.scale_factor = _per_axis(scale_factor, "scale_factor")
         if np.any(self.scale_factor <= -1.0):
@@ -372,7 +602,8 @@ class Gyro:
         return (
             f"Gyro(name={self.name!r}, sigma_v={self.sigma_v:.4g} rad/s^0.5 "
             f"({arw_from_sigma_v(self.sigma_v):.4g} deg/sqrt(h)), sigma_u={self.sigma_u:.4g} rad/s^1.5, "
-            f"period={self.period:g} s)"
+            + (f"sigma_b={self.sigma_b:.4g} rad/s, T={self.correlation_time:.4g} s, " if self.sigma_b else "")
+            + f"period={self.period:g} s)"
         )
 
     # -- construction from datasheets -------------------------------------------------
@@ -393,6 +624,7 @@ class Gyro:
         saturation_deg_per_s: float = np.inf,
         name: str = "gyro",
         sampling: str = "instantaneous",
+        bias_instability_model: str = "gauss_markov",
     ) -> Gyro:
         """Build a gyro from datasheet figures.
 
@@ -402,9 +634,16 @@ class Gyro:
           (:func:`arw_to_sigma_v`);
         - ``sigma_u [rad/s^1.5] = RRW [deg/h/sqrt(h)] * (pi/180) / 3600 / 60``
           (:func:`rrw_to_sigma_u`);
-        - with only a bias instability ``B`` [deg/h]: the approximation of
-          :func:`bias_instability_to_sigma_u`, which needs the averaging time
-          ``bias_instability_time_s`` at the Allan-deviation floor;
+        - a bias instability ``B`` [deg/h] at the averaging time
+          ``bias_instability_time_s``: a first-order Gauss-Markov bias
+          (``sigma_b``, ``correlation_time``) solved by
+          :func:`bias_instability_to_gauss_markov` so that the Allan deviation
+          of the whole model (ARW, this term and the RRW, if given, as its own
+          random walk) has its minimum ``0.664 B`` at that averaging time;
+          with ``bias_instability_model="random_walk"``, the former rate-random-walk
+          approximation :func:`bias_instability_to_sigma_u` instead (the
+          filters' own bias model, for consistency tests of a matched filter;
+          its Allan floor sits 10 to 15 % low and too early);
         - biases ``[deg/h] * (pi/180) / 3600``; scale factor ``ppm * 1e-6``;
           rates ``[deg/s] * pi/180``.
 
@@ -417,7 +656,7 @@ class Gyro:
         rrw_deg_per_h_per_sqrt_h : float, optional
             Rate random walk [deg/h/sqrt(h)].
         bias_instability_deg_per_h : float, optional
-            Bias instability [deg/h]; used only without an RRW figure.
+            Bias instability [deg/h].
         bias_instability_time_s : float, optional
             Averaging time [s] at which the Allan deviation reaches the
             bias-instability floor; required with ``bias_instability_deg_per_h``.
@@ -435,31 +674,47 @@ class Gyro:
             Sensor name.
         sampling : {"instantaneous", "mean"}
             Instantaneous rate or interval-mean rate samples (see :class:`Gyro`).
+        bias_instability_model : {"gauss_markov", "random_walk"}
+            How the bias instability is modelled (see above).
 
         Raises
         ------
         ValueError
-            If both an RRW and a bias instability are given (the model has a
-            single bias-driving noise; choose one), if the bias instability
-            comes without its averaging time, or for any invalid figure.
+            If the bias instability comes without its averaging time, its
+            floor is too close to the ARW or RRW line for a minimum there
+            (:func:`bias_instability_to_gauss_markov`), both an RRW and a bias
+            instability are given with ``bias_instability_model="random_walk"``
+            (one bias-driving noise), or for any invalid figure.
         """
         positive_scalar(arw_deg_per_sqrt_h, "arw_deg_per_sqrt_h")
-        if rrw_deg_per_h_per_sqrt_h is not None and bias_instability_deg_per_h is not None:
+        if bias_instability_model not in BIAS_INSTABILITY_MODELS:
             raise ValueError(
-                "give rrw_deg_per_h_per_sqrt_h or bias_instability_deg_per_h, not both: the Farrenkopf model has one "
-                f"bias-driving noise (got RRW = {rrw_deg_per_h_per_sqrt_h!r}, B = {bias_instability_deg_per_h!r})"
+                f"bias_instability_model must be one of {BIAS_INSTABILITY_MODELS}, got {bias_instability_model!r}"
             )
-        if rrw_deg_per_h_per_sqrt_h is not None:
-            sigma_u = rrw_to_sigma_u(rrw_deg_per_h_per_sqrt_h)
-        elif bias_instability_deg_per_h is not None:
+        random_walk = bias_instability_model == "random_walk"
+        if random_walk and rrw_deg_per_h_per_sqrt_h is not None and bias_instability_deg_per_h is not None:
+            raise ValueError(
+                "give rrw_deg_per_h_per_sqrt_h or bias_instability_deg_per_h, not both, with "
+                "bias_instability_model='random_walk' (one bias-driving noise; the default 'gauss_markov' takes both) "
+                f"(got RRW = {rrw_deg_per_h_per_sqrt_h!r}, B = {bias_instability_deg_per_h!r})"
+            )
+        sigma_u = 0.0 if rrw_deg_per_h_per_sqrt_h is None else rrw_to_sigma_u(rrw_deg_per_h_per_sqrt_h)
+        sigma_b, correlation_time = 0.0, np.inf
+        if bias_instability_deg_per_h is not None:
             if bias_instability_time_s is None:
                 raise ValueError(
                     "bias_instability_time_s (the averaging time [s] at the Allan-deviation floor) is required "
                     f"with bias_instability_deg_per_h = {bias_instability_deg_per_h!r}"
                 )
-            sigma_u = bias_instability_to_sigma_u(bias_instability_deg_per_h, bias_instability_time_s)
-        else:
-            sigma_u = 0.0
+            if random_walk:
+                sigma_u = bias_instability_to_sigma_u(bias_instability_deg_per_h, bias_instability_time_s)
+            else:
+                sigma_b, correlation_time = bias_instability_to_gauss_markov(
+                    bias_instability_deg_per_h,
+                    bias_instability_time_s,
+                    arw_deg_per_sqrt_h=arw_deg_per_sqrt_h,
+                    rrw_deg_per_h_per_sqrt_h=0.0 if rrw_deg_per_h_per_sqrt_h is None else rrw_deg_per_h_per_sqrt_h,
+                )
         saturation = as_float_array(saturation_deg_per_s, "saturation_deg_per_s", allow_nonfinite=True)
         if saturation.ndim != 0 or np.isnan(saturation) or saturation <= 0:
             raise ValueError(f"saturation_deg_per_s must be a positive scalar or inf, got {describe(saturation)}")
@@ -467,6 +722,8 @@ class Gyro:
             arw_to_sigma_v(arw_deg_per_sqrt_h),
             sigma_u,
             period=period,
+            sigma_b=sigma_b,
+            correlation_time=correlation_time,
             bias=deg_per_h_to_rad_per_s(bias_deg_per_h),
             scale_factor=as_float_array(scale_factor_ppm, "scale_factor_ppm") * 1e-6,
             misalignment=misalignment_rad,
@@ -485,9 +742,9 @@ class Gyro:
 
         - ``"mems"``: Analog Devices ADIS16470 MEMS IMU (datasheet rev. C):
           ARW 0.34 deg/sqrt(h), in-run bias stability 8 deg/h, range
-          +-2000 deg/s. No RRW is published; ``sigma_u`` comes from the
-          bias-instability approximation with an *assumed* 100 s Allan
-          minimum (typical of this class, not a datasheet figure). The 32-bit
+          +-2000 deg/s. No RRW is published; the bias instability is a
+          Gauss-Markov bias with its Allan floor at an *assumed* 100 s
+          (typical of this class, not a datasheet figure). The 32-bit
           output LSB (~1.5e-6 deg/s) is far below the noise and is not modelled.
         - ``"tactical"``: Northrop Grumman LN-200 class fibre-optic gyro IMU
           (LN-200/LN-200S datasheets): ARW 0.07 deg/sqrt(h), bias 1 deg/h
@@ -496,7 +753,8 @@ class Gyro:
           Allan minimum *assumed* at 300 s.
         - ``"navigation"``: Honeywell HG9900 ring-laser-gyro IMU (brochure
           N61-1638-000-000): ARW 0.002 deg/sqrt(h), bias stability
-          0.0035 deg/h; Allan minimum *assumed* at 3600 s; range not modelled.
+          0.0035 deg/h; Allan minimum *assumed* at 3 h (10800 s: with this
+          ARW no curve can have its minimum 0.664 B before 5300 s); range not modelled.
           Crassidis and Junkins' MEKF example (``sigma_v = sqrt(10) 1e-7``
           rad/s^0.5 = 0.0011 deg/sqrt(h)) is of the same class.
 
@@ -515,7 +773,7 @@ class Gyro:
         if grade not in GYRO_PRESETS:
             raise ValueError(f"grade must be one of {tuple(GYRO_PRESETS)}, got {grade!r}")
         kwargs = dict(GYRO_PRESETS[grade]["figures"])
-        if "rrw_deg_per_h_per_sqrt_h" in overrides:
+        if "rrw_deg_per_h_per_sqrt_h" in overrides and overrides.get("bias_instability_model") == "random_walk":
             kwargs.pop("bias_instability_deg_per_h", None)
             kwargs.pop("bias_instability_time_s", None)
         kwargs.update(overrides)
@@ -526,11 +784,47 @@ class Gyro:
     def _dt(self, dt: float | None) -> float:
         return self.period if dt is None else positive_scalar(dt, "dt")
 
+    @property
+    def filter_sigma_u(self) -> float:
+        """Rate-random-walk density [rad/s^1.5] of the bias for a filter that models it as a random walk.
+
+        ``sqrt(sigma_u**2 + q**2)`` with ``q = sigma_b sqrt(2 / T)``
+        (:func:`gauss_markov_equivalent_sigma_u` without a horizon): the
+        random walk that bounds the Gauss-Markov bias increment at every
+        horizon. ``sigma_u`` itself without a Gauss-Markov term. The MEKF,
+        the rate EKF and the figures below (:meth:`rate_noise_variance`,
+        :meth:`bias_step_variance`, :meth:`process_noise`) use it.
+        """
+        if self.sigma_b == 0.0:
+            return self.sigma_u
+        q = gauss_markov_equivalent_sigma_u(self.sigma_b, self.correlation_time)
+        return float(np.hypot(self.sigma_u, q))
+
+    def allan_variance(self, tau: ArrayLike) -> NDArray[np.float64]:
+        """Allan variance [rad^2/s^2] of the model's rate noise at averaging times ``tau`` [s], per axis.
+
+        ``sigma_v**2 / tau + GM(tau) + sigma_u**2 tau / 3`` with ``GM`` the
+        Gauss-Markov term (:func:`gauss_markov_allan_variance`); the sampled
+        output of a stationary gyro has exactly this Allan variance at every
+        ``tau`` that is a multiple of the sample interval (docs/sensors.md).
+        Quantisation and saturation are not included.
+
+        Parameters
+        ----------
+        tau : array_like
+            Averaging times [s] (> 0).
+        """
+        t = check_positive(tau, "tau")
+        avar = self.sigma_v**2 / t + self.sigma_u**2 * t / 3.0
+        if self.sigma_b > 0:
+            avar = avar + gauss_markov_allan_variance(t, self.sigma_b, self.correlation_time)
+        return avar
+
     def rate_noise_variance(self, dt: float | None = None) -> float:
         """Variance [rad^2/s^2] of the white part of one rate sample, per axis.
 
         ``sigma_v**2 / dt + sigma_u**2 dt / 12`` (the term ``N_v`` of
-        docs/sensors.md), for a sample averaged over ``dt`` [s] (default
+        docs/sensors.md; ``sigma_u`` is :attr:`filter_sigma_u`), for a sample averaged over ``dt`` [s] (default
         :attr:`period`). A filter whose state holds the bias at the sample
         time (``omega_meas = omega + beta_{k+1} + e``) sees the error
         ``e = -(beta_{k+1} - beta_k)/2 + noise`` of variance
@@ -543,17 +837,17 @@ class Gyro:
             Sample interval [s]; default :attr:`period`.
         """
         dt = self._dt(dt)
-        return self.sigma_v**2 / dt + self.sigma_u**2 * dt / 12.0
+        return self.sigma_v**2 / dt + self.filter_sigma_u**2 * dt / 12.0
 
     def bias_step_variance(self, dt: float | None = None) -> float:
-        """Variance [rad^2/s^2] of the bias increment over ``dt`` [s], per axis: ``sigma_u**2 dt``.
+        """Variance [rad^2/s^2] of the bias increment over ``dt`` [s], per axis: ``filter_sigma_u**2 dt``.
 
         Parameters
         ----------
         dt : float, optional
             Interval [s]; default :attr:`period`.
         """
-        return self.sigma_u**2 * self._dt(dt)
+        return self.filter_sigma_u**2 * self._dt(dt)
 
     def process_noise(self, dt: float | None = None) -> NDArray[np.float64]:
         """Discrete process noise (6, 6) of the attitude-error / bias-error state over ``dt`` [s].
@@ -566,14 +860,15 @@ class Gyro:
         [-(sigma_u**2 dt**2 / 2) I, sigma_u**2 dt I]]``
 
         (Crassidis and Junkins, 2nd ed., sec. 7.2.1; exact for the sampled
-        model at zero rate, to first order in ``|omega| dt`` otherwise).
+        model at zero rate, to first order in ``|omega| dt`` otherwise), with
+        ``sigma_u`` :attr:`filter_sigma_u`.
 
         Parameters
         ----------
         dt : float, optional
             Propagation interval [s]; default :attr:`period`.
         """
-        return farrenkopf_process_noise(self.sigma_v**2, self.sigma_u**2, self._dt(dt))
+        return farrenkopf_process_noise(self.sigma_v**2, self.filter_sigma_u**2, self._dt(dt))
 
     def check_sampling(self, expected: str, *, consumer: str, action: str = "raise") -> bool:
         """Check that :attr:`sampling` is ``expected`` (what a filter's measurement model assumes).
@@ -626,14 +921,58 @@ class Gyro:
 
     @property
     def bias(self) -> NDArray[np.float64]:
-        """The bias [rad/s] at the time of the latest :meth:`measure` sample (a copy)."""
-        return self._bias.copy()
+        """The bias [rad/s] at the time of the latest :meth:`measure` sample (a copy).
+
+        The random-walk part plus the Gauss-Markov state, if any.
+        """
+        if self.sigma_b == 0.0:
+            return self._bias.copy()
+        return self._bias + self._markov
 
     def reset(self) -> None:
-        """Forget the sample history: the bias returns to its initial value, the next sample is a first one."""
+        """Forget the sample history: the bias returns to its initial value, the next sample is a first one.
+
+        The Gauss-Markov state is drawn afresh from its stationary distribution at the first sample.
+        """
         self._bias = np.array(self.initial_bias, dtype=np.float64)
+        self._markov = np.zeros(3)
         self._t_last: float | None = None
         self._q_last: NDArray[np.float64] | None = None
+
+    def _gm_coefficients(self, h: float) -> tuple[float, float, float, float, float]:
+        """:func:`_gm_step_coefficients` for this gyro, the latest interval cached (the engine's is constant)."""
+        if self._gm_cache is None or self._gm_cache[0] != h:
+            self._gm_cache = (h, _gm_step_coefficients(h, self.sigma_b, self.correlation_time))
+        return self._gm_cache[1]
+
+    def _markov_errors(
+        self, markov0: NDArray[np.float64], dt_bias: NDArray[np.float64], normals: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Exact Gauss-Markov states (..., n + 1, 3) and interval means (..., n, 3) over the steps ``dt_bias`` (n,).
+
+        ``normals`` (..., n, 2, 3) holds ``N_b1`` and ``N_b2`` of each step. The
+        recursion ``x_{k+1} = phi x_k + s N_b1`` runs through
+        ``scipy.signal.lfilter`` when every step has the same ``phi``, else
+        step by step; both compute ``round(round(phi x) + e)``, so a batch, a
+        history and one-at-a-time calls agree bit for bit.
+        """
+        coeffs = np.array([self._gm_coefficients(float(h)) for h in dt_bias])
+        phi, s, a, c, d = (coeffs[:, i, None] for i in range(5))
+        n1, n2 = normals[..., 0, :], normals[..., 1, :]
+        drive = s * n1
+        n = dt_bias.size
+        states = np.empty((*drive.shape[:-2], n + 1, 3))
+        states[..., 0, :] = markov0
+        if n > 1 and np.all(phi == phi[0]):
+            from scipy.signal import lfilter
+
+            zi = (phi[0] * markov0)[..., None, :]
+            states[..., 1:, :] = lfilter([1.0], [1.0, -float(phi[0, 0])], drive, axis=-2, zi=zi)[0]
+        else:
+            for k in range(n):
+                states[..., k + 1, :] = phi[k] * states[..., k, :] + drive[..., k, :]
+        means = a * states[..., :-1, :] + c * n1 + d * n2
+        return states, means
 
     def _errors(
         self,
@@ -641,23 +980,32 @@ class Gyro:
         dt_bias: NDArray[np.float64],
         dt_noise: NDArray[np.float64],
         normals: NDArray[np.float64],
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Farrenkopf errors of ``n`` consecutive samples (the one code path).
+        markov0: NDArray[np.float64] | None = None,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None]:
+        """Farrenkopf (and Gauss-Markov) errors of ``n`` consecutive samples (the one code path).
 
         ``normals`` (..., n, 2, 3) holds ``N_u`` and ``N_v`` of each step (a
-        leading runs axis is allowed, with ``bias0`` (..., 3));
-        ``dt_bias`` (n,) the bias propagation interval (0 for a first sample)
+        leading runs axis is allowed, with ``bias0`` (..., 3)), and (..., n, 4, 3)
+        ``N_b1``, ``N_b2`` after them with a Gauss-Markov term, whose state
+        before the first step is ``markov0`` (..., 3);
+        ``dt_bias`` (n,) the bias propagation interval (0 for a first sample,
+        which draws the Gauss-Markov state from its stationary distribution)
         and ``dt_noise`` (n,) the averaging interval. Returns the rate errors
-        (..., n, 3) and the biases (..., n + 1, 3) starting with ``bias0``.
-        Sequential sums (``cumsum`` along the steps) make a batch bit-identical
-        to one-at-a-time calls.
+        (..., n, 3), the random-walk biases (..., n + 1, 3) starting with ``bias0``
+        and the Gauss-Markov states (..., n + 1, 3) (None without the term).
+        Sequential sums (``cumsum`` along the steps)
+        make a batch bit-identical to one-at-a-time calls.
         """
         steps = (self.sigma_u * np.sqrt(dt_bias))[:, None] * normals[..., 0, :]
         start = np.broadcast_to(bias0[..., None, :], (*steps.shape[:-2], 1, 3))
         biases = np.cumsum(np.concatenate([start, steps], axis=-2), axis=-2)
         white = np.sqrt(self.sigma_v**2 / dt_noise + self.sigma_u**2 * dt_noise / 12.0)
         errors = 0.5 * (biases[..., :-1, :] + biases[..., 1:, :]) + white[:, None] * normals[..., 1, :]
-        return errors, biases
+        if self.sigma_b == 0.0:
+            return errors, biases, None
+        start_markov = np.zeros(bias0.shape) if markov0 is None else markov0
+        states, means = self._markov_errors(start_markov, dt_bias, normals[..., 2:, :])
+        return errors + means, biases, states
 
     def ideal_output(self, omega_BN_B: ArrayLike) -> NDArray[np.float64]:
         """Noise-free, unquantised output ``(I + S + M) omega`` [rad/s], shape (..., 3).
@@ -691,16 +1039,17 @@ class Gyro:
         q_last: NDArray[np.float64] | None,
         normals: NDArray[np.float64],
         transfer: NDArray[np.float64] | None = None,
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        markov: NDArray[np.float64] | None = None,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64] | None]:
         """One sample of one gyro, or of N runs at once (a leading runs axis): the one code path.
 
         :meth:`measure` calls it with ``omega`` (3,), ``q`` (4,), ``bias``
-        (3,), ``normals`` (1, 2, 3); :class:`GyroBatch` with (N, 3), (N, 4),
-        (N, 3), (N, 1, 2, 3) and its per-run ``transfer`` (N, 3, 3). Every
+        (3,), ``normals`` (1, rows, 3), ``markov`` (3,); :class:`GyroBatch` with (N, 3), (N, 4),
+        (N, 3), (N, 1, rows, 3), (N, 3) and its per-run ``transfer`` (N, 3, 3). Every
         operation is elementwise along the runs axis (explicit products, no
         BLAS), so run ``r`` of a batch rounds exactly as the single call. No
         checks (the callers validate, ``t > t_last`` included). Returns the
-        output and the bias at ``t``.
+        output, the random-walk bias and the Gauss-Markov state at ``t``.
         """
         if self.sampling == "mean" and q_last is not None:
             # The interval-mean rate: the rotation vector of the attitude increment over the interval.
@@ -710,8 +1059,9 @@ class Gyro:
             dt_bias, dt_noise = 0.0, self.period
         else:
             dt_bias = dt_noise = t - t_last
-        errors, biases = self._errors(bias, np.array([dt_bias]), np.array([dt_noise]), normals)
-        return self._output(omega, errors[..., 0, :], transfer), biases[..., -1, :]
+        errors, biases, states = self._errors(bias, np.array([dt_bias]), np.array([dt_noise]), normals, markov)
+        markov_t = None if states is None else states[..., -1, :]
+        return self._output(omega, errors[..., 0, :], transfer), biases[..., -1, :], markov_t
 
     def measure(self, t: float, truth: Any, rng: Any = None) -> NDArray[np.float64]:
         """One rate sample [rad/s] at time ``t`` [s] (the engine's sensor protocol).
@@ -742,8 +1092,12 @@ class Gyro:
         omega = check_vector(truth.omega, "truth.omega", 3)
         q = quat.as_unit_quaternion(truth.q, "truth.q") if self.sampling == "mean" else None
         _check_after(t, self._t_last, f"gyro {self.name!r}")
-        normals = gen.standard_normal((1, 2, 3))
-        out, self._bias = self._sample(t, omega, q, self._bias, self._t_last, self._q_last, normals)
+        normals = gen.standard_normal((1, self._normal_rows, 3))
+        out, self._bias, markov = self._sample(
+            t, omega, q, self._bias, self._t_last, self._q_last, normals, markov=self._markov
+        )
+        if markov is not None:
+            self._markov = markov
         self._t_last = t
         self._q_last = q
         return out
@@ -756,11 +1110,15 @@ class Gyro:
         dt: float | None = None,
         bias0: ArrayLike | None = None,
         n_runs: int | None = None,
+        markov0: ArrayLike | None = None,
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Rate errors of ``n_steps`` consecutive samples of a running gyro, vectorised.
 
         Every step propagates the bias (unlike the first :meth:`measure` of a
-        run). Does not touch the gyro's state.
+        run). Does not touch the gyro's state. With a Gauss-Markov term and no
+        ``markov0``, its state before the first step is drawn from the
+        stationary distribution (3 normals per run, drawn before the steps'):
+        the output is a stationary sequence.
 
         Parameters
         ----------
@@ -778,6 +1136,9 @@ class Gyro:
             the outputs). Run ``r`` is bit-identical to the ``r``-th of
             ``n_runs`` consecutive single-run calls with the same Generator
             (and that run's ``bias0``): the normals are drawn in the same order.
+        markov0 : array_like (3,) or (n_runs, 3), optional
+            Gauss-Markov state before the first step [rad/s] (only with
+            ``sigma_b > 0``); default a stationary draw.
 
         Returns
         -------
@@ -785,7 +1146,8 @@ class Gyro:
             ``omega_meas - omega`` of each sample before scale factor,
             misalignment, quantisation and saturation [rad/s].
         biases : ndarray (n_steps + 1, 3) or (n_runs, n_steps + 1, 3)
-            Bias at the start and at each sample time [rad/s].
+            Bias (random walk plus Gauss-Markov state) at the start and at
+            each sample time [rad/s].
         """
         if not isinstance(n_steps, (int, np.integer)) or isinstance(n_steps, bool) or n_steps < 1:
             raise ValueError(f"n_steps must be a positive integer, got {n_steps!r}")
@@ -802,9 +1164,25 @@ class Gyro:
                 raise ValueError(f"bias0 must be a scalar or have shape (3,) or ({n_runs}, 3), got shape {b0.shape}")
             b0 = np.array(np.broadcast_to(b0, (int(n_runs), 3)), dtype=np.float64)
         lead = () if n_runs is None else (int(n_runs),)
-        normals = as_generator(rng).standard_normal((*lead, int(n_steps), 2, 3))
+        gen = as_generator(rng)
         dts = np.full(int(n_steps), dt)
-        return self._errors(b0, dts, dts, normals)
+        if self.sigma_b == 0.0:
+            if markov0 is not None:
+                raise ValueError(f"markov0 needs a Gauss-Markov term (sigma_b > 0); gyro {self.name!r} has none")
+            errors, biases, _ = self._errors(b0, dts, dts, gen.standard_normal((*lead, int(n_steps), 2, 3)))
+            return errors, biases
+        if markov0 is None:
+            block = gen.standard_normal((*lead, 3 + int(n_steps) * 12))
+            m0 = self.sigma_b * block[..., :3]
+            normals = block[..., 3:].reshape(*lead, int(n_steps), 4, 3)
+        else:
+            m0 = as_float_array(markov0, "markov0")
+            if m0.shape not in ((), (3,), (*lead, 3)):
+                raise ValueError(f"markov0 must be a scalar or have shape (3,) or {(*lead, 3)}, got shape {m0.shape}")
+            m0 = np.array(np.broadcast_to(m0, (*lead, 3)), dtype=np.float64)
+            normals = gen.standard_normal((*lead, int(n_steps), 4, 3))
+        errors, biases, states = self._errors(b0, dts, dts, normals, m0)
+        return errors, biases + states
 
     def measure_history(
         self, t: ArrayLike, omega_BN_B: ArrayLike, rng: Any = None, *, q_BN: ArrayLike | None = None
@@ -869,13 +1247,22 @@ class Gyro:
                 omega[1:] = quat.to_rotation_vector(increment) / steps[:, None]
         dt_bias = np.concatenate([[0.0], steps])
         dt_noise = np.concatenate([[self.period], steps])
-        normals = as_generator(rng).standard_normal((t.size, 2, 3))
-        errors, _ = self._errors(np.array(self.initial_bias, dtype=np.float64), dt_bias, dt_noise, normals)
+        normals = as_generator(rng).standard_normal((t.size, self._normal_rows, 3))
+        errors, _, _ = self._errors(np.array(self.initial_bias, dtype=np.float64), dt_bias, dt_noise, normals)
         return self._output(omega, errors)
 
 
 #: Settings the gyros of a :class:`GyroBatch` must share (everything but the transfer matrix and the initial bias).
-_GYRO_BATCH_SHARED = ("sigma_v", "sigma_u", "period", "sampling", "quantization", "saturation")
+_GYRO_BATCH_SHARED = (
+    "sigma_v",
+    "sigma_u",
+    "sigma_b",
+    "correlation_time",
+    "period",
+    "sampling",
+    "quantization",
+    "saturation",
+)
 
 
 class GyroBatch:
@@ -885,8 +1272,9 @@ class GyroBatch:
     one tick at a time with their states stacked along a leading runs axis.
     The gyros may differ in their transfer matrix ``I + S + M`` (dispersed
     scale factor and misalignment) and in their initial bias (a dispersed
-    turn-on bias); everything else (``sigma_v``, ``sigma_u``, ``period``,
-    ``sampling``, ``quantization``, ``saturation``) must be the same. The
+    turn-on bias); everything else (``sigma_v``, ``sigma_u``, ``sigma_b``,
+    ``correlation_time``, ``period``, ``sampling``, ``quantization``,
+    ``saturation``) must be the same. The
     batch keeps its own state (per-run bias (N, 3), the previous sample
     time, the previous attitudes (N, 4) for ``sampling="mean"``), starting
     as freshly reset gyros; the :class:`Gyro` objects are not touched.
@@ -896,7 +1284,8 @@ class GyroBatch:
     first-sample rule, the exact Farrenkopf errors, quantisation and
     saturation) with a leading runs axis; every operation is elementwise
     along that axis, so when ``normals[r]`` are the numbers
-    ``gen_r.standard_normal((1, 2, 3))`` would have drawn, run ``r`` gets
+    ``gen_r.standard_normal((1, rows, 3))`` would have drawn (``rows`` 2, or
+    4 with a Gauss-Markov term), run ``r`` gets
     exactly the sample ``gyros[r].measure(t, truth_r, gen_r)`` returns.
 
     Parameters
@@ -969,8 +1358,10 @@ class GyroBatch:
 
     @property
     def bias(self) -> NDArray[np.float64]:
-        """Per-run bias (N, 3) [rad/s] at the latest sample (a copy)."""
-        return self._bias.copy()
+        """Per-run bias (N, 3) [rad/s] at the latest sample (a copy; random walk plus Gauss-Markov state)."""
+        if self._model.sigma_b == 0.0:
+            return self._bias.copy()
+        return self._bias + self._markov
 
     @property
     def t_last(self) -> float | None:
@@ -980,6 +1371,7 @@ class GyroBatch:
     def reset(self) -> None:
         """Back to the initial biases; the next sample is a first one (as :meth:`Gyro.reset`)."""
         self._bias = np.array(self.initial_bias, dtype=np.float64)
+        self._markov = np.zeros(self.initial_bias.shape)
         self._t_last: float | None = None
         self._q_last: NDArray[np.float64] | None = None
 
@@ -999,11 +1391,12 @@ class GyroBatch:
         omega : array_like (N, 3)
             True body rates [rad/s] (the sample of ``"instantaneous"``, and
             the first sample of ``"mean"``).
-        normals : array_like (N, 2, 3) or NormalStreams
-            Standard normals of each run, ``[N_u, N_v]`` in the order of
-            ``gen.standard_normal((1, 2, 3))``; or the runs'
-            :class:`attitude.rng.NormalStreams`, from which 6 numbers per run
-            are drawn.
+        normals : array_like (N, rows, 3) or NormalStreams
+            Standard normals of each run, ``[N_u, N_v]`` (``rows = 2``), then
+            ``[N_b1, N_b2]`` with a Gauss-Markov term (``rows = 4``), in the
+            order of ``gen.standard_normal((1, rows, 3))``; or the runs'
+            :class:`attitude.rng.NormalStreams`, from which ``3 rows`` numbers
+            per run are drawn.
 
         Returns
         -------
@@ -1033,18 +1426,22 @@ class GyroBatch:
             if qn.shape != (n, 4):
                 raise ValueError(f"q must have shape ({n}, 4) (one attitude per run), got shape {qn.shape}")
         _check_after(t, self._t_last, "this GyroBatch")
+        rows = self._model._normal_rows
         if isinstance(normals, NormalStreams):
             if normals.n_runs != n:
                 raise ValueError(f"normals must have {n} streams (one per run), got {normals.n_runs}")
-            nrm = normals.draw(None, 6).reshape(n, 1, 2, 3)
+            nrm = normals.draw(None, 3 * rows).reshape(n, 1, rows, 3)
         else:
             nrm = as_float_array(normals, "normals")
-            if nrm.shape != (n, 2, 3):
-                raise ValueError(f"normals must have shape ({n}, 2, 3) ([N_u, N_v] per run), got shape {nrm.shape}")
+            if nrm.shape != (n, rows, 3):
+                what = "[N_u, N_v]" if rows == 2 else "[N_u, N_v, N_b1, N_b2]"
+                raise ValueError(f"normals must have shape ({n}, {rows}, 3) ({what} per run), got shape {nrm.shape}")
             nrm = nrm[:, None]
-        out, self._bias = self._model._sample(
-            t, w, qn, self._bias, self._t_last, self._q_last, nrm, self.transfer_matrix
+        out, self._bias, markov = self._model._sample(
+            t, w, qn, self._bias, self._t_last, self._q_last, nrm, self.transfer_matrix, self._markov
         )
+        if markov is not None:
+            self._markov = markov
         self._t_last = t
         self._q_last = qn
         return out
@@ -1076,10 +1473,10 @@ GYRO_PRESETS: dict[str, dict[str, Any]] = {
         "figures": {
             "arw_deg_per_sqrt_h": 0.002,
             "bias_instability_deg_per_h": 0.0035,
-            "bias_instability_time_s": 3600.0,
+            "bias_instability_time_s": 10800.0,
         },
         "source": "Honeywell HG9900 RLG IMU brochure (N61-1638-000-000): ARW 0.002 deg/sqrt(h), bias 0.0035 deg/h; "
-        "Allan-minimum time 3600 s assumed",
+        "Allan-minimum time 3 h assumed (the earliest a minimum 0.664 B can sit with this ARW is 5300 s)",
     },
 }
 

@@ -448,7 +448,7 @@ class RateEKF:
 
     @classmethod
     def from_gyro(cls, body: RigidBody, gyro: Gyro, *, sampling_check: str = "warn", **kwargs: Any) -> RateEKF:
-        """A filter for a :class:`attitude.sensors.Gyro`: its ``sigma_v``, ``sigma_u``, ``period`` and name.
+        """A filter for a :class:`attitude.sensors.Gyro`: its ``sigma_v``, ``filter_sigma_u``, ``period`` and name.
 
         ``gyro.sigma_v`` must be > 0. The filter models a sample as the rate
         at the sample time, so ``gyro.sampling`` must be
@@ -474,7 +474,8 @@ class RateEKF:
             raise ValueError(f"gyro must be an attitude.sensors.Gyro, got {gyro!r}")
         gyro.check_sampling("instantaneous", consumer="RateEKF.from_gyro", action=sampling_check)
         kwargs.setdefault("gyro_name", gyro.name)
-        return cls(body, sigma_v=gyro.sigma_v, sigma_u=gyro.sigma_u, gyro_period=gyro.period, **kwargs)
+        # A Gauss-Markov bias (the bias instability) enters as its bounding random walk (Gyro.filter_sigma_u).
+        return cls(body, sigma_v=gyro.sigma_v, sigma_u=gyro.filter_sigma_u, gyro_period=gyro.period, **kwargs)
 
     def _jacobian_coefficients(self) -> None:
         """Exact ``A(omega, h) = A0 + sum_i c_i [omega, h]_i`` from casadi's Jacobian of the one definition."""

@@ -248,7 +248,8 @@ def main() -> None:
     )
     print(
         f"   bias instability {GYRO_DATASHEET['bias_instability_deg_per_h']} deg/h at "
-        f"{GYRO_DATASHEET['bias_instability_time_s']:g} s -> sigma_u = {gyro.sigma_u:.3e} rad/s^1.5; "
+        f"{GYRO_DATASHEET['bias_instability_time_s']:g} s -> Gauss-Markov bias sigma_b = {gyro.sigma_b:.3e} rad/s, "
+        f"T = {gyro.correlation_time:.0f} s (the filter's random walk sigma_u = {gyro.filter_sigma_u:.3e} rad/s^1.5); "
         f"turn-on bias {TURN_ON_BIAS_DEG_H} deg/h (1 sigma)"
     )
     print(f"   white noise of one sample sqrt(sigma_v^2/dt + sigma_u^2 dt/12) = {raw / DEG_H:.2f} deg/h")
@@ -335,10 +336,10 @@ def main() -> None:
     sig_filter = np.sqrt(np.mean(np.diagonal(batch.P[:, late, :3, :3], axis1=-2, axis2=-1), axis=(0, 1)))
     sig_runs = np.sqrt(np.mean(e_mekf[:, late, :3] ** 2, axis=(0, 1)))
     cross = steady_state_attitude_sigma(
-        sigma_v=gyro.sigma_v, sigma_u=gyro.sigma_u, sigma_n=tracker.sigma_cross, dt=tracker.period
+        sigma_v=gyro.sigma_v, sigma_u=gyro.filter_sigma_u, sigma_n=tracker.sigma_cross, dt=tracker.period
     )
     roll = steady_state_attitude_sigma(
-        sigma_v=gyro.sigma_v, sigma_u=gyro.sigma_u, sigma_n=tracker.sigma_roll, dt=tracker.period
+        sigma_v=gyro.sigma_v, sigma_u=gyro.filter_sigma_u, sigma_n=tracker.sigma_roll, dt=tracker.period
     )
     print("   steady-state attitude sigma just after an update [arcsec] (second half of the runs):")
     print("     axis            closed form   filter   runs (RMS)")

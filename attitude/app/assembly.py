@@ -831,7 +831,7 @@ def mekf(
         return MEKF.from_sensors(gyro, tracker, q0=q0, P0=P0)
     return MEKF(
         sigma_v=gyro.sigma_v,
-        sigma_u=gyro.sigma_u,
+        sigma_u=gyro.filter_sigma_u,
         tracker_covariance=tracker_covariance,
         period=gyro.period,
         q0=q0,

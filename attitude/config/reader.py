@@ -418,12 +418,6 @@ def _read_gyro(r: _Reader, t: _Table) -> GyroConfig:
     for name in ("rrw_deg_per_h_per_sqrt_h", "quantization_deg_per_s"):
         _positive(r, t.key(name), num[name], allow_zero=True, unit=unit_of(t.key(name)))
     _positive(r, t.key("saturation_deg_per_s"), num["saturation_deg_per_s"], unit="deg/s")
-    if num["rrw_deg_per_h_per_sqrt_h"] is not None and num["bias_instability_deg_per_h"] is not None:
-        raise r.error(
-            t.key("bias_instability_deg_per_h"),
-            "give rrw_deg_per_h_per_sqrt_h or bias_instability_deg_per_h, not both "
-            "(the Farrenkopf model has one bias-driving noise)",
-        )
     if preset is None and num["bias_instability_deg_per_h"] is not None and num["bias_instability_time_s"] is None:
         raise t.missing("bias_instability_time_s", " (required with bias_instability_deg_per_h)")
     per_axis = {

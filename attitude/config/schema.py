@@ -70,7 +70,7 @@ CONFIG_KEYS: dict[str, tuple[str, str]] = {
     "gyro.period_s": ("s", "sample period"),
     "gyro.arw_deg_per_sqrt_h": ("deg/sqrt(h)", "angle random walk"),
     "gyro.rrw_deg_per_h_per_sqrt_h": ("deg/h/sqrt(h)", "rate random walk (or give a bias instability)"),
-    "gyro.bias_instability_deg_per_h": ("deg/h", "bias instability (used without a rate random walk)"),
+    "gyro.bias_instability_deg_per_h": ("deg/h", "bias instability (a Gauss-Markov bias; an RRW adds to it)"),
     "gyro.bias_instability_time_s": ("s", "averaging time at the Allan-deviation floor (with the bias instability)"),
     "gyro.bias_deg_per_h": ("deg/h", "constant bias (one value, or one per axis)"),
     "gyro.scale_factor_ppm": ("ppm", "scale-factor error (one value, or one per axis)"),

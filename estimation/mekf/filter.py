@@ -447,7 +447,9 @@ class MEKF:
     ) -> MEKF:
         """A filter matched to a gyro and a tracker: their noise figures, period and names.
 
-        ``sigma_v``, ``sigma_u``, ``period`` and ``gyro_name`` come from
+        ``sigma_v``, ``sigma_u`` (:attr:`attitude.sensors.Gyro.filter_sigma_u`:
+        the rate random walk plus the random walk that bounds a Gauss-Markov
+        bias), ``period`` and ``gyro_name`` come from
         ``gyro``, ``tracker_covariance`` (:attr:`StarTracker.covariance_B`)
         and ``tracker_name`` from ``tracker``; other keywords go to the
         constructor. A gyro with ``sigma_u = 0`` (constant bias) is refused
@@ -485,7 +487,8 @@ class MEKF:
             raise ValueError(f"gyro must be an attitude.sensors.Gyro (or have its noise figures), got {gyro!r}")
         return cls(
             sigma_v=gyro.sigma_v,
-            sigma_u=gyro.sigma_u,
+            # A Gauss-Markov bias (the bias instability) enters as its bounding random walk.
+            sigma_u=gyro.filter_sigma_u if isinstance(gyro, Gyro) else gyro.sigma_u,
             tracker_covariance=tracker.covariance_B,
             period=gyro.period,
             q0=q0,

@@ -102,7 +102,11 @@ class TestConversions:
     def test_presets_carry_their_datasheet_figures(self):
         mems = Gyro.preset("mems", period=0.01)
         assert mems.sigma_v == pytest.approx(0.34 * DEG / 60, rel=1e-14)
-        assert mems.sigma_u == pytest.approx(bias_instability_to_sigma_u(8.0, 100.0), rel=1e-14)
+        # The bias instability is a Gauss-Markov term (no rate random walk is published for it).
+        assert mems.sigma_u == 0.0 and mems.sigma_b > 0.0
+        old_mapping = Gyro.preset("mems", period=0.01, bias_instability_model="random_walk")
+        assert old_mapping.sigma_u == pytest.approx(bias_instability_to_sigma_u(8.0, 100.0), rel=1e-14)
+        assert old_mapping.sigma_b == 0.0
         assert mems.saturation == pytest.approx(2000 * DEG, rel=1e-14)
         assert mems.period == 0.01
         tactical = Gyro.preset("tactical")
@@ -111,10 +115,14 @@ class TestConversions:
         assert nav.sigma_v == pytest.approx(0.002 * DEG / 60, rel=1e-14)
         # The grades are ordered as their names say.
         assert mems.sigma_v > tactical.sigma_v > nav.sigma_v
-        assert mems.sigma_u > tactical.sigma_u > nav.sigma_u
+        assert mems.filter_sigma_u > tactical.filter_sigma_u > nav.filter_sigma_u
         assert all("source" in entry for entry in GYRO_PRESETS.values())
-        # An override replaces a figure; an RRW override replaces the bias-instability pair.
-        assert Gyro.preset("mems", rrw_deg_per_h_per_sqrt_h=1.0).sigma_u == pytest.approx(rrw_to_sigma_u(1.0))
+        # An RRW override adds its own random walk to the Gauss-Markov bias; with the random-walk model it
+        # replaces the bias-instability pair (one bias-driving noise).
+        with_rrw = Gyro.preset("mems", rrw_deg_per_h_per_sqrt_h=1.0)
+        assert with_rrw.sigma_u == pytest.approx(rrw_to_sigma_u(1.0)) and with_rrw.sigma_b > 0.0
+        replaced = Gyro.preset("mems", rrw_deg_per_h_per_sqrt_h=1.0, bias_instability_model="random_walk")
+        assert replaced.sigma_u == pytest.approx(rrw_to_sigma_u(1.0)) and replaced.sigma_b == 0.0
 
     def test_star_tracker_preset_and_datasheet_constructor(self):
         st = StarTracker.preset("typical")
@@ -315,7 +323,34 @@ class TestGyroValidation:
         [
             ({"arw_deg_per_sqrt_h": 0.0}, "arw_deg_per_sqrt_h must be strictly positive"),
             ({"arw_deg_per_sqrt_h": -0.1}, "arw_deg_per_sqrt_h must be strictly positive"),
-            ({"rrw_deg_per_h_per_sqrt_h": 0.1, "bias_instability_deg_per_h": 1.0}, "not both"),
+            (
+                {
+                    "rrw_deg_per_h_per_sqrt_h": 0.1,
+                    "bias_instability_deg_per_h": 1.0,
+                    "bias_instability_time_s": 300.0,
+                    "bias_instability_model": "random_walk",
+                },
+                "not both",
+            ),
+            (
+                {
+                    "bias_instability_deg_per_h": 1.0,
+                    "bias_instability_time_s": 1.0,
+                    "bias_instability_model": "flicker",
+                },
+                "bias_instability_model must be one of",
+            ),
+            # The floor 0.664 B = 0.0664 deg/h at 300 s sits below sqrt(2) x the ARW line 6/sqrt(300) deg/h.
+            ({"bias_instability_deg_per_h": 0.1, "bias_instability_time_s": 300.0}, "within sqrt\\(2\\) of the angle"),
+            # ... and below sqrt(2) x the RRW line (60 deg/h/sqrt(h) = 1 deg/h/sqrt(s): 10 deg/h at 300 s).
+            (
+                {
+                    "bias_instability_deg_per_h": 10.0,
+                    "bias_instability_time_s": 300.0,
+                    "rrw_deg_per_h_per_sqrt_h": 60.0,
+                },
+                "within sqrt\\(2\\) of the rate random walk",
+            ),
             ({"bias_instability_deg_per_h": 1.0}, "bias_instability_time_s .* is required"),
             ({"bias_instability_deg_per_h": 0.0, "bias_instability_time_s": 10.0}, "strictly positive"),
             ({"bias_instability_deg_per_h": 1.0, "bias_instability_time_s": -1.0}, "bias_instability_time_s"),
@@ -615,3 +650,70 @@ class TestMeanRateSampling:
             Gyro(1e-5, period=0.1, sampling="average")
         assert Gyro.from_datasheet(arw_deg_per_sqrt_h=0.07, period=0.1, sampling="mean").sampling == "mean"
         assert Gyro.preset("tactical", sampling="mean").sampling == "mean"
+
+
+# ---------------------------------------------------------------------------
+# The Gauss-Markov bias (the datasheet bias instability)
+
+
+class TestGaussMarkov:
+    def test_peak_constants_by_a_bounded_search(self):
+        from scipy.optimize import minimize_scalar
+
+        from attitude.sensors import GAUSS_MARKOV_PEAK_FACTOR, GAUSS_MARKOV_PEAK_RATIO, gauss_markov_allan_variance
+
+        best = minimize_scalar(
+            lambda u: -gauss_markov_allan_variance(u, 1.0, 1.0),
+            bounds=(0.1, 10.0),
+            method="bounded",
+            options={"xatol": 1e-10},
+        )
+        # Stated to 5 significant digits.
+        assert best.x == pytest.approx(GAUSS_MARKOV_PEAK_RATIO, abs=1e-4)
+        assert np.sqrt(-best.fun) == pytest.approx(GAUSS_MARKOV_PEAK_FACTOR, abs=1e-4)
+
+    def test_closed_form_is_the_spectral_integral(self):
+        # IEEE 952 eq. C.2: avar = 4 int_0^inf S(f) sin^4(pi f tau) / (pi f tau)^2 df, with the two-sided PSD of a
+        # Gauss-Markov process S(f) = 2 sigma^2 T / (1 + (2 pi f T)^2); quad to 1e-10 relative.
+        from scipy.integrate import quad
+
+        from attitude.sensors import gauss_markov_allan_variance
+
+        sigma, big_t = 3e-6, 150.0
+        for tau in (0.5, 20.0, 280.0, 5000.0):
+
+            def integrand(x, tau=tau):  # x = pi f tau
+                f = x / (np.pi * tau)
+                return 2 * sigma**2 * big_t / (1 + (2 * np.pi * f * big_t) ** 2) * np.sin(x) ** 4 / x**2 / (np.pi * tau)
+
+            value = 4 * sum(quad(integrand, k * np.pi, (k + 1) * np.pi, epsabs=0, epsrel=1e-12)[0] for k in range(600))
+            # The tail beyond 600 pi falls as x^-4 (S ~ 1/f^2); 4000 intervals agree to 1e-8, so 600 hold 1e-7.
+            assert gauss_markov_allan_variance(tau, sigma, big_t) == pytest.approx(value, rel=1e-7)
+
+    def test_without_a_bias_instability_the_numbers_are_the_farrenkopf_ones(self):
+        # The random layout is unchanged: [N_u, N_v] per step, and the errors follow docs/sensors.md exactly.
+        g = Gyro.from_datasheet(arw_deg_per_sqrt_h=0.1, rrw_deg_per_h_per_sqrt_h=0.5, period=0.1)
+        assert g.sigma_b == 0.0 and g.filter_sigma_u == g.sigma_u
+        errors, biases = g.sample_errors(50, np.random.default_rng(3))
+        n = np.random.default_rng(3).standard_normal((50, 2, 3))
+        b = np.cumsum(np.concatenate([np.zeros((1, 3)), g.sigma_u * np.sqrt(0.1) * n[:, 0]]), axis=0)
+        white = np.sqrt(g.sigma_v**2 / 0.1 + g.sigma_u**2 * 0.1 / 12)
+        np.testing.assert_array_equal(biases, b)
+        np.testing.assert_array_equal(errors, 0.5 * (b[:-1] + b[1:]) + white * n[:, 1])
+
+    def test_filter_random_walk_bounds_the_bias_increment(self):
+        from attitude.sensors import gauss_markov_equivalent_sigma_u
+
+        g = Gyro.preset("tactical")
+        horizons = np.geomspace(0.01, 1e5, 200)
+        increment = 2 * g.sigma_b**2 * -np.expm1(-horizons / g.correlation_time)  # Var[b(t + D) - b(t)]
+        assert np.all(increment <= g.filter_sigma_u**2 * horizons * (1 + 1e-12))
+        d = 500.0
+        matched = gauss_markov_equivalent_sigma_u(g.sigma_b, g.correlation_time, horizon_s=d)
+        assert matched**2 * d == pytest.approx(2 * g.sigma_b**2 * -np.expm1(-d / g.correlation_time), rel=1e-12)
+
+    def test_the_navigation_preset_is_consistent(self):
+        # Its assumed 3 h keeps the floor more than sqrt(2) above the ARW line (the 1 h it had is refused).
+        assert Gyro.preset("navigation").sigma_b > 0
+        with pytest.raises(ValueError, match="within sqrt"):
+            Gyro.preset("navigation", bias_instability_time_s=3600.0)

@@ -137,11 +137,19 @@ def dispersed_gyros(sampling, n_runs=5, seed=3, **kwargs):
     ]
 
 
+def normal_rows(gyro):
+    """Standard normals per axis and sample: [N_u, N_v], plus the Gauss-Markov pair with a bias instability."""
+    return 4 if gyro.sigma_b > 0 else 2
+
+
 class TestGyroBatch:
+    # The Gauss-Markov bias (the default for a bias instability) and the Farrenkopf random walk alone.
+    @pytest.mark.parametrize("model", ["gauss_markov", "random_walk"])
     @pytest.mark.parametrize("sampling", ["mean", "instantaneous"])
     @pytest.mark.parametrize("source", ["streams", "array"])
-    def test_every_run_is_its_gyro_bit_for_bit(self, sampling, source):
-        gyros = dispersed_gyros(sampling)
+    def test_every_run_is_its_gyro_bit_for_bit(self, sampling, source, model):
+        gyros = dispersed_gyros(sampling, bias_instability_model=model)
+        assert (gyros[0].sigma_b > 0) == (model == "gauss_markov")
         batch = GyroBatch(gyros)
         n_steps = 300
         # Irregular sample times: the bias propagates over each actual interval.
@@ -156,7 +164,7 @@ class TestGyroBatch:
             if source == "streams":
                 normals = streams
             else:
-                normals = np.stack([g.standard_normal((1, 2, 3))[0] for g in gens])
+                normals = np.stack([g.standard_normal((1, normal_rows(gyros[0]), 3))[0] for g in gens])
             samples[:, k] = batch.measure(t[k], q[:, k], w[:, k], normals)
         ref_gens = generators()
         for r in range(5):
@@ -200,7 +208,7 @@ class TestGyroBatch:
         gyros = dispersed_gyros("mean", n_runs=2)
         batch = GyroBatch(gyros)
         q, w = tumbling(2, 3, 0.1, seed=1)
-        normals = np.random.default_rng(0).standard_normal((3, 2, 2, 3))
+        normals = np.random.default_rng(0).standard_normal((3, 2, normal_rows(gyros[0]), 3))
         first = [batch.measure(0.1 * k, q[:, k], w[:, k], normals[k]) for k in range(3)]
         assert gyros[0].bias.tolist() == gyros[0].initial_bias.tolist()
         assert batch.t_last == pytest.approx(0.2)
@@ -234,7 +242,7 @@ class TestGyroBatch:
     def test_bad_samples_raise_naming_the_argument_and_change_nothing(self):
         batch = GyroBatch(dispersed_gyros("mean", n_runs=3))
         q, w = tumbling(3, 2, 0.1, seed=4)
-        nrm = np.zeros((3, 2, 3))
+        nrm = np.zeros((3, 4, 3))  # [N_u, N_v, N_b1, N_b2]: the tactical preset has a Gauss-Markov bias
         batch.measure(1.0, q[:, 0], w[:, 0], nrm)
         bias = batch.bias
         cases = [
@@ -247,8 +255,8 @@ class TestGyroBatch:
             ((1.1, None, w[:, 1], nrm), "q is required"),
             ((1.1, q[:2, 1], w[:, 1], nrm), r"q must have shape \(3, 4\)"),
             ((1.1, 2.0 * q[:, 1], w[:, 1], nrm), "q must be a unit quaternion"),
-            ((1.1, q[:, 1], w[:, 1], np.zeros((3, 6))), r"normals must have shape \(3, 2, 3\)"),
-            ((1.1, q[:, 1], w[:, 1], np.full((3, 2, 3), np.nan)), "normals must be finite"),
+            ((1.1, q[:, 1], w[:, 1], np.zeros((3, 6))), r"normals must have shape \(3, 4, 3\)"),
+            ((1.1, q[:, 1], w[:, 1], np.full((3, 4, 3), np.nan)), "normals must be finite"),
             ((1.1, q[:, 1], w[:, 1], NormalStreams(generators()[:2])), "normals must have 3 streams"),
         ]
         for args, match in cases:

@@ -38,6 +38,11 @@ from attitude.simulation.protocols import Estimate
 from estimation.consistency import average_nees, average_nis, chi2_band, fraction_inside_band, nees
 from estimation.rate_ekf import RateEKF, RateEKFResult, _van_loan, run_rate_ekf
 
+#: The filters are tested against the truth of their own model: the Farrenkopf random walk (a datasheet
+#: bias instability as its rate-random-walk approximation), so a mismatch is the filter's, not the model's.
+RW = "random_walk"
+
+
 #: Asymmetric principal inertia [kg m^2]: k1 = (I2 - I3)/I1 = -0.5, k2 = 0.75, k3 = -0.4, so the
 #: gyroscopic term separates rate from bias quickly (1/|A| ~ 20 s at a few deg/s).
 BODY = RigidBody([4.0, 8.0, 10.0])
@@ -388,7 +393,7 @@ def tumbling_mc():
     x2 (negative controls). 300 s: the bias is learned only through the gyroscopic coupling (time scale
     ~100 s here), and sigma_u sets the bias covariance only once P0 is forgotten.
     """
-    gyro = Gyro.preset("tactical", period=0.1)
+    gyro = Gyro.preset("tactical", bias_instability_model=RW, period=0.1)
     # Initial knowledge: rate 0.5 deg/s, bias 10 deg/h (1 sigma; the LN-200 quotes 1 deg/h repeatability).
     p0 = np.diag([np.radians(0.5) ** 2] * 3 + [(10 * DEG_H) ** 2] * 3)
     return gyro, p0, monte_carlo(gyro, 50, 300.0, p0, W_TUMBLE, seed=7, sigma_u_factors=SIGMA_U_FACTORS)
@@ -483,7 +488,7 @@ class TestMonteCarlo:
         # A 60 s slew (peak 3 deg/s, ~90 deg) under a known smooth torque, then 20 s at (near) rest; MEMS
         # gyro with a 0.1 deg/s turn-on bias uncertainty. At rest the bias is unobservable (only omega +
         # beta is): the filter must keep saying so.
-        gyro = Gyro.preset("mems", period=0.1)
+        gyro = Gyro.preset("mems", bias_instability_model=RW, period=0.1)
         p0 = np.diag([np.radians(0.05) ** 2] * 3 + [np.radians(0.1) ** 2] * 3)
         mc = monte_carlo(gyro, 50, 80.0, p0, np.zeros(3), torque=slew_torque, seed=8)
         assert np.degrees(np.abs(mc["results"][0].omega_true).max()) > 2.0  # it really slews
@@ -499,7 +504,7 @@ class TestMonteCarlo:
 
 
 def small_filter(**kw):
-    gyro = Gyro.preset("tactical", period=0.1)
+    gyro = Gyro.preset("tactical", bias_instability_model=RW, period=0.1)
     kw.setdefault("torque_noise", TORQUE_NOISE)
     kw.setdefault("P0", np.diag([np.radians(0.5) ** 2] * 3 + [(10 * DEG_H) ** 2] * 3))
     kw.setdefault("x0", np.r_[W_TUMBLE, 0, 0, 0])
@@ -538,7 +543,7 @@ class TestMissingAndMultiRate:
     def test_predict_only_steps_are_substeps_of_a_slower_gyro(self):
         # Gyro at 5 Hz, filter steps at 10 Hz (every other step has no sample) == a filter stepping only at
         # the gyro times whose predictions are split into the same 0.1 s substeps: identical arithmetic.
-        gyro = Gyro.preset("tactical", period=0.2)
+        gyro = Gyro.preset("tactical", bias_instability_model=RW, period=0.2)
         p0 = np.diag([np.radians(0.5) ** 2] * 3 + [(10 * DEG_H) ** 2] * 3)
         kw = {"torque_noise": TORQUE_NOISE, "P0": p0, "x0": np.r_[W_TUMBLE, 0, 0, 0]}
         t = np.arange(401) * 0.1
@@ -676,7 +681,9 @@ def closed_loop(seed, duration=40.0, wheels=None, body=BODY, p0=None):
     if p0 is None:
         p0 = np.diag([np.radians(0.05) ** 2] * 3 + [(10 * DEG_H) ** 2] * 3)
     sd = np.sqrt(np.diag(p0))
-    gyro = BiasRecordingGyro(Gyro.preset("tactical", period=0.1, bias_deg_per_h=init.standard_normal(3) * 10.0))
+    gyro = BiasRecordingGyro(
+        Gyro.preset("tactical", bias_instability_model=RW, period=0.1, bias_deg_per_h=init.standard_normal(3) * 10.0)
+    )
     tracker = StarTracker.preset(period=0.1)
     target = quat.from_axis_angle([1.0, 1.0, 0.5], np.radians(30.0))
     ekf = RateEKF.from_gyro(
@@ -745,7 +752,9 @@ class TestEngine:
         sigma = result.logs["estimator.sigma"][:, :3]
         assert np.mean(np.abs(err) > 3 * sigma) < 0.01
         # A filter told only the command (no wheels, whole-body inertia) is wrong by far more than it claims.
-        naive = RateEKF.from_gyro(BODY, Gyro.preset("tactical", period=0.1), torque_noise=TORQUE_NOISE, P0=ekf.P0)
+        naive = RateEKF.from_gyro(
+            BODY, Gyro.preset("tactical", bias_instability_model=RW, period=0.1), torque_noise=TORQUE_NOISE, P0=ekf.P0
+        )
         z = result.logs["sensor.gyro"]
         run = run_rate_ekf(naive, result.t, z, torque=np.vstack([np.zeros(3), result.torque_command[:-1]]))
         naive_err = result.omega - run.omega
@@ -753,7 +762,7 @@ class TestEngine:
 
     def test_multirate_in_the_engine(self):
         # Gyro at 5 Hz, estimator at 10 Hz: every other estimator call has no gyro sample (predict only).
-        gyro = Gyro.preset("tactical", period=0.2)
+        gyro = Gyro.preset("tactical", bias_instability_model=RW, period=0.2)
         ekf = RateEKF.from_gyro(
             BODY, gyro, torque_noise=TORQUE_NOISE, P0=np.full(6, 1e-8), x0=np.r_[W_TUMBLE, 0, 0, 0], period=0.1
         )
@@ -903,7 +912,7 @@ class TestGate:
 
     def spike(self):
         """The clean sample 300 plus 10 deg/s on each axis (the tactical gyro's raw noise is 13 deg/h)."""
-        gyro = Gyro.preset("tactical", period=0.1)
+        gyro = Gyro.preset("tactical", bias_instability_model=RW, period=0.1)
         return gyro_history(gyro, 1500, seed=9)[1][300] + np.radians(10.0)
 
     def test_a_spike_is_rejected_counted_reported_and_seen_by_the_health_check(self):
@@ -971,7 +980,7 @@ class TestGate:
 
 class TestGyroSampling:
     def test_from_gyro_requires_an_instantaneous_gyro(self):
-        mean_gyro = Gyro.preset("tactical", period=0.1, sampling="mean", name="fog")
+        mean_gyro = Gyro.preset("tactical", bias_instability_model=RW, period=0.1, sampling="mean", name="fog")
         with pytest.raises(
             ValueError, match=r"gyro\.sampling must be 'instantaneous' for RateEKF\.from_gyro, got 'mean'"
         ):
@@ -981,6 +990,8 @@ class TestGyroSampling:
         with warnings.catch_warnings():
             warnings.simplefilter("error")
             RateEKF.from_gyro(BODY, mean_gyro, sampling_check="ignore", **GOOD)
-            RateEKF.from_gyro(BODY, Gyro.preset("tactical", period=0.1), sampling_check="raise", **GOOD)
+            RateEKF.from_gyro(
+                BODY, Gyro.preset("tactical", bias_instability_model=RW, period=0.1), sampling_check="raise", **GOOD
+            )
         with pytest.raises(ValueError, match="sampling_check must be one of"):
             RateEKF.from_gyro(BODY, mean_gyro, sampling_check="shout", **GOOD)
