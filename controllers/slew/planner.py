@@ -124,11 +124,13 @@ def plan_slew(
     smoothing : float
         Weight of the torque-increment penalty (docs/slew_planning.md), >= 0.
     starts : int
-        Number of perturbed starts; the best converged solution is kept.
+        Number of perturbed starts; the best converged solution is kept (plus
+        the eigenaxis slew as a fallback start, docs/slew_planning.md).
     perturbation : float
         Size of the guess perturbation: torque noise as a fraction of the
-        largest torque, and an attitude bump of ``perturbation * pi / 4`` rad.
-        Zero starts exactly on the eigenaxis guess.
+        largest torque (of the torque unit ``J_s / T_s^2`` for a slew longer
+        than ten torque times, docs/slew_planning.md), and an attitude bump of
+        ``perturbation * pi / 4`` rad. Zero starts exactly on the eigenaxis guess.
     rng : numpy.random.Generator, int or None
         Source of the perturbations (default seed 0: reproducible plans).
     initial_guess : SlewPlan, optional
@@ -166,7 +168,11 @@ def plan_slew(
         minimum time for these limits, or keep-out cones that separate a
         boresight's initial and final directions (also a ValueError).
     SlewPlanningError
-        IPOPT failed on every start, or the re-simulation missed the target.
+        IPOPT failed on every start (and on the eigenaxis fallback start), or
+        the re-simulation missed the target.
+    KeyboardInterrupt
+        Ctrl-C during a solve (docs/slew_planning.md, Interrupts): the
+        planning stops; no plan of the starts solved so far is returned.
 
     Warns
     -----
