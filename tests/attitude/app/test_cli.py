@@ -748,7 +748,9 @@ def test_montecarlo_ctrl_c_while_planning_stops_and_the_same_command_resumes(tmp
     assert main(["montecarlo", *args, "--out", str(a)]) in (0, 1)
     capsys.readouterr()
     with monkeypatch.context() as m:
-        sigint_in_ipopt(m)
+        # The third solve is the refinement (after the design's two grid starts): it used to be rejected, and the
+        # campaign flew the unrefined grid plan.
+        sigint_in_ipopt(m, at_solve=3)
         assert main(["montecarlo", *args, "--out", str(b)]) == 130
     captured = capsys.readouterr()
     assert captured.out == ""
