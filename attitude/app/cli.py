@@ -448,6 +448,9 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
         sys.stdout.write(dumps_json(result.statistics()))
     else:
         print(result.summary())
+    if result.info.get("interrupted"):
+        # Ctrl-C in the run loop: the completed runs are in the checkpoint; exit as for any Ctrl-C (130).
+        raise KeyboardInterrupt
     # Signed off only when every run completed (no error, nothing left undone) and met every requirement.
     return EXIT_PASS if bool(np.all(result.status == "ok")) and bool(np.all(result.passed)) else EXIT_FAIL
 
@@ -730,7 +733,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             pass
         return 141  # 128 + SIGPIPE, what a shell reports for a tool killed by the broken pipe
     except KeyboardInterrupt:
-        # Ctrl-C outside a campaign's run loop (planning, figures): one line, not a traceback.
+        # Ctrl-C (planning, a campaign's run loop, figures): one line, not a traceback.
         again = " ".join(["attitude", *(sys.argv[1:] if argv is None else argv)])
         what = "resumes the campaign from its checkpoint" if args.command == "montecarlo" else "starts it again"
         print(f"attitude {args.command}: interrupted (Ctrl-C); the same command {what}: {again}", file=sys.stderr)

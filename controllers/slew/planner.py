@@ -42,15 +42,17 @@ from controllers.slew.checks import (
     slower_than_eigenaxis,
     verify,
 )
-from controllers.slew.guess import base_guess, guess_from_plan, perturbed, project
+from controllers.slew.guess import base_guess, eigenaxis_start, guess_from_plan, perturbed, project
 from controllers.slew.keep_out import KeepOutCone
 from controllers.slew.plan import SlewPlan, cone_arrays
 from controllers.slew.problem import (
     OBJECTIVES,
+    Problem,
+    SlewPlanningError,
     check_count,
     validate,
 )
-from controllers.slew.reference import axis_angle
+from controllers.slew.reference import axis_angle, eigenaxis_profile
 from controllers.slew.refine import REFINEMENT_SLACK, drop_empty, refine_phases
 from controllers.slew.transcription import check_ipopt_options, solve_grid
 
@@ -122,11 +124,13 @@ def plan_slew(
     smoothing : float
         Weight of the torque-increment penalty (docs/slew_planning.md), >= 0.
     starts : int
-        Number of perturbed starts; the best converged solution is kept.
+        Number of perturbed starts; the best converged solution is kept (plus
+        the eigenaxis slew as a fallback start, docs/slew_planning.md).
     perturbation : float
         Size of the guess perturbation: torque noise as a fraction of the
-        largest torque, and an attitude bump of ``perturbation * pi / 4`` rad.
-        Zero starts exactly on the eigenaxis guess.
+        largest torque (of the torque unit ``J_s / T_s^2`` for a slew longer
+        than ten torque times, docs/slew_planning.md), and an attitude bump of
+        ``perturbation * pi / 4`` rad. Zero starts exactly on the eigenaxis guess.
     rng : numpy.random.Generator, int or None
         Source of the perturbations (default seed 0: reproducible plans).
     initial_guess : SlewPlan, optional
@@ -164,7 +168,11 @@ def plan_slew(
         minimum time for these limits, or keep-out cones that separate a
         boresight's initial and final directions (also a ValueError).
     SlewPlanningError
-        IPOPT failed on every start, or the re-simulation missed the target.
+        IPOPT failed on every start (and on the eigenaxis fallback start), or
+        the re-simulation missed the target.
+    KeyboardInterrupt
+        Ctrl-C during a solve (docs/slew_planning.md, Interrupts): the
+        planning stops; no plan of the starts solved so far is returned.
 
     Warns
     -----
@@ -211,6 +219,7 @@ def plan_slew(
     check_not_blocked(prob)
     gen = as_generator(rng)
     options = check_ipopt_options(ipopt_options)
+    prob = prob.scaled_to(duration if duration is not None else _eigenaxis_time(prob))
     duration_s = None if duration is None else duration / prob.t_s
     notes: list[str] = []
 
@@ -226,6 +235,18 @@ def plan_slew(
         guesses.append((X0, U0, base_T))
 
     best, results = solve_grid(prob, n, objective, duration_s, smoothing, guesses, max_iter, options)
+    eig = eigenaxis_comparison(prob, torque_max)
+    # The eigenaxis slew itself as one more start (docs/slew_planning.md, Guess and multi-start): when no start
+    # converged, or when the best minimum-time answer is slower than an eigenaxis slew that meets every limit by
+    # more than the grid error.
+    fallback = None
+    if best is None or (objective == "time" and _wrong_optimum(eig, best.duration * prob.t_s, n)):
+        fallback = eigenaxis_start(prob, n, duration_s)
+        if fallback is not None:
+            alt, more = solve_grid(prob, n, objective, duration_s, smoothing, [fallback], max_iter, options)
+            results += more
+            if alt is not None and (best is None or alt.objective < best.objective):
+                best = alt
     starts_info = [
         {
             "status": r.status,
@@ -266,21 +287,23 @@ def plan_slew(
                 after = np.cumsum(d[::-1])[::-1]
                 keep = (d > tol) & (after - d > tol)
                 switch_times = np.cumsum(d)[keep]
-        if refined_duration is None and not str(refine_info.get("status", "")).startswith("skipped"):
-            notes.append(
-                f"slew refinement not used ({refine_info.get('status')}); returning the {n}-node grid solution"
-            )
-
-    t = np.concatenate([[0.0], np.cumsum(chosen.H)]) * prob.t_s
-    torque = chosen.U.T * prob.tau_s
-    ratio = prob.torque_set.ratio(torque)
-    torque = torque / np.maximum(ratio, 1.0)[:, None]
-    torque = np.vstack([torque, torque[-1:]])
-    check = verify(prob, t, torque, verify_tolerance)
+    t, torque, ratio = _trajectory(prob, chosen)
+    try:
+        check = verify(prob, t, torque, verify_tolerance)
+    except SlewPlanningError as exc:
+        if chosen is best:
+            raise
+        # The refined answer misses the target on re-simulation (a phase far shorter than the slew, e.g. the
+        # accelerations of a slew at a tight rate limit, at an acceptable-level IPOPT answer): keep the grid one.
+        refine_info["status"] = f"rejected: {exc}"
+        chosen, refined_duration, switch_times = best, None, np.zeros(0)
+        t, torque, ratio = _trajectory(prob, chosen)
+        check = verify(prob, t, torque, verify_tolerance)
+    if refine and refined_duration is None and not str(refine_info.get("status", "")).startswith("skipped"):
+        notes.append(f"slew refinement not used ({refine_info.get('status')}); returning the {n}-node grid solution")
     h = np.diff(t)
     energy = float(np.sum(np.sum(torque[:-1] ** 2, axis=1) * h))
     duration_out = float(t[-1])
-    eig = eigenaxis_comparison(prob, torque_max)
     if objective == "time":
         note = slower_than_eigenaxis(eig, duration_out, n, str(refine_info.get("status", "not requested")))
         if note:
@@ -299,6 +322,7 @@ def plan_slew(
         "keep_out_names": [c.name for c in prob.cones],
         "starts": starts_info,
         "best_start": int(results.index(best)),
+        "eigenaxis_fallback": fallback is not None,
         "grid_status": best.status,
         "grid_iterations": best.iterations,
         "refinement": refine_info,
@@ -340,3 +364,40 @@ def plan_slew(
         eigenaxis_duration=eig.get("duration_s"),
         info=info,
     )
+
+
+def _eigenaxis_time(prob: Problem) -> float | None:
+    """Duration [s] of the eigenaxis slew between the problem's attitudes under its limits (None if impossible)."""
+    axis, angle = axis_angle(prob.q0, prob.qf)
+    try:
+        prof = eigenaxis_profile(
+            prob.body.inertia, prob.torque_set.rows, axis, angle, prob.rate_max, 2, timing_only=True
+        )
+    except ValueError:
+        return None
+    return float(prof["duration"])
+
+
+#: A uniform grid answer converges from above: its time exceeds the
+#: grid-converged one by at most a few intervals, ``T / nodes`` each (the
+#: switches fall on nodes). A minimum-time grid answer slower than a feasible
+#: eigenaxis slew by more than GRID_EXCESS_INTERVALS intervals is another
+#: local optimum (e.g. the long way round), not grid error.
+GRID_EXCESS_INTERVALS = 2.0
+
+
+def _wrong_optimum(eig: Mapping[str, Any], duration: float, nodes: int) -> bool:
+    """The grid time [s] exceeds a feasible eigenaxis slew's by more than the grid error (GRID_EXCESS_INTERVALS)."""
+    ref = eig.get("duration_s")
+    if ref is None or eig.get("enters_keep_out"):
+        return False
+    return duration > ref * (1.0 + GRID_EXCESS_INTERVALS / nodes)
+
+
+def _trajectory(prob: Problem, sol: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Node times [s], torques [N m] (held per interval, last repeated) and torque-set ratios of an answer."""
+    t = np.concatenate([[0.0], np.cumsum(sol.H)]) * prob.t_s
+    torque = sol.U.T * prob.tau_s
+    ratio = prob.torque_set.ratio(torque)
+    torque = torque / np.maximum(ratio, 1.0)[:, None]
+    return t, np.vstack([torque, torque[-1:]]), ratio

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -23,6 +23,7 @@ __all__ = [
     "CONVERGED",
     "INFEASIBLE",
     "OBJECTIVES",
+    "SLEW_SPAN_MAX",
     "InfeasibleSlewError",
     "Problem",
     "SlewPlanningError",
@@ -37,6 +38,14 @@ OBJECTIVES = ("time", "energy")
 
 #: IPOPT statuses accepted as converged.
 CONVERGED = ("Solve_Succeeded", "Solved_To_Acceptable_Level")
+
+#: Longest slew in units of the time scale ``T_s`` (docs/slew_planning.md,
+#: Scaling): a slew longer than this many torque times ``sqrt(J_s / tau_max)``
+#: (a long fixed duration, a tight rate limit) stretches ``T_s`` to a tenth
+#: of the slew. The benchmark slews take 2.6 to 6.8 torque times, so they keep
+#: the torque time; the 90 deg slews with 0.02 N m over 1e4 s, or at 1e-4
+#: rad/s, took 408 and 641 of them, and IPOPT found no answer.
+SLEW_SPAN_MAX = 10.0
 
 #: IPOPT statuses that point at an infeasible problem.
 INFEASIBLE = ("Infeasible_Problem_Detected", "Restoration_Failed", "Local_Infeasibility")
@@ -230,6 +239,29 @@ class Problem:
     def u_bounds(self) -> NDArray[np.float64]:
         """Per-axis torque bounds in units of tau_s (box sets)."""
         return self.torque_set.envelope / self.tau_s
+
+    def scaled_to(self, slew_time: float | None) -> Problem:
+        """The problem with its time scale fitted to a slew of about ``slew_time`` [s] (docs/slew_planning.md).
+
+        ``T_s = max(sqrt(J_s / tau_max), slew_time / SLEW_SPAN_MAX)`` and
+        ``tau_s = J_s / T_s^2``, so the nondimensional body and equations of
+        motion are the same; only the torque bounds (``tau_max / tau_s >= 1``)
+        and the rate limit in units of ``1 / T_s`` change.
+
+        Parameters
+        ----------
+        slew_time : float or None
+            Expected slew duration [s] (the fixed duration, or the eigenaxis
+            time); None or a non-finite value keeps the torque time.
+        """
+        t_torque = math.sqrt(self.j_s / float(np.max(self.torque_set.envelope)))
+        t_s = t_torque
+        if slew_time is not None and math.isfinite(slew_time):
+            t_s = max(t_torque, slew_time / SLEW_SPAN_MAX)
+        if t_s == self.t_s:
+            return self
+        tau_s = self.j_s / t_s**2
+        return replace(self, t_s=t_s, tau_s=tau_s, rows_s=self.torque_set.rows * tau_s)
 
 
 def validate(

@@ -131,7 +131,14 @@ def axis_angle(q0: NDArray, qf: NDArray) -> tuple[NDArray[np.float64], float]:
 
 
 def eigenaxis_profile(
-    inertia: NDArray, rows: NDArray, axis: NDArray, angle: float, rate_max: float | None, n_points: int
+    inertia: NDArray,
+    rows: NDArray,
+    axis: NDArray,
+    angle: float,
+    rate_max: float | None,
+    n_points: int,
+    *,
+    timing_only: bool = False,
 ) -> dict[str, Any]:
     """Bang(-coast)-bang profile along ``axis`` with gyroscopic-aware acceleration limits.
 
@@ -149,6 +156,9 @@ def eigenaxis_profile(
         Body-rate limit [rad/s]; None for no limit.
     n_points : int
         Number of samples of the profile.
+    timing_only : bool, optional
+        Return only the scalars (``duration``, ``rate_peak``, ``coast``,
+        ``t_acc``), without sampling the profile.
     """
     ie = inertia @ axis
     g0 = np.cross(axis, ie)
@@ -240,6 +250,8 @@ def eigenaxis_profile(
     t_acc = duration_of(accel, w_peak)
     t_dec = duration_of(decel, w_peak)
     total = t_acc + coast + t_dec
+    if timing_only:
+        return {"duration": total, "rate_peak": w_peak, "coast": coast, "t_acc": t_acc}
 
     # Sample the profile: integrate the arcs with dense output.
     t = np.linspace(0.0, total, n_points) if total > 0 else np.zeros(1)

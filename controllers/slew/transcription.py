@@ -5,8 +5,11 @@ Part of :mod:`controllers.slew.planner` (import the public names from there).
 
 from __future__ import annotations
 
+import signal
+import threading
 import time
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
@@ -21,12 +24,14 @@ from controllers.slew.problem import CONVERGED, Problem
 
 __all__ = [
     "IPOPT_DEFAULTS",
+    "USER_STOP",
     "IntervalFunction",
     "Solution",
     "Transcription",
     "check_ipopt_options",
     "interval_function",
     "solve_grid",
+    "solve_nlp",
 ]
 
 #: Default IPOPT options (overridable with ``ipopt_options``). ``tol`` 1e-9 on
@@ -237,14 +242,78 @@ class Transcription:
         for var, val in initial:
             opti.set_initial(var, val)
         start = time.perf_counter()
+        stats = solve_nlp(opti)
+        elapsed = time.perf_counter() - start
+        out = {k: np.atleast_1d(np.asarray(opti.debug.value(v), dtype=float)) for k, v in values.items()}
+        return str(stats.get("return_status", "unknown")), int(stats.get("iter_count", -1)), elapsed, out
+
+
+#: IPOPT's status when its intermediate callback asks it to stop. The planner
+#: installs no callback of its own, so only casadi's interrupt check (Ctrl-C
+#: reaching a callback) stops a solve this way.
+USER_STOP = "User_Requested_Stop"
+
+
+@contextmanager
+def _sigint_seen() -> Iterator[list[bool]]:
+    """Note whether SIGINT raised KeyboardInterrupt inside the block (casadi swallows it inside a solve).
+
+    casadi polls for Ctrl-C inside IPOPT's callbacks, runs the Python handler
+    there, and turns the KeyboardInterrupt into an aborted solve
+    (``NonIpopt_Exception_Thrown`` in casadi 3.8) with no Python exception
+    left: the flag is what remains of it. Handlers other than a Python
+    callable (SIG_IGN in a campaign's worker, SIG_DFL) and threads other
+    than the main one (where Python sets no handlers) are left alone.
+    """
+    seen = [False]
+    previous = signal.getsignal(signal.SIGINT)
+    if threading.current_thread() is not threading.main_thread() or not callable(previous):
+        yield seen
+        return
+
+    def handler(signum: int, frame: Any) -> None:
+        try:
+            previous(signum, frame)
+        except KeyboardInterrupt:
+            seen[0] = True
+            raise
+
+    signal.signal(signal.SIGINT, handler)
+    try:
+        yield seen
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def solve_nlp(opti: ca.Opti) -> dict[str, Any]:
+    """Run ``opti.solve()`` and return its statistics; Ctrl-C during the solve raises KeyboardInterrupt.
+
+    Every IPOPT solve of the planner goes through here. A solve that fails
+    (any IPOPT status) returns normally, its status in the statistics; a
+    solve stopped by Ctrl-C raises KeyboardInterrupt instead of coming back
+    as one more failed start (or a rejected refinement) from which the
+    planner would go on and return another plan.
+
+    Parameters
+    ----------
+    opti : casadi.Opti
+        The problem, with its solver attached.
+
+    Raises
+    ------
+    KeyboardInterrupt
+        SIGINT arrived during the solve, or IPOPT stopped on the user's
+        request (:data:`USER_STOP`).
+    """
+    with _sigint_seen() as interrupted:
         try:
             opti.solve()
         except RuntimeError:
-            pass
-        elapsed = time.perf_counter() - start
-        stats = opti.stats()
-        out = {k: np.atleast_1d(np.asarray(opti.debug.value(v), dtype=float)) for k, v in values.items()}
-        return str(stats.get("return_status", "unknown")), int(stats.get("iter_count", -1)), elapsed, out
+            pass  # not converged: the status says why
+    stats = opti.stats()
+    if interrupted[0] or stats.get("return_status") == USER_STOP:
+        raise KeyboardInterrupt("slew planning interrupted (Ctrl-C during an IPOPT solve)")
+    return stats
 
 
 def check_ipopt_options(options: Any) -> dict[str, Any]:

@@ -695,3 +695,99 @@ def test_montecarlo_flies_the_environment_on_request(tmp_path, capsys):
     assert code == 2
     err = capsys.readouterr().err
     assert "--environment: environment=True flies" in err and "no [orbit] table" in err
+
+
+# ---------------------------------------------------------------------------
+# Ctrl-C during a campaign: stop, keep what is complete, resume to the uninterrupted table
+
+#: Columns of results.csv that time the runs (they differ from one execution to the next).
+TIMING_COLUMNS = ("cpu_s", "wall_s")
+
+
+def campaign_table(out: Path) -> list[dict[str, str]]:
+    """results.csv without the timing columns, row by row."""
+    import csv
+
+    with (out / "results.csv").open(newline="") as f:
+        return [{k: v for k, v in row.items() if k not in TIMING_COLUMNS} for row in csv.DictReader(f)]
+
+
+def sigint_in_ipopt(monkeypatch, at_solve: int = 1, at_iteration: int = 2) -> None:
+    """Deliver SIGINT inside IPOPT's iteration loop of the planner's ``at_solve``-th solve (a real Ctrl-C).
+
+    The signal is sent from IPOPT's per-iteration callback, so it arrives while
+    the solver runs, deterministically, as a key press would.
+    """
+    import signal
+
+    from controllers.slew import transcription
+
+    original = transcription.Transcription.solve
+    count = [0]
+
+    def solve(self, initial, values):
+        count[0] += 1
+        if count[0] == at_solve:
+            self.opti.callback(lambda i: os.kill(os.getpid(), signal.SIGINT) if i == at_iteration else None)
+        return original(self, initial, values)
+
+    monkeypatch.setattr(transcription.Transcription, "solve", solve)
+
+
+@pytest.mark.slow
+def test_montecarlo_ctrl_c_while_planning_stops_and_the_same_command_resumes(tmp_path, monkeypatch, capsys):
+    """Ctrl-C while the slew is planned: exit 130, no table; the same command then gives the uninterrupted table.
+
+    IPOPT used to swallow the interrupt: the planner went on with another start
+    (or kept the unrefined grid plan), the campaign ran to completion on that
+    plan, and the same command afterwards refused its checkpoint (the plan's
+    duration is part of the campaign's identity).
+    """
+    args = ["--runs", "2", "--workers", "1", "--duration-s", "100", "--nodes", "30", "--vectorized", "--json"]
+    a, b = tmp_path / "a", tmp_path / "b"
+    assert main(["montecarlo", *args, "--out", str(a)]) in (0, 1)
+    capsys.readouterr()
+    with monkeypatch.context() as m:
+        # The third solve is the refinement (after the design's two grid starts): it used to be rejected, and the
+        # campaign flew the unrefined grid plan.
+        sigint_in_ipopt(m, at_solve=3)
+        assert main(["montecarlo", *args, "--out", str(b)]) == 130
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    again = f"attitude montecarlo {' '.join(args)} --out {b}"
+    assert f"interrupted (Ctrl-C); the same command resumes the campaign from its checkpoint: {again}" in captured.err
+    assert not (b / "results.csv").exists()
+    assert main(["montecarlo", *args, "--out", str(b)]) in (0, 1)
+    assert campaign_table(b) == campaign_table(a)
+
+
+@pytest.mark.slow
+def test_montecarlo_ctrl_c_in_the_run_loop_exits_130_and_resumes(tmp_path, monkeypatch, capsys):
+    """Ctrl-C between runs: completed runs stay in the checkpoint, exit 130, the same command completes the table."""
+    import signal
+
+    from attitude.app.scenarios import ClosedLoopScenario
+
+    args = ["--runs", "3", "--workers", "1", "--duration-s", "5", "--guidance", "eigenaxis", "--no-keep-out"]
+    a, b = tmp_path / "a", tmp_path / "b"
+    assert main(["montecarlo", *args, "--out", str(a)]) in (0, 1)
+    capsys.readouterr()
+    original = ClosedLoopScenario.__call__
+
+    def second_run_interrupted(self, params, rng):
+        out = original(self, params, rng)
+        if len(calls) == 1:
+            os.kill(os.getpid(), signal.SIGINT)
+        calls.append(1)
+        return out
+
+    calls: list[int] = []
+    with monkeypatch.context() as m:
+        m.setattr(ClosedLoopScenario, "__call__", second_run_interrupted)
+        assert main(["montecarlo", *args, "--out", str(b)]) == 130
+    err = capsys.readouterr().err
+    assert "interrupted (Ctrl-C); the same command resumes the campaign from its checkpoint" in err
+    lines = (b / "checkpoint.jsonl").read_text().splitlines()
+    assert len(lines) == 1 + 1  # the header and the one run that completed before Ctrl-C
+    assert main(["montecarlo", *args, "--out", str(b)]) in (0, 1)
+    assert campaign_table(b) == campaign_table(a)

@@ -1,0 +1,107 @@
+"""Every IPOPT solve of the slew planner: Ctrl-C stops the planning instead of being taken for a failed start.
+
+casadi polls for SIGINT inside IPOPT's callbacks and turns the
+KeyboardInterrupt into an aborted solve: status ``User_Requested_Stop`` when it
+arrives in the per-iteration callback, ``NonIpopt_Exception_Thrown`` (casadi
+3.8) when it arrives during a function evaluation, and no Python exception
+either way. The planner then went on with its next start, or rejected the
+refinement and returned the unrefined grid plan.
+"""
+
+import math
+import os
+import signal
+
+import pytest
+
+from attitude import RigidBody
+from attitude import quaternion as quat
+from controllers.slew import transcription
+from controllers.slew.planner import plan_slew
+from controllers.slew.transcription import solve_nlp
+
+UNIT = RigidBody([1.0, 1.0, 1.0])
+Q_ID = [1.0, 0.0, 0.0, 0.0]
+Q_180X = quat.from_axis_angle([1.0, 0.0, 0.0], math.pi)
+
+
+def sigint_in_ipopt(monkeypatch, at_solve: int, at_iteration: int = 2) -> list[int]:
+    """Send SIGINT from IPOPT's iteration callback of the ``at_solve``-th solve (a Ctrl-C during that solve).
+
+    Returns the list counting the solves started.
+    """
+    original = transcription.Transcription.solve
+    count: list[int] = []
+
+    def solve(self, initial, values):
+        count.append(1)
+        if len(count) == at_solve:
+            self.opti.callback(lambda i: os.kill(os.getpid(), signal.SIGINT) if i == at_iteration else None)
+        return original(self, initial, values)
+
+    monkeypatch.setattr(transcription.Transcription, "solve", solve)
+    return count
+
+
+def test_ctrl_c_in_the_first_start_stops_planning(monkeypatch):
+    # Two starts: the second used to run after the first was interrupted, and its plan was returned.
+    solves = sigint_in_ipopt(monkeypatch, at_solve=1)
+    with pytest.raises(KeyboardInterrupt):
+        plan_slew(UNIT, Q_ID, Q_180X, torque_max=1.0, nodes=20, starts=2)
+    assert len(solves) == 1
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_ctrl_c_in_the_refinement_does_not_return_the_grid_plan(monkeypatch):
+    # The refinement is the solve after the two grid starts; it used to be "rejected" and the grid plan returned.
+    solves = sigint_in_ipopt(monkeypatch, at_solve=3)
+    with pytest.raises(KeyboardInterrupt):
+        plan_slew(UNIT, Q_ID, Q_180X, torque_max=1.0, nodes=20, starts=2)
+    assert len(solves) == 3
+
+
+class _SwallowingOpti:
+    """Stands for casadi.Opti: Ctrl-C arrives inside ``solve``, which swallows it as casadi does."""
+
+    def __init__(self, status: str, interrupt: bool) -> None:
+        self.status = status
+        self.interrupt = interrupt
+
+    def solve(self) -> None:
+        if self.interrupt:
+            try:
+                os.kill(os.getpid(), signal.SIGINT)
+            except KeyboardInterrupt:
+                pass  # casadi's handling: the solve ends, no exception reaches the caller
+        raise RuntimeError(f"Error in Opti::solve [OptiNode] at .../casadi/core/optistack.cpp: {self.status}")
+
+    def stats(self) -> dict:
+        return {"return_status": self.status, "iter_count": 3}
+
+
+def test_an_interrupt_casadi_swallowed_is_raised_again():
+    with pytest.raises(KeyboardInterrupt):
+        solve_nlp(_SwallowingOpti("NonIpopt_Exception_Thrown", interrupt=True))
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_a_failed_solve_without_interrupt_returns_its_status():
+    # The same status without Ctrl-C (an exception in a user function) is a failed start, not an interrupt.
+    assert solve_nlp(_SwallowingOpti("NonIpopt_Exception_Thrown", interrupt=False))["return_status"] == (
+        "NonIpopt_Exception_Thrown"
+    )
+
+
+def test_user_requested_stop_is_an_interrupt():
+    # The planner installs no iteration callback: only casadi's Ctrl-C check stops IPOPT this way.
+    with pytest.raises(KeyboardInterrupt):
+        solve_nlp(_SwallowingOpti("User_Requested_Stop", interrupt=False))
+
+
+def test_ignored_sigint_is_left_alone(monkeypatch):
+    # A campaign's worker ignores SIGINT (the parent decides): the solve must not install a handler there.
+    monkeypatch.setattr(signal, "getsignal", lambda sig: signal.SIG_IGN)
+    installed = []
+    monkeypatch.setattr(signal, "signal", lambda *a: installed.append(a))
+    assert solve_nlp(_SwallowingOpti("Solve_Succeeded", interrupt=False))["return_status"] == "Solve_Succeeded"
+    assert installed == []
