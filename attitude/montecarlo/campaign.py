@@ -339,29 +339,39 @@ def run_campaign(
     bar = Progress(campaign.runs, sys.stderr.isatty() if progress is None else bool(progress))
     reserved = campaign.parameter_columns()
     collector = Collector(bar, checkpoint, done, check_metric=lambda name: check_metric_name(name, reserved))
-    if scheduler is not None:
-        executor = "dask"
-        interrupted = run_dask(
-            campaign.scenario, campaign.seed, tasks, vectorized, collector, scheduler=scheduler, max_retries=max_retries
-        )
-    elif workers == 1 or not tasks:  # workers > 1 isolates even one task: it may kill its process
-        executor = "serial"
-        interrupted = run_serial(campaign.scenario, campaign.seed, tasks, vectorized, collector)
-    else:
-        executor = "processes"
-        interrupted = run_processes(
-            campaign.scenario,
-            campaign.seed,
-            tasks,
-            vectorized,
-            collector,
-            workers=workers,
-            max_retries=max_retries,
-            mp_context=mp_context or _default_context(),
-        )
-    bar.close()
-    if checkpoint is not None:
-        checkpoint.close()
+    # Whatever ends the loop (an error, Ctrl-C), the bar's line is finished and the
+    # checkpoint's file handle closed: what was appended is already on disk.
+    try:
+        if scheduler is not None:
+            executor = "dask"
+            interrupted = run_dask(
+                campaign.scenario,
+                campaign.seed,
+                tasks,
+                vectorized,
+                collector,
+                scheduler=scheduler,
+                max_retries=max_retries,
+            )
+        elif workers == 1 or not tasks:  # workers > 1 isolates even one task: it may kill its process
+            executor = "serial"
+            interrupted = run_serial(campaign.scenario, campaign.seed, tasks, vectorized, collector)
+        else:
+            executor = "processes"
+            interrupted = run_processes(
+                campaign.scenario,
+                campaign.seed,
+                tasks,
+                vectorized,
+                collector,
+                workers=workers,
+                max_retries=max_retries,
+                mp_context=mp_context or _default_context(),
+            )
+    finally:
+        bar.close()
+        if checkpoint is not None:
+            checkpoint.close()
     info = {
         "executor": executor,
         "workers": None if scheduler is not None else workers,

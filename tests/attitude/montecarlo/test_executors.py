@@ -199,6 +199,41 @@ def test_no_worker_outlives_the_pool_whichever_way_it_ends(way_out, tmp_path, mo
     assert wait_until_gone(pids, 5.0) == []
 
 
+def echo_x(params, rng):
+    """A scenario returning its draw (module level, so worker processes can unpickle it)."""
+    return {"x": params["x"]}
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_an_error_escaping_the_run_loop_closes_the_checkpoint_file(workers, tmp_path, monkeypatch):
+    """The checkpoint's open file is closed and the runs written before the error stay readable.
+
+    Before, ``run_campaign`` closed the checkpoint only after a normal end: an error escaping the
+    executor left the file handle open for as long as the traceback lived.
+    """
+    append, close = Checkpoint.append, Checkpoint.close
+    calls, closed = [], []
+
+    def failing_append(self, records):  # the second task's records cannot be written
+        calls.append(1)
+        if len(calls) == 2:
+            raise OSError(28, "No space left on device")
+        append(self, records)
+
+    def recording_close(self):
+        closed.append(self._file is not None)  # True: there was an open file to close
+        close(self)
+
+    monkeypatch.setattr(Checkpoint, "append", failing_append)
+    monkeypatch.setattr(Checkpoint, "close", recording_close)
+    campaign = Campaign(echo_x, X, runs=4, seed=1)
+    with pytest.raises(OSError, match="No space left"):
+        run_campaign(campaign, workers=workers, out_dir=tmp_path / "out")
+    assert closed == [True]
+    monkeypatch.setattr(Checkpoint, "append", append)
+    assert len(Checkpoint(tmp_path / "out", campaign.fingerprint()).load()) == 1  # the first task's run, on disk
+
+
 KILLED_PARENT = """
 import multiprocessing, os, sys, time
 from pathlib import Path
