@@ -1,0 +1,175 @@
+"""The fixed-step rule (docs/rk4_step_rule.md) applied to the closed loop's plant, tick by tick.
+
+The plant is RK4 over each tick with the commands held
+(:meth:`attitude.simulation.plant.PlantModel.hold_step`). :class:`TickRule`
+checks :func:`attitude.integrators.predicted_attitude_error` at every tick
+on the rate reached, projecting it over the ticks left, and asks for more
+steps per tick when the accumulated attitude error would exceed the budget.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from attitude.integrators import (
+    MAX_RULE_SUBSTEPS,
+    StepSizeWarning,
+    gyroscopic_turn_rate,
+    predicted_attitude_error,
+)
+from attitude.simulation.plant import PlantModel
+
+__all__ = ["TickRule", "history_substeps"]
+
+
+def _rate_and_turn(model: PlantModel, omega: NDArray[np.float64], h: NDArray[np.float64]) -> tuple[Any, Any]:
+    """``|omega|`` and the gyroscopic turn rate (wheel momentum included) of states (..., 3), (..., n) [rad/s]."""
+    h_b = None if model.wheels is None else h @ model.wheels.distribution.T
+    return np.linalg.norm(omega, axis=-1), gyroscopic_turn_rate(model.body, omega, h_b)
+
+
+class TickRule:
+    """Steps per tick that keep the plant's accumulated attitude error within a budget.
+
+    Parameters
+    ----------
+    model : PlantModel
+        The plant (hub body and wheels).
+    dt : float
+        Tick [s].
+    n_ticks : int
+        Ticks in the run.
+    substeps : int
+        RK4 steps per tick asked for.
+    budget_rad : float
+        Accumulated attitude-error budget [rad].
+    """
+
+    def __init__(self, model: PlantModel, dt: float, n_ticks: int, substeps: int, budget_rad: float) -> None:
+        self.model, self.dt, self.n_ticks, self.substeps, self.budget = model, dt, n_ticks, substeps, budget_rad
+        self.turned = 0.0  # Theta so far [rad]
+        self.swept = 0.0  # Phi so far [rad]
+        self.largest = 0.0  # largest rotation per RK4 step so far [rad]
+        self.warned = False
+        self.most_calls = 1
+
+    def calls(self, k: int, omega: NDArray[np.float64], h: NDArray[np.float64]) -> int:
+        """Hold steps (of ``substeps`` RK4 steps each, over ``dt / calls``) for tick ``k`` at rate ``omega``.
+
+        Parameters
+        ----------
+        k : int
+            Tick index.
+        omega : ndarray (3,)
+            Body rate at the tick [rad/s].
+        h : ndarray (n,)
+            Wheel momenta at the tick [N m s].
+
+        Returns
+        -------
+        int
+            1 where the rule holds.
+
+        Raises
+        ------
+        ValueError
+            If meeting the rule needs more than :data:`attitude.integrators.MAX_RULE_SUBSTEPS` calls.
+        """
+        rate, turn = (float(v) for v in _rate_and_turn(self.model, omega, h))
+        if not (math.isfinite(rate) and math.isfinite(turn)):
+            return 1  # the engine reports the divergence
+        left = self.n_ticks - k
+        angle = rate * self.dt
+        turned, swept = self.turned + angle * left, self.swept + turn * self.dt * left
+        calls = 1
+        theta = angle / self.substeps
+        if _error(turned, swept, max(self.largest, theta)) > self.budget:
+            theta_s = (1920.0 * self.budget / ((1.0 + 2.0 * swept) * turned)) ** 0.25
+            calls = max(1, math.ceil(theta / theta_s))
+            if calls > MAX_RULE_SUBSTEPS:
+                raise ValueError(
+                    f"{self._rule(rate, k, turned, swept)}; meeting it needs {calls * self.substeps} RK4 steps per "
+                    f"tick, more than {MAX_RULE_SUBSTEPS * self.substeps}: shorten dt or raise substeps"
+                )
+            if calls > 1 and not self.warned:
+                self.warned = True
+                warnings.warn(
+                    f"{self._rule(rate, k, turned, swept)}; the plant is sub-stepped to {calls * self.substeps} "
+                    "RK4 steps per tick with the commands held (substeps sets the steps per tick, "
+                    "attitude_error_budget_rad the budget)",
+                    StepSizeWarning,
+                    stacklevel=4,
+                )
+        self.turned += angle
+        self.swept += turn * self.dt
+        self.largest = max(self.largest, theta / calls)
+        self.most_calls = max(self.most_calls, calls)
+        return calls
+
+    def _rule(self, rate: float, k: int, turned: float, swept: float) -> str:
+        error = _error(turned, swept, max(self.largest, rate * self.dt / self.substeps))
+        return (
+            f"simulate breaks the step-size rule E = (1 + 2 Phi) Theta theta^4 / 1920 <= {self.budget:.3g} rad "
+            f"(docs/rk4_step_rule.md) at t = {k * self.dt:.6g} s: body rate {rate:.3g} rad/s with "
+            f"{self.substeps} RK4 step(s) per tick of {self.dt:.3g} s "
+            f"(|omega| h = {rate * self.dt / self.substeps:.3g} rad per step) predicts an accumulated attitude "
+            f"error of {error:.3g} rad"
+        )
+
+    def info(self) -> dict[str, Any]:
+        """The run's ``info["step_rule"]``: predicted error [rad], budget [rad], most calls per tick."""
+        return {
+            "predicted_error_rad": _error(self.turned, self.swept, self.largest),
+            "budget_rad": self.budget,
+            "substeps_added": self.most_calls > 1,
+            "most_substeps_per_tick": self.most_calls * self.substeps,
+        }
+
+
+def _error(turned: float, swept: float, theta: float) -> float:
+    """``(1 + 2 Phi) Theta theta^4 / 1920`` [rad] (:func:`attitude.integrators.predicted_attitude_error`)."""
+    return float(predicted_attitude_error([theta], 1.0, [swept], method="rk4") * turned / theta) if theta > 0 else 0.0
+
+
+def history_substeps(
+    model: PlantModel, x: NDArray[np.float64], dt: float, n_ticks: int, substeps: int, budget_rad: float
+) -> tuple[int, float]:
+    """RK4 steps per tick (one count for the whole run) that a state history asks for, and its predicted error.
+
+    Parameters
+    ----------
+    model : PlantModel
+        The plant.
+    x : ndarray (n_ticks + 1, 7 + n_w) or (7 + n_w,)
+        States at the ticks (or the initial state alone, held over ``n_ticks``).
+    dt : float
+        Tick [s].
+    n_ticks : int
+        Ticks in the run.
+    substeps : int
+        RK4 steps per tick of that history.
+    budget_rad : float
+        Accumulated attitude-error budget [rad].
+
+    Returns
+    -------
+    tuple
+        ``(steps per tick >= substeps, predicted error [rad] at substeps)``.
+    """
+    rate, turn = _rate_and_turn(model, x[..., 4:7], x[..., 7:])
+    rate, turn = np.atleast_1d(rate), np.atleast_1d(turn)
+    if rate.size > 1:
+        rate, turn = np.maximum(rate[:-1], rate[1:]), np.maximum(turn[:-1], turn[1:])
+    else:
+        rate, turn = np.full(n_ticks, rate[0]), np.full(n_ticks, turn[0])
+    error = float(predicted_attitude_error(rate, dt, turn, substeps=substeps, method="rk4"))
+    if not math.isfinite(error) or error <= budget_rad:
+        return substeps, error
+    weight = 1.0 + 2.0 * float(np.sum(turn * dt))
+    theta_s = (1920.0 * budget_rad / (weight * float(np.sum(rate * dt)))) ** 0.25
+    return max(substeps, math.ceil(float(np.max(rate)) * dt / theta_s)), error
