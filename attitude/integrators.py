@@ -35,6 +35,7 @@ __all__ = [
     "MAX_RULE_SUBSTEPS",
     "StepSizeWarning",
     "casadi_rk4_step",
+    "check_error_budget",
     "gyroscopic_turn_rate",
     "normalize_quaternion_components",
     "predicted_attitude_error",
@@ -335,3 +336,31 @@ def substeps_for_budget(
     with np.errstate(divide="ignore"):
         theta_s = np.min((1920.0 * budget_rad / (weight * np.sum(angle, axis=-1))) ** 0.25)
     return np.maximum(asked, np.ceil(np.max(angle, axis=0) / theta_s)).astype(np.int64)
+
+
+def check_error_budget(value: Any, name: str = "attitude_error_budget_rad") -> float:
+    """An accumulated attitude-error budget [rad]: positive, ``inf`` turning the step-size rule off.
+
+    Parameters
+    ----------
+    value : float
+        The budget [rad].
+    name : str
+        The argument, named in the error.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    ValueError
+        If ``value`` is not a number greater than 0 (NaN included).
+    """
+    try:
+        budget = float(value)
+    except (TypeError, ValueError):
+        budget = float("nan")
+    if not budget > 0.0:
+        raise ValueError(f"{name} must be a number > 0 rad (inf turns the step-size rule off), got {value!r}")
+    return budget

@@ -44,6 +44,7 @@ from attitude.integrators import (
     MAX_RULE_SUBSTEPS,
     StepSizeWarning,
     casadi_rk4_step,
+    check_error_budget,
     gyroscopic_turn_rate,
     normalize_quaternion_components,
     predicted_attitude_error,
@@ -362,7 +363,7 @@ def propagate(
         max_step = float(check_positive(max_step, "max_step"))
     check_positive(rtol, "rtol")
     check_positive(atol, "atol")
-    budget = float(check_positive(attitude_error_budget_rad, "attitude_error_budget_rad"))
+    budget = check_error_budget(attitude_error_budget_rad)
     try:
         batch = np.broadcast_shapes(q0.shape[:-1], omega0.shape[:-1], body.batch_shape)
     except ValueError as exc:

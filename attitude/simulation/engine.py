@@ -39,7 +39,7 @@ from numpy.typing import ArrayLike, NDArray
 from attitude import quaternion as quat
 from attitude.actuators import Magnetorquers, ReactionWheels
 from attitude.environment.orbit_environment import OrbitEnvironment
-from attitude.integrators import ATTITUDE_ERROR_BUDGET_RAD, MAX_RULE_SUBSTEPS, StepSizeWarning
+from attitude.integrators import ATTITUDE_ERROR_BUDGET_RAD, MAX_RULE_SUBSTEPS, StepSizeWarning, check_error_budget
 from attitude.results import ResultIO
 from attitude.rigid_body import RigidBody, split_components
 from attitude.rng import as_generator
@@ -315,7 +315,7 @@ def simulate(
     duration = float(check_positive(duration, "duration"))
     if isinstance(substeps, bool) or not isinstance(substeps, int) or substeps < 1:
         raise ValueError(f"substeps must be a positive integer, got {substeps!r}")
-    budget = float(check_positive(attitude_error_budget_rad, "attitude_error_budget_rad"))
+    budget = check_error_budget(attitude_error_budget_rad)
     if engine not in ("auto", "python", "compiled"):
         raise ValueError(f"engine must be 'auto', 'python' or 'compiled', got {engine!r}")
     if wheels is not None and not isinstance(wheels, ReactionWheels):
@@ -487,12 +487,22 @@ def _run_compiled_rule(args: tuple, substeps: int, every: dict, rng: Any, budget
     model, dt, n_ticks = args[0], args[9], args[10]
     x0 = np.concatenate([args[6], args[7], args[8]])
     steps, error = history_substeps(model, x0, dt, n_ticks, substeps, budget)
+    _check_rule_steps(steps, substeps)
     for _ in range(RULE_PASSES):
-        _check_rule_steps(steps, substeps)
         result = _run_compiled(*args, steps, every, rng)
         x = np.concatenate([result.q, result.omega, result.h_wheels], axis=1)
         needed, error = history_substeps(model, x, dt, n_ticks, steps, budget)
         if needed <= steps:
+            break
+        if needed > MAX_RULE_SUBSTEPS * substeps:
+            warnings.warn(
+                f"simulate breaks the step-size rule (docs/rk4_step_rule.md) at the rates reached (body rate up to "
+                f"{float(np.max(np.linalg.norm(result.omega, axis=1))):.3g} rad/s): meeting it needs {needed} RK4 "
+                f"steps per tick, more than {MAX_RULE_SUBSTEPS * substeps}; the attitude is NOT within the "
+                f"budget of {budget:.3g} rad (predicted error {error:.3g} rad)",
+                StepSizeWarning,
+                stacklevel=3,
+            )
             break
         steps = needed
     if steps > substeps:

@@ -56,6 +56,7 @@ class TickRule:
         self.swept = 0.0  # Phi so far [rad]
         self.largest = 0.0  # largest rotation per RK4 step so far [rad]
         self.warned = False
+        self.over = False
         self.most_calls = 1
 
     def calls(self, k: int, omega: NDArray[np.float64], h: NDArray[np.float64]) -> int:
@@ -78,7 +79,8 @@ class TickRule:
         Raises
         ------
         ValueError
-            If meeting the rule needs more than :data:`attitude.integrators.MAX_RULE_SUBSTEPS` calls.
+            If meeting the rule at the first tick needs more than
+            :data:`attitude.integrators.MAX_RULE_SUBSTEPS` calls (later, a warning: see the comment).
         """
         rate, turn = (float(v) for v in _rate_and_turn(self.model, omega, h))
         if not (math.isfinite(rate) and math.isfinite(turn)):
@@ -92,10 +94,22 @@ class TickRule:
             theta_s = (1920.0 * self.budget / ((1.0 + 2.0 * swept) * turned)) ** 0.25
             calls = max(1, math.ceil(theta / theta_s))
             if calls > MAX_RULE_SUBSTEPS:
-                raise ValueError(
+                message = (
                     f"{self._rule(rate, k, turned, swept)}; meeting it needs {calls * self.substeps} RK4 steps per "
-                    f"tick, more than {MAX_RULE_SUBSTEPS * self.substeps}: shorten dt or raise substeps"
+                    f"tick, more than {MAX_RULE_SUBSTEPS * self.substeps}"
                 )
+                if k == 0:
+                    raise ValueError(f"{message}: shorten dt or raise substeps")
+                # Rates grown this far mid-run are an unstable loop more often than a fast spin: the run goes on
+                # at the steps asked, warned, and the engine names a divergence if it comes.
+                calls = 1
+                if not self.over:
+                    self.over = True
+                    warnings.warn(
+                        f"{message}; the run goes on without sub-stepping and its attitude is NOT within the budget",
+                        StepSizeWarning,
+                        stacklevel=4,
+                    )
             if calls > 1 and not self.warned:
                 self.warned = True
                 warnings.warn(
