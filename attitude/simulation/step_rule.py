@@ -21,10 +21,11 @@ from attitude.integrators import (
     StepSizeWarning,
     gyroscopic_turn_rate,
     predicted_attitude_error,
+    substeps_for_budget,
 )
 from attitude.simulation.plant import PlantModel
 
-__all__ = ["TickRule", "history_substeps"]
+__all__ = ["TickRule", "batch_broken", "batch_substeps", "history_substeps"]
 
 
 def _rate_and_turn(model: PlantModel, omega: NDArray[np.float64], h: NDArray[np.float64]) -> tuple[Any, Any]:
@@ -187,3 +188,114 @@ def history_substeps(
     weight = 1.0 + 2.0 * float(np.sum(turn * dt))
     theta_s = (1920.0 * budget_rad / (weight * float(np.sum(rate * dt)))) ** 0.25
     return max(substeps, math.ceil(float(np.max(rate)) * dt / theta_s)), error
+
+
+def _batch_turn_bound(model: PlantModel, rate: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Largest gyroscopic turn rate at body rate ``rate`` [rad/s]: ``(I_max / I_min) |omega| + |A| |h|_max / I_min``."""
+    moments = np.linalg.eigvalsh(model.body.inertia)
+    nu = moments[..., -1] / moments[..., 0] * rate
+    if model.wheels is not None:  # the wheels at their momentum limits
+        h_max = np.linalg.norm(model.wheels.distribution, 2) * np.linalg.norm(model.wheels.momentum_max)
+        nu = nu + h_max / moments[..., 0]
+    return nu
+
+
+def batch_substeps(
+    model: PlantModel,
+    omega0: NDArray[np.float64],
+    dt: float,
+    n_ticks: int,
+    substeps: int,
+    budget_rad: float,
+) -> int:
+    """RK4 steps per tick for a vectorised batch, chosen before the run from every run's initial rate.
+
+    The batch cannot sub-step one run mid-run, so the check is a bound: the
+    rate is the larger of ``|omega0|`` and the torque-free energy bound
+    ``sqrt(omega . I omega / I_min)``, held over the run, and the turn rate
+    its largest (:func:`batch_broken` then flags the runs that went faster).
+
+    Parameters
+    ----------
+    model : PlantModel
+        The plant (hub body single or batched, wheels).
+    omega0 : ndarray (N, 3)
+        Initial body rates [rad/s].
+    dt : float
+        Tick [s].
+    n_ticks : int
+        Ticks in the run.
+    substeps : int
+        RK4 steps per tick asked for.
+    budget_rad : float
+        Accumulated attitude-error budget [rad].
+
+    Returns
+    -------
+    int
+        ``substeps``, or more with a :class:`attitude.integrators.StepSizeWarning`.
+
+    Raises
+    ------
+    ValueError
+        If more than :data:`attitude.integrators.MAX_RULE_SUBSTEPS` times ``substeps`` would be needed.
+    """
+    i_min = np.linalg.eigvalsh(model.body.inertia)[..., 0]
+    energy = np.einsum("...i,...ij,...j->...", omega0, model.body.inertia, omega0)
+    rate = np.maximum(np.linalg.norm(omega0, axis=-1), np.sqrt(energy / i_min))
+    duration = n_ticks * dt
+    total = substeps_for_budget(
+        rate[:, None],
+        duration,
+        _batch_turn_bound(model, rate)[:, None],
+        substeps=n_ticks * substeps,
+        budget_rad=budget_rad,
+    )
+    steps = max(substeps, math.ceil(int(total[0]) / n_ticks))
+    if steps == substeps:
+        return substeps
+    worst = int(np.argmax(rate))
+    rule = (
+        f"the batch breaks the step-size rule E = (1 + 2 Phi) Theta theta^4 / 1920 <= {budget_rad:.3g} rad "
+        f"(docs/rk4_step_rule.md): body rate up to {float(rate[worst]):.3g} rad/s (run {worst}) with {substeps} RK4 "
+        f"step(s) per tick of {dt:.3g} s"
+    )
+    if steps > MAX_RULE_SUBSTEPS * substeps:
+        raise ValueError(
+            f"{rule} needs {steps} RK4 steps per tick, more than {MAX_RULE_SUBSTEPS * substeps}: shorten dt"
+        )
+    warnings.warn(f"{rule}; every run is sub-stepped to {steps} RK4 steps per tick", StepSizeWarning, stacklevel=3)
+    return steps
+
+
+def batch_broken(
+    model: PlantModel, rate_peak: NDArray[np.float64], dt: float, n_ticks: int, substeps: int, budget_rad: float
+) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
+    """Runs of a batch whose peak rate may have broken the rule mid-run, and their error bound [rad].
+
+    The bound of :func:`batch_substeps` at each run's peak rate: a run that
+    stayed below the rate assumed before the run is never flagged.
+
+    Parameters
+    ----------
+    model : PlantModel
+        The plant.
+    rate_peak : ndarray (N,)
+        Each run's largest body rate [rad/s] (NaN for a diverged run: not flagged).
+    dt : float
+        Tick [s].
+    n_ticks : int
+        Ticks in the run.
+    substeps : int
+        RK4 steps per tick flown.
+    budget_rad : float
+        Accumulated attitude-error budget [rad].
+
+    Returns
+    -------
+    tuple
+        ``(broken (N,) bool, bound (N,) [rad])``.
+    """
+    nu = _batch_turn_bound(model, rate_peak)
+    bound = predicted_attitude_error(rate_peak[:, None], n_ticks * dt, nu[:, None], substeps=n_ticks * substeps)
+    return np.isfinite(bound) & (bound > budget_rad), bound
