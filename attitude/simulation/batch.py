@@ -264,7 +264,7 @@ def simulate_batch(
     q_ref = np.asarray(controller.reference_samples(t)[0], float) if hasattr(controller, "reference_samples") else None
     plant = body if wheels is None else wheels.hub_body(body)
     budget = check_error_budget(attitude_error_budget_rad)
-    substeps = batch_substeps(PlantModel(plant, wheels), omega0, dt, n_ticks, substeps, budget)
+    substeps, refused = batch_substeps(PlantModel(plant, wheels), omega0, dt, n_ticks, substeps, budget)
     rows = None if environment is None else environment.track(t).columns()
     loop = _Loop(PlantModel(plant, wheels), controller, t, inputs, q_ref, every, substeps, pointing_threshold, stride)
     loop.environment, loop.rows = environment, rows
@@ -314,6 +314,7 @@ def simulate_batch(
         for name, rows in recorded.items():
             histories[name][sl] = np.stack(rows, axis=1)
     broken, bound = batch_broken(loop.model, metrics["rate_peak"], dt, n_ticks, substeps, budget)
+    broken |= refused & np.isnan(diverged)
     if np.any(broken):
         peak = metrics["rate_peak"].copy()
         for name in metrics:

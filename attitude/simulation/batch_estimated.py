@@ -134,7 +134,9 @@ def simulate_batch_estimated(
     -------
     dict
         ``x`` (N, 7 + n_w) final true states, ``diverged_at`` (N,) [s] (NaN
-        for runs that stayed finite), ``backend``, ``backend_note`` and
+        for runs that stayed finite), ``step_rule_refused`` (N,) (runs too fast
+        for the tick under the step-size rule: failed, to be discarded with the
+        diverged ones), ``backend``, ``backend_note`` and
         ``wall_time_s``; with an environment, ``disturbance_torques``: the
         last tick's torque per source (N, 3) [N m], and
         ``disturbance_torque_peak``: each source's largest torque magnitude
@@ -178,7 +180,7 @@ def simulate_batch_estimated(
     peaks = {} if environment is None else {s: np.zeros(n) for s in environment.sources}
     model = PlantModel(plant, wheels)
     budget = check_error_budget(attitude_error_budget_rad)
-    substeps = batch_substeps(model, omega0, dt, n_ticks, substeps, budget)
+    substeps, refused = batch_substeps(model, omega0, dt, n_ticks, substeps, budget)
     hold, note = None, None
     if backend != "numpy":
         try:
@@ -240,6 +242,7 @@ def simulate_batch_estimated(
     out = {
         "x": x,
         "diverged_at": diverged_at,
+        "step_rule_refused": refused,
         "backend": "numpy" if hold is None else "compiled",
         "backend_note": note,
         "wall_time_s": time.perf_counter() - start,

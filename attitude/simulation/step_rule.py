@@ -21,7 +21,6 @@ from attitude.integrators import (
     StepSizeWarning,
     gyroscopic_turn_rate,
     predicted_attitude_error,
-    substeps_for_budget,
 )
 from attitude.simulation.plant import PlantModel
 
@@ -58,6 +57,10 @@ class TickRule:
         self.largest = 0.0  # largest rotation per RK4 step so far [rad]
         self.warned = False
         self.over = False
+        # Plain floats: the check runs every tick of the Python engine and must cost next to nothing.
+        self._inertia = model.body.inertia.tolist()
+        self._inverse = model.body.inertia_inv.tolist()
+        self._distribution = None if model.wheels is None else model.wheels.distribution.tolist()
         self.most_calls = 1
 
     def calls(self, k: int, omega: NDArray[np.float64], h: NDArray[np.float64]) -> int:
@@ -83,7 +86,7 @@ class TickRule:
             If meeting the rule at the first tick needs more than
             :data:`attitude.integrators.MAX_RULE_SUBSTEPS` calls (later, a warning: see the comment).
         """
-        rate, turn = (float(v) for v in _rate_and_turn(self.model, omega, h))
+        rate, turn = self._rate_and_turn(omega, h)
         if not (math.isfinite(rate) and math.isfinite(turn)):
             return 1  # the engine reports the divergence
         left = self.n_ticks - k
@@ -126,6 +129,18 @@ class TickRule:
         self.most_calls = max(self.most_calls, calls)
         return calls
 
+    def _rate_and_turn(self, omega: NDArray[np.float64], h: NDArray[np.float64]) -> tuple[float, float]:
+        """:func:`_rate_and_turn` of one state on floats (:func:`attitude.integrators.gyroscopic_turn_rate`)."""
+        w = [float(v) for v in omega]
+        m = [sum(a * b for a, b in zip(row, w)) for row in self._inertia]
+        if self._distribution is not None:
+            hs = [float(v) for v in h]
+            m = [mi + sum(a * b for a, b in zip(row, hs)) for mi, row in zip(m, self._distribution)]
+        c = [w[1] * m[2] - w[2] * m[1], w[2] * m[0] - w[0] * m[2], w[0] * m[1] - w[1] * m[0]]
+        accel = math.sqrt(sum(sum(a * b for a, b in zip(row, c)) ** 2 for row in self._inverse))
+        rate = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
+        return rate, (accel / rate if rate > 0.0 else 0.0)
+
     def _rule(self, rate: float, k: int, turned: float, swept: float) -> str:
         error = _error(turned, swept, max(self.largest, rate * self.dt / self.substeps))
         return (
@@ -147,8 +162,12 @@ class TickRule:
 
 
 def _error(turned: float, swept: float, theta: float) -> float:
-    """``(1 + 2 Phi) Theta theta^4 / 1920`` [rad] (:func:`attitude.integrators.predicted_attitude_error`)."""
-    return float(predicted_attitude_error([theta], 1.0, [swept], method="rk4") * turned / theta) if theta > 0 else 0.0
+    """``(1 + 2 Phi) Theta theta^4 / 1920`` [rad]: :func:`attitude.integrators.predicted_attitude_error` on floats.
+
+    Written out because the Python engine evaluates it every tick; ``tests/attitude/simulation/test_step_rule.py``
+    checks the two agree.
+    """
+    return (1.0 + 2.0 * swept) * turned * theta**4 / 1920.0
 
 
 def history_substeps(
@@ -207,13 +226,16 @@ def batch_substeps(
     n_ticks: int,
     substeps: int,
     budget_rad: float,
-) -> int:
+) -> tuple[int, NDArray[np.bool_]]:
     """RK4 steps per tick for a vectorised batch, chosen before the run from every run's initial rate.
 
     The batch cannot sub-step one run mid-run, so the check is a bound: the
     rate is the larger of ``|omega0|`` and the torque-free energy bound
     ``sqrt(omega . I omega / I_min)``, held over the run, and the turn rate
     its largest (:func:`batch_broken` then flags the runs that went faster).
+    A run that would need more than :data:`attitude.integrators.MAX_RULE_SUBSTEPS`
+    times ``substeps`` is left out of the count and returned as refused: one
+    wild dispersion must not slow or stop the others.
 
     Parameters
     ----------
@@ -232,40 +254,40 @@ def batch_substeps(
 
     Returns
     -------
-    int
-        ``substeps``, or more with a :class:`attitude.integrators.StepSizeWarning`.
-
-    Raises
-    ------
-    ValueError
-        If more than :data:`attitude.integrators.MAX_RULE_SUBSTEPS` times ``substeps`` would be needed.
+    tuple
+        ``(steps per tick >= substeps, refused (N,) bool)``; a
+        :class:`attitude.integrators.StepSizeWarning` when steps were added
+        or runs refused.
     """
     i_min = np.linalg.eigvalsh(model.body.inertia)[..., 0]
     energy = np.einsum("...i,...ij,...j->...", omega0, model.body.inertia, omega0)
     rate = np.maximum(np.linalg.norm(omega0, axis=-1), np.sqrt(energy / i_min))
+    nu = _batch_turn_bound(model, rate)
     duration = n_ticks * dt
-    total = substeps_for_budget(
-        rate[:, None],
-        duration,
-        _batch_turn_bound(model, rate)[:, None],
-        substeps=n_ticks * substeps,
-        budget_rad=budget_rad,
-    )
-    steps = max(substeps, math.ceil(int(total[0]) / n_ticks))
-    if steps == substeps:
-        return substeps
-    worst = int(np.argmax(rate))
-    rule = (
+    error = predicted_attitude_error(rate[:, None], duration, nu[:, None], substeps=n_ticks * substeps)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        theta_s = (1920.0 * budget_rad / ((1.0 + 2.0 * nu * duration) * rate * duration)) ** 0.25
+        needed = np.where(error > budget_rad, np.ceil(rate * dt / theta_s), substeps)
+    refused = needed > MAX_RULE_SUBSTEPS * substeps
+    steps = int(max(substeps, np.max(needed[~refused], initial=substeps)))
+    if steps == substeps and not np.any(refused):
+        return substeps, refused
+    worst = int(np.argmax(np.where(refused, -np.inf, rate)))
+    message = (
         f"the batch breaks the step-size rule E = (1 + 2 Phi) Theta theta^4 / 1920 <= {budget_rad:.3g} rad "
-        f"(docs/rk4_step_rule.md): body rate up to {float(rate[worst]):.3g} rad/s (run {worst}) with {substeps} RK4 "
-        f"step(s) per tick of {dt:.3g} s"
+        f"(docs/rk4_step_rule.md) with {substeps} RK4 step(s) per tick of {dt:.3g} s"
     )
-    if steps > MAX_RULE_SUBSTEPS * substeps:
-        raise ValueError(
-            f"{rule} needs {steps} RK4 steps per tick, more than {MAX_RULE_SUBSTEPS * substeps}: shorten dt"
+    if steps > substeps:
+        message += (
+            f": body rate up to {float(rate[worst]):.3g} rad/s (run {worst}); every run is sub-stepped to {steps}"
         )
-    warnings.warn(f"{rule}; every run is sub-stepped to {steps} RK4 steps per tick", StepSizeWarning, stacklevel=3)
-    return steps
+    if np.any(refused):
+        message += (
+            f"; {int(np.sum(refused))} run(s) (first: run {int(np.argmax(refused))}) would need more than "
+            f"{MAX_RULE_SUBSTEPS * substeps} RK4 steps per tick and are reported as failed (shorten dt)"
+        )
+    warnings.warn(message, StepSizeWarning, stacklevel=3)
+    return steps, refused
 
 
 def batch_broken(

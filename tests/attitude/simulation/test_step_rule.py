@@ -142,3 +142,11 @@ def test_simulate_batch_reports_a_run_that_spun_up_past_the_rule_as_failed():
         )
     assert result.info["step_rule_broken"].tolist() == [False, True]
     assert np.isnan(result.metrics["rate_peak"][1]) and np.isfinite(result.metrics["rate_peak"][0])
+
+
+def test_the_tick_rule_evaluates_the_one_rule_of_the_integrators():
+    from attitude.integrators import predicted_attitude_error
+    from attitude.simulation.step_rule import _error
+
+    # One interval of Theta = 30 rad in 300 steps with Phi = 4 rad: theta = 0.1 rad per step.
+    assert _error(30.0, 4.0, 0.1) == pytest.approx(float(predicted_attitude_error([30.0], 1.0, [4.0], substeps=300)))
