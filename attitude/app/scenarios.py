@@ -682,7 +682,12 @@ class _BatchRecorder:
                 outputs.append(RunOutput(error=f"the closed loop diverged at t = {diverged_at[r]:.6g} s"))
                 continue
             if refused is not None and refused[r]:
-                outputs.append(RunOutput(error=_STEP_RULE_ERROR.format(bound=float("inf"))))
+                outputs.append(
+                    RunOutput(
+                        error="the run's initial rate is too fast for the tick under the step-size rule "
+                        "(docs/rk4_step_rule.md: more than 1000 sub-steps per tick); shorten the tick"
+                    )
+                )
                 continue
             metrics = {
                 "settling_time": float(settle[r]),

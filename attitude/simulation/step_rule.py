@@ -86,7 +86,10 @@ class TickRule:
             If meeting the rule at the first tick needs more than
             :data:`attitude.integrators.MAX_RULE_SUBSTEPS` calls (later, a warning: see the comment).
         """
-        rate, turn = self._rate_and_turn(omega, h)
+        try:
+            rate, turn = self._rate_and_turn(omega, h)
+        except OverflowError:  # float arithmetic raises where numpy returns inf: a blowing-up loop
+            rate = turn = math.inf
         if not (math.isfinite(rate) and math.isfinite(turn)):
             return 1  # the engine reports the divergence
         left = self.n_ticks - k
