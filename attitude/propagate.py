@@ -28,6 +28,7 @@ pass ``q`` straight to :mod:`attitude.quaternion`.
 from __future__ import annotations
 
 import time
+import warnings
 import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -39,10 +40,17 @@ from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
 from attitude.integrators import (
+    ATTITUDE_ERROR_BUDGET_RAD,
+    MAX_RULE_SUBSTEPS,
+    StepSizeWarning,
     casadi_rk4_step,
+    check_error_budget,
+    gyroscopic_turn_rate,
     normalize_quaternion_components,
+    predicted_attitude_error,
     rk4_step,
     rkmk4_step,
+    substeps_for_budget,
 )
 from attitude.results import ResultIO
 from attitude.rigid_body import Components, RigidBody
@@ -288,6 +296,7 @@ def propagate(
     max_step: float | None = None,
     rtol: float = 1e-10,
     atol: float = 1e-12,
+    attitude_error_budget_rad: float = ATTITUDE_ERROR_BUDGET_RAD,
 ) -> Trajectory:
     """Propagate attitude and body rate of one body or a batch of bodies.
 
@@ -313,18 +322,35 @@ def propagate(
         Ignored by "adaptive" (which controls its error with ``rtol``/``atol``).
     rtol, atol : float
         Tolerances of the adaptive method.
+    attitude_error_budget_rad : float
+        Accumulated attitude error [rad] the fixed-step methods may make over
+        the run (default :data:`attitude.integrators.ATTITUDE_ERROR_BUDGET_RAD`,
+        1e-6 rad). The step-size rule (docs/rk4_step_rule.md) is checked
+        before the run on the initial rates and after it on the rates
+        reached; where it is broken the steps are sub-stepped (and the run
+        repeated) with a :class:`attitude.integrators.StepSizeWarning`.
+        ``inf`` turns the rule off.
 
     Returns
     -------
     Trajectory
-        ``q`` of shape batch + (n, 4) and ``omega`` of shape batch + (n, 3).
+        ``q`` of shape batch + (n, 4) and ``omega`` of shape batch + (n, 3);
+        ``info["step_rule"]`` holds the predicted error [rad], the budget and
+        whether the rule added steps.
 
     Raises
     ------
     ValueError
         For a non-unit or non-finite ``q0``, non-finite ``omega0``, a time
         grid that is not strictly increasing, a torque of the wrong shape, an
-        unknown method, or non-positive ``max_step``/tolerances.
+        unknown method, non-positive ``max_step``/tolerances/budget, or a
+        fixed step so long for the rates that the rule would need more than
+        :data:`attitude.integrators.MAX_RULE_SUBSTEPS` steps per step asked.
+
+    Warns
+    -----
+    StepSizeWarning
+        When the step-size rule sub-stepped the run.
     """
     if not isinstance(body, RigidBody):
         raise ValueError(f"body must be a RigidBody, got {type(body).__name__}")
@@ -337,6 +363,7 @@ def propagate(
         max_step = float(check_positive(max_step, "max_step"))
     check_positive(rtol, "rtol")
     check_positive(atol, "atol")
+    budget = check_error_budget(attitude_error_budget_rad)
     try:
         batch = np.broadcast_shapes(q0.shape[:-1], omega0.shape[:-1], body.batch_shape)
     except ValueError as exc:
@@ -351,16 +378,169 @@ def propagate(
     start = time.perf_counter()
     if method == "adaptive":
         q, omega, info = _propagate_adaptive(body, q0, omega0, t, kind, tq, batch, rtol, atol)
-    elif method == "rk4" and not batch and kind != "callable":
-        q, omega, info = _propagate_rk4_casadi(body, q0, omega0, t, kind, tq, max_step)
     else:
-        # A diverging run overflows; _check_finite below reports it as an error.
-        with np.errstate(over="ignore", invalid="ignore"):
-            q, omega, info = _propagate_fixed_numpy(body, q0, omega0, t, kind, tq, batch, max_step, method)
+        q, omega, info = _propagate_fixed(body, q0, omega0, t, kind, tq, batch, max_step, method, budget)
     info["wall_time_s"] = time.perf_counter() - start
     _check_finite(q, omega, t, method, max_step)
     inertia = np.broadcast_to(body.inertia, (*batch, 3, 3)).copy() if body.batch_shape else body.inertia
     return Trajectory(t=t.copy(), q=q, omega=omega, inertia=inertia, method=method, info=info)
+
+
+#: Most runs of one propagation under the step-size rule: the first, and repeats when the rates reached
+#: ask for more steps than the initial rates did (a torque spinning the body up).
+RULE_PASSES = 3
+
+
+def _propagate_fixed(
+    body: RigidBody,
+    q0: NDArray[np.float64],
+    omega0: NDArray[np.float64],
+    t: NDArray[np.float64],
+    kind: str,
+    tq: Any,
+    batch: tuple[int, ...],
+    max_step: float | None,
+    method: str,
+    budget: float,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]:
+    """RK4 or RKMK4 under the step-size rule (:func:`attitude.integrators.substeps_for_budget`).
+
+    The rule is checked before the run on the initial rates, held over the
+    run, and after it on the rates reached at the output samples (the larger
+    of each interval's two ends); a run that broke it is repeated with the
+    steps the rule asks for, up to :data:`RULE_PASSES` runs. Where the rule
+    holds on the first check the run is exactly the one asked for.
+
+    Parameters
+    ----------
+    body : RigidBody
+        The plant (single or batched).
+    q0 : ndarray, shape batch + (4,)
+        Unit initial attitudes ``q_BN``.
+    omega0 : ndarray, shape batch + (3,)
+        Initial body rates [rad/s].
+    t : ndarray, shape (n,)
+        Output time grid [s].
+    kind : {"const", "grid", "callable"}
+        Torque kind from :func:`_torque_kind`.
+    tq : ndarray or callable
+        Torque [N m] of that kind.
+    batch : tuple of int
+        Batch shape.
+    max_step : float or None
+        Largest fixed step asked for [s].
+    method : {"rk4", "geometric"}
+        The fixed-step method.
+    budget : float
+        Accumulated attitude-error budget [rad].
+
+    Returns
+    -------
+    q, omega, info
+        As the fixed-step engines, ``info["step_rule"]`` added.
+
+    Raises
+    ------
+    ValueError
+        If the rule needs more than :data:`attitude.integrators.MAX_RULE_SUBSTEPS` steps per step asked.
+    """
+    asked = _substeps(t, max_step)
+    dt = np.diff(t)
+    rate = np.linalg.norm(omega0, axis=-1)[..., None]
+    turn = gyroscopic_turn_rate(body, omega0)[..., None]
+    subs = _rule_substeps(rate, turn, dt, asked, asked, method, budget, max_step)
+    sampled_body = body if not body.batch_shape else RigidBody(body.inertia[..., None, :, :])
+    for _ in range(RULE_PASSES):
+        if method == "rk4" and not batch and kind != "callable":
+            q, omega, info = _propagate_rk4_casadi(body, q0, omega0, t, kind, tq, subs)
+        else:
+            # A diverging run overflows; _check_finite reports it as an error.
+            with np.errstate(over="ignore", invalid="ignore"):
+                q, omega, info = _propagate_fixed_numpy(body, q0, omega0, t, kind, tq, batch, subs, method)
+        if not (np.all(np.isfinite(omega)) and np.all(np.isfinite(q))):
+            break  # _check_finite names the divergence
+        ends = np.linalg.norm(omega, axis=-1)
+        rate = np.maximum(ends[..., :-1], ends[..., 1:])
+        nu = gyroscopic_turn_rate(sampled_body, omega)
+        turn = np.maximum(nu[..., :-1], nu[..., 1:])
+        needed = _rule_substeps(rate, turn, dt, subs, asked, method, budget, max_step)
+        if np.all(needed <= subs):
+            break
+        subs = needed
+    error = predicted_attitude_error(rate, dt, turn, substeps=subs, method=method)
+    info["step_rule"] = {
+        "predicted_error_rad": float(np.max(error, initial=0.0)),
+        "budget_rad": budget,
+        "substeps_added": bool(np.any(subs > asked)),
+    }
+    return q, omega, info
+
+
+def _rule_substeps(
+    rate: NDArray[np.float64],
+    turn: NDArray[np.float64],
+    dt: NDArray[np.float64],
+    subs: NDArray[np.int64],
+    asked: NDArray[np.int64],
+    method: str,
+    budget: float,
+    max_step: float | None,
+) -> NDArray[np.int64]:
+    """Steps per interval the rule asks for, warning when it adds steps and refusing when it adds too many.
+
+    Parameters
+    ----------
+    rate, turn : ndarray, shape batch + (1,) or batch + (n - 1,)
+        ``|omega|`` and the gyroscopic turn rate over each interval [rad/s].
+    dt : ndarray, shape (n - 1,)
+        Interval lengths [s].
+    subs : ndarray of int, shape (n - 1,)
+        Steps per interval of the run so far.
+    asked : ndarray of int, shape (n - 1,)
+        Steps per interval the caller asked for (``max_step``).
+    method : {"rk4", "geometric"}
+        The fixed-step method.
+    budget : float
+        Accumulated attitude-error budget [rad].
+    max_step : float or None
+        The caller's ``max_step`` [s] (for the messages).
+
+    Returns
+    -------
+    ndarray of int, shape (n - 1,)
+        Steps per interval (``subs`` itself when the rule holds).
+    """
+    rate = np.broadcast_to(rate, (*rate.shape[:-1], dt.size))
+    turn = np.broadcast_to(turn, rate.shape)
+    needed = substeps_for_budget(rate, dt, turn, substeps=subs, budget_rad=budget, method=method)
+    if np.all(needed <= subs):
+        return subs
+    needed = np.maximum(needed, subs)
+    worst = int(np.argmax(needed / asked))
+    rate_max = float(np.max(rate[..., worst]))
+    h_asked = float(dt[worst] / asked[worst])
+    h_new = float(np.min(dt / needed))
+    error = float(np.max(predicted_attitude_error(rate, dt, turn, substeps=asked, method=method)))
+    rule = (
+        f"method={method!r} breaks the step-size rule E = ({'1 + ' if method == 'rk4' else ''}2 Phi) Theta "
+        f"theta^4 / 1920 <= {budget:.3g} rad (docs/rk4_step_rule.md): |omega| up to {rate_max:.3g} rad/s with a "
+        f"step of {h_asked:.3g} s (|omega| h = {rate_max * h_asked:.3g} rad per step) predicts an accumulated "
+        f"attitude error of {error:.3g} rad"
+    )
+    if np.max(needed / asked) > MAX_RULE_SUBSTEPS:
+        raise ValueError(
+            f"{rule}; meeting it needs {int(np.max(needed / asked))} steps per step asked, more than "
+            f"{MAX_RULE_SUBSTEPS}: pass max_step <= {h_new:.3g} s (max_step = {max_step!r}), or use "
+            "method='geometric' (exact attitude for a constant rate) or method='adaptive'"
+        )
+    warnings.warn(
+        f"{rule}; sub-stepped to {int(np.max(needed))} steps per output interval (step {h_new:.3g} s). "
+        "method='geometric' is exact for a constant rate and method='adaptive' controls its own error; "
+        "attitude_error_budget_rad sets the budget",
+        StepSizeWarning,
+        stacklevel=4,
+    )
+    return needed
 
 
 class PropagationDivergedError(FloatingPointError):
@@ -396,7 +576,7 @@ def _check_finite(q: NDArray, omega: NDArray, t: NDArray, method: str, max_step:
     raise PropagationDivergedError(
         f"{method} propagation diverged at t = {float(t[k]):.6g} s (non-finite state): initial body rate "
         f"{rate0:.3g} rad/s with a step of {step:.3g} s (|omega| h = {rate0 * step:.3g}); "
-        "use a smaller max_step (|omega| h below about 0.5) or method='adaptive'"
+        "use a smaller max_step (the step-size rule of docs/rk4_step_rule.md) or method='geometric' or 'adaptive'"
     )
 
 
@@ -474,7 +654,7 @@ def _propagate_rk4_casadi(
     t: NDArray[np.float64],
     kind: str,
     tq: NDArray[np.float64],
-    max_step: float | None,
+    subs: NDArray[np.int64],
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]:
     """Fixed-step RK4 of a single body in compiled casadi code (``mapaccum``).
 
@@ -492,8 +672,8 @@ def _propagate_rk4_casadi(
         Torque kind from :func:`_torque_kind` (not ``"callable"``).
     tq : ndarray, shape (3,) or (n, 3)
         Constant torque, or torque on the time grid held over each interval [N m].
-    max_step : float or None
-        Largest fixed step [s].
+    subs : ndarray of int, shape (n - 1,)
+        Equal steps per output interval.
 
     Returns
     -------
@@ -504,7 +684,6 @@ def _propagate_rk4_casadi(
     info : dict
         ``steps``, ``substeps_max`` and ``engine``.
     """
-    subs = _substeps(t, max_step)
     dt_fine = np.repeat(np.diff(t) / subs, subs)
     n_fine = dt_fine.size
     n_pad = -n_fine % CASADI_CHUNK
@@ -542,7 +721,7 @@ def _propagate_fixed_numpy(
     kind: str,
     tq: Any,
     batch: tuple[int, ...],
-    max_step: float | None,
+    subs: NDArray[np.int64],
     method: str,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]:
     """Fixed-step RK4 or RKMK4 in vectorised numpy.
@@ -567,8 +746,8 @@ def _propagate_fixed_numpy(
         Torque [N m] of that kind.
     batch : tuple of int
         Batch shape.
-    max_step : float or None
-        Largest fixed step [s].
+    subs : ndarray of int, shape (n - 1,)
+        Equal steps per output interval.
     method : {"rk4", "geometric"}
         RK4 with renormalisation, or RKMK4.
     output_frame : (q_PB (..., 4), C_PB (..., 3, 3)), optional
@@ -586,7 +765,6 @@ def _propagate_fixed_numpy(
     info : dict
         ``steps``, ``substeps_max``, ``engine`` and ``batch_chunk``.
     """
-    subs = _substeps(t, max_step)
     if kind == "callable" or not batch:
         # A user's callable sees the whole batch at once, as documented.
         q, w, steps = _run_fixed(body, q0, omega0, t, subs, kind, tq, batch, method)

@@ -600,7 +600,16 @@ class ClosedLoopScenario:
             environment=self._environment,
             surface_parameters=surface,
         )
-        return recorder.outputs(out["diverged_at"], out.get("disturbance_torque_peak", {}))
+        return recorder.outputs(
+            out["diverged_at"], out.get("disturbance_torque_peak", {}), out.get("step_rule_refused")
+        )
+
+
+#: A run the step-size rule fails (docs/rk4_step_rule.md): its attitude may be off by more than the budget.
+_STEP_RULE_ERROR = (
+    "the plant's RK4 broke the step-size rule (docs/rk4_step_rule.md): attitude error bound {bound:.3g} rad "
+    "over the budget; shorten the tick or raise substeps"
+)
 
 
 def _stacked(params_list: Sequence[Mapping[str, Any]], name: str, default: Any) -> np.ndarray:
@@ -661,7 +670,9 @@ class _BatchRecorder:
             for name, value in rows.items():
                 self.history.setdefault(name, []).append(value)
 
-    def outputs(self, diverged_at: np.ndarray, torque_peaks: Mapping[str, np.ndarray]) -> list[RunOutput]:
+    def outputs(
+        self, diverged_at: np.ndarray, torque_peaks: Mapping[str, np.ndarray], refused: np.ndarray | None = None
+    ) -> list[RunOutput]:
         last = self.last_outside
         settle = settling_time_after(self.t, last)
         history = {name: np.stack(rows, axis=1) for name, rows in self.history.items()}
@@ -669,6 +680,14 @@ class _BatchRecorder:
         for r in range(last.size):
             if math.isfinite(diverged_at[r]):
                 outputs.append(RunOutput(error=f"the closed loop diverged at t = {diverged_at[r]:.6g} s"))
+                continue
+            if refused is not None and refused[r]:
+                outputs.append(
+                    RunOutput(
+                        error="the run's initial rate is too fast for the tick under the step-size rule "
+                        "(docs/rk4_step_rule.md: more than 1000 sub-steps per tick); shorten the tick"
+                    )
+                )
                 continue
             metrics = {
                 "settling_time": float(settle[r]),
@@ -851,6 +870,10 @@ class PDWheelsScenario:
         for i in range(len(params_list)):
             if math.isfinite(result.diverged_at[i]):
                 outputs.append(RunOutput(error=f"the closed loop diverged at t = {result.diverged_at[i]:.6g} s"))
+                continue
+            if result.info["step_rule_broken"][i]:
+                bound = float(result.info["step_rule_error_bound_rad"][i])
+                outputs.append(RunOutput(error=_STEP_RULE_ERROR.format(bound=bound)))
                 continue
             history = None
             if self.history_stride:

@@ -64,12 +64,14 @@ from numpy.typing import ArrayLike, NDArray
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
 from attitude.environment.orbit_environment import SURFACE_PARAMETERS, OrbitEnvironment
+from attitude.integrators import ATTITUDE_ERROR_BUDGET_RAD, StepSizeWarning, check_error_budget
 from attitude.rigid_body import RigidBody, symmetric_entries
 from attitude.simulation.codegen import CompilationError
 from attitude.simulation.engine import settling_time_after, ticks_per_period, whole_ticks
 from attitude.simulation.kernel import METRICS, CompiledTicks, command, disturbance_torques, environment_key, observe
 from attitude.simulation.plant import PlantModel
 from attitude.simulation.protocols import CompiledController
+from attitude.simulation.step_rule import batch_broken, batch_substeps
 from attitude.validation import as_float_array, check_positive
 
 __all__ = ["BATCH_CHUNK", "BatchResult", "closed_loop_metrics", "environment_inputs", "simulate_batch"]
@@ -161,6 +163,7 @@ def simulate_batch(
     backend: str = "auto",
     environment: OrbitEnvironment | None = None,
     surface_parameters: ArrayLike | None = None,
+    attitude_error_budget_rad: float = ATTITUDE_ERROR_BUDGET_RAD,
 ) -> BatchResult:
     """Simulate ``N`` closed loops at once (module docstring).
 
@@ -203,6 +206,14 @@ def simulate_batch(
         Per-run surface parameters (:meth:`OrbitEnvironment.surface_parameters`:
         drag scale, residual dipole [A m^2], centre-of-pressure offset [m]);
         default the environment's nominal ones. Only with ``environment``.
+    attitude_error_budget_rad : float
+        Accumulated attitude error [rad] the plant's RK4 may make in a run
+        (docs/rk4_step_rule.md; ``inf`` turns the rule off). Checked before
+        the run on every run's initial state (``substeps`` raised for the
+        batch with a :class:`attitude.integrators.StepSizeWarning` where it is
+        broken) and after it on every run's peak rate: a run that may have
+        broken it mid-run is reported as failed (NaN metrics,
+        ``info["step_rule_broken"]``) with a warning.
 
     Returns
     -------
@@ -252,6 +263,8 @@ def simulate_batch(
         raise ValueError(f"controller.compiled_inputs(t) must return shape (m, {t.size}), got {inputs.shape}")
     q_ref = np.asarray(controller.reference_samples(t)[0], float) if hasattr(controller, "reference_samples") else None
     plant = body if wheels is None else wheels.hub_body(body)
+    budget = check_error_budget(attitude_error_budget_rad)
+    substeps, refused = batch_substeps(PlantModel(plant, wheels), omega0, dt, n_ticks, substeps, budget)
     rows = None if environment is None else environment.track(t).columns()
     loop = _Loop(PlantModel(plant, wheels), controller, t, inputs, q_ref, every, substeps, pointing_threshold, stride)
     loop.environment, loop.rows = environment, rows
@@ -300,9 +313,26 @@ def simulate_batch(
         final[sl] = np.stack(np.broadcast_arrays(*x), axis=-1)
         for name, rows in recorded.items():
             histories[name][sl] = np.stack(rows, axis=1)
+    broken, bound = batch_broken(loop.model, metrics["rate_peak"], dt, n_ticks, substeps, budget)
+    broken |= refused & np.isnan(diverged)
+    if np.any(broken):
+        peak = metrics["rate_peak"].copy()
+        for name in metrics:
+            metrics[name][broken] = np.nan
+        first = int(np.argmax(broken))
+        warnings.warn(
+            f"{int(np.sum(broken))} run(s) of the batch may have broken the step-size rule mid-run "
+            f"(docs/rk4_step_rule.md; run {first}: peak body rate {float(peak[first]):.3g} rad/s, "
+            f"error bound {float(bound[first]):.3g} rad > {budget:.3g} rad): reported as failed "
+            "(NaN metrics, info['step_rule_broken']); shorten dt or raise substeps",
+            StepSizeWarning,
+            stacklevel=2,
+        )
     info = {
         "dt": dt,
         "substeps": substeps,
+        "step_rule_broken": broken,
+        "step_rule_error_bound_rad": bound,
         "chunk": size,
         "backend": "numpy" if ticks is None else "compiled",
         "backend_note": note,

@@ -45,6 +45,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
 from attitude.environment.orbit_environment import OrbitEnvironment
+from attitude.integrators import ATTITUDE_ERROR_BUDGET_RAD, check_error_budget
 from attitude.rigid_body import RigidBody, symmetric_entries
 from attitude.rng import NormalStreams
 from attitude.sensors import GyroBatch, StarTracker
@@ -54,6 +55,7 @@ from attitude.simulation.engine import ticks_per_period, whole_ticks
 from attitude.simulation.kernel import CompiledHold, command, disturbance_torques
 from attitude.simulation.plant import PlantModel
 from attitude.simulation.protocols import BatchEstimator, CompiledController
+from attitude.simulation.step_rule import batch_substeps
 from attitude.validation import as_float_array, check_positive
 
 __all__ = ["simulate_batch_estimated"]
@@ -80,6 +82,7 @@ def simulate_batch_estimated(
     backend: str = "auto",
     environment: OrbitEnvironment | None = None,
     surface_parameters: ArrayLike | None = None,
+    attitude_error_budget_rad: float = ATTITUDE_ERROR_BUDGET_RAD,
 ) -> dict[str, Any]:
     """Simulate ``N`` closed loops with a gyro, a star tracker and an estimator (module docstring).
 
@@ -121,12 +124,19 @@ def simulate_batch_estimated(
     surface_parameters : array_like (N, 7) or (7,), optional
         Per-run surface parameters (:meth:`OrbitEnvironment.surface_parameters`);
         default the environment's nominal ones. Only with ``environment``.
+    attitude_error_budget_rad : float
+        Accumulated attitude error [rad] the plant's RK4 may make in a run,
+        checked on every run's initial state before the run (``substeps``
+        raised with a :class:`attitude.integrators.StepSizeWarning`;
+        docs/rk4_step_rule.md); ``inf`` turns the rule off.
 
     Returns
     -------
     dict
         ``x`` (N, 7 + n_w) final true states, ``diverged_at`` (N,) [s] (NaN
-        for runs that stayed finite), ``backend``, ``backend_note`` and
+        for runs that stayed finite), ``step_rule_refused`` (N,) (runs too fast
+        for the tick under the step-size rule: failed, to be discarded with the
+        diverged ones), ``backend``, ``backend_note`` and
         ``wall_time_s``; with an environment, ``disturbance_torques``: the
         last tick's torque per source (N, 3) [N m], and
         ``disturbance_torque_peak``: each source's largest torque magnitude
@@ -169,6 +179,8 @@ def simulate_batch_estimated(
     torques: dict[str, NDArray[np.float64]] = {}
     peaks = {} if environment is None else {s: np.zeros(n) for s in environment.sources}
     model = PlantModel(plant, wheels)
+    budget = check_error_budget(attitude_error_budget_rad)
+    substeps, refused = batch_substeps(model, omega0, dt, n_ticks, substeps, budget)
     hold, note = None, None
     if backend != "numpy":
         try:
@@ -230,6 +242,7 @@ def simulate_batch_estimated(
     out = {
         "x": x,
         "diverged_at": diverged_at,
+        "step_rule_refused": refused,
         "backend": "numpy" if hold is None else "compiled",
         "backend_note": note,
         "wall_time_s": time.perf_counter() - start,

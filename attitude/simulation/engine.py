@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+import warnings
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -38,6 +39,7 @@ from numpy.typing import ArrayLike, NDArray
 from attitude import quaternion as quat
 from attitude.actuators import Magnetorquers, ReactionWheels
 from attitude.environment.orbit_environment import OrbitEnvironment
+from attitude.integrators import ATTITUDE_ERROR_BUDGET_RAD, MAX_RULE_SUBSTEPS, StepSizeWarning, check_error_budget
 from attitude.results import ResultIO
 from attitude.rigid_body import RigidBody, split_components
 from attitude.rng import as_generator
@@ -52,6 +54,7 @@ from attitude.simulation.protocols import (
     Sensor,
     Truth,
 )
+from attitude.simulation.step_rule import TickRule, history_substeps
 from attitude.validation import as_float_array, check_positive, check_vector
 
 if TYPE_CHECKING:
@@ -225,6 +228,7 @@ def simulate(
     substeps: int = 1,
     rng: Any = None,
     engine: str = "auto",
+    attitude_error_budget_rad: float = ATTITUDE_ERROR_BUDGET_RAD,
 ) -> SimulationResult:
     """Simulate the closed loop from ``t = 0`` to ``duration``.
 
@@ -275,10 +279,32 @@ def simulate(
         Random source handed to the sensors.
     engine : {"auto", "python", "compiled"}
         "auto" uses the compiled path when possible (module docstring).
+    attitude_error_budget_rad : float
+        Accumulated attitude error [rad] the plant's RK4 may make over the run
+        (default :data:`attitude.integrators.ATTITUDE_ERROR_BUDGET_RAD`). The
+        step-size rule (docs/rk4_step_rule.md) is checked at every tick on the
+        rate reached (the compiled path: before the run and on its history,
+        running again if needed); where it is broken the plant is sub-stepped
+        with the commands held, with one :class:`attitude.integrators.StepSizeWarning`
+        per run. ``inf`` turns the rule off.
 
     Returns
     -------
     SimulationResult
+        ``info["step_rule"]`` holds the predicted error [rad], the budget and
+        the most RK4 steps taken in one tick.
+
+    Raises
+    ------
+    ValueError
+        For invalid arguments, or a tick so long for the rates that the rule
+        needs more than :data:`attitude.integrators.MAX_RULE_SUBSTEPS` times
+        ``substeps`` RK4 steps per tick.
+
+    Warns
+    -----
+    StepSizeWarning
+        When the step-size rule sub-stepped the plant.
     """
     if not isinstance(body, RigidBody) or body.batch_shape:
         raise ValueError("body must be a single RigidBody")
@@ -289,6 +315,7 @@ def simulate(
     duration = float(check_positive(duration, "duration"))
     if isinstance(substeps, bool) or not isinstance(substeps, int) or substeps < 1:
         raise ValueError(f"substeps must be a positive integer, got {substeps!r}")
+    budget = check_error_budget(attitude_error_budget_rad)
     if engine not in ("auto", "python", "compiled"):
         raise ValueError(f"engine must be 'auto', 'python' or 'compiled', got {engine!r}")
     if wheels is not None and not isinstance(wheels, ReactionWheels):
@@ -388,23 +415,13 @@ def simulate(
     if controller is not None and hasattr(controller, "prepare"):
         controller.prepare(0.0, q0, omega0)
     start = time.perf_counter()
-    runner = _run_compiled if use_compiled else _run_python
-    result = runner(
-        model,
-        flight,
-        controller,
-        sensors,
-        estimator,
-        disturbance,
-        q0,
-        omega0,
-        h_wheels0,
-        dt,
-        n_ticks,
-        substeps,
-        every,
-        rng,
-    )
+    args = (model, flight, controller, sensors, estimator, disturbance, q0, omega0, h_wheels0, dt, n_ticks)
+    if use_compiled:
+        result = _run_compiled_rule(args, substeps, every, rng, budget)
+    else:
+        rule = TickRule(model, dt, n_ticks, substeps, budget)
+        result = _run_python(*args, substeps, every, rng, rule=rule)
+        result.info["step_rule"] = rule.info()
     if wheels is not None:
         result.info["wheel_speed_limit_rpm"] = (
             wheels.momentum_max / wheels.spin_inertia * 60.0 / (2.0 * np.pi)
@@ -454,6 +471,67 @@ def _orbit_histories(flight: OrbitFlight, torques, field_B, illumination, m_cmd,
     if flight.magnetorquers is not None:
         fields.update(dipole_command=m_cmd, dipole=m_B, torque_magnetorquer=tau_m)
     return fields
+
+
+#: Most runs of the compiled path under the step-size rule (the first, and repeats when the rates reached
+#: ask for more steps than the initial rates did).
+RULE_PASSES = 3
+
+
+def _run_compiled_rule(args: tuple, substeps: int, every: dict, rng: Any, budget: float) -> SimulationResult:
+    """The compiled path under the step-size rule: checked on the initial state, then on each run's history.
+
+    The compiled loop is a pure function of its inputs, so a run that broke
+    the rule is run again with one step count per tick for the whole run.
+    """
+    model, dt, n_ticks = args[0], args[9], args[10]
+    x0 = np.concatenate([args[6], args[7], args[8]])
+    steps, error = history_substeps(model, x0, dt, n_ticks, substeps, budget)
+    _check_rule_steps(steps, substeps)
+    for _ in range(RULE_PASSES):
+        result = _run_compiled(*args, steps, every, rng)
+        x = np.concatenate([result.q, result.omega, result.h_wheels], axis=1)
+        needed, error = history_substeps(model, x, dt, n_ticks, steps, budget)
+        if needed <= steps:
+            break
+        if needed > MAX_RULE_SUBSTEPS * substeps:
+            warnings.warn(
+                f"simulate breaks the step-size rule (docs/rk4_step_rule.md) at the rates reached (body rate up to "
+                f"{float(np.max(np.linalg.norm(result.omega, axis=1))):.3g} rad/s): meeting it needs {needed} RK4 "
+                f"steps per tick, more than {MAX_RULE_SUBSTEPS * substeps}; the attitude is NOT within the "
+                f"budget of {budget:.3g} rad (predicted error {error:.3g} rad)",
+                StepSizeWarning,
+                stacklevel=3,
+            )
+            break
+        steps = needed
+    if steps > substeps:
+        warnings.warn(
+            f"simulate breaks the step-size rule E = (1 + 2 Phi) Theta theta^4 / 1920 <= {budget:.3g} rad "
+            f"(docs/rk4_step_rule.md): {substeps} RK4 step(s) per tick of {dt:.3g} s predicts an accumulated "
+            f"attitude error above the budget at the rates reached (body rate up to "
+            f"{float(np.max(np.linalg.norm(result.omega, axis=1))):.3g} rad/s); the plant is sub-stepped to {steps} "
+            "RK4 steps per tick with the commands held (substeps sets the steps per tick, "
+            "attitude_error_budget_rad the budget)",
+            StepSizeWarning,
+            stacklevel=3,
+        )
+    result.info["step_rule"] = {
+        "predicted_error_rad": error,
+        "budget_rad": budget,
+        "substeps_added": steps > substeps,
+        "most_substeps_per_tick": steps,
+    }
+    return result
+
+
+def _check_rule_steps(steps: int, substeps: int) -> None:
+    if steps > MAX_RULE_SUBSTEPS * substeps:
+        raise ValueError(
+            f"simulate breaks the step-size rule (docs/rk4_step_rule.md): meeting it needs {steps} RK4 steps per "
+            f"tick, more than {MAX_RULE_SUBSTEPS} x substeps = {MAX_RULE_SUBSTEPS * substeps}: shorten dt or raise "
+            "substeps"
+        )
 
 
 def _run_compiled(
@@ -545,7 +623,8 @@ def _error_angles(controller: Any, t: NDArray, q: NDArray) -> NDArray:
 
 
 def _run_python(
-    model, flight, controller, sensors, estimator, disturbance, q0, omega0, h0, dt, n_ticks, substeps, every, rng
+    model, flight, controller, sensors, estimator, disturbance, q0, omega0, h0, dt, n_ticks, substeps, every, rng,
+    rule=None,
 ):
     gen = as_generator(rng)
     n_x, n_w = model.n_x, model.n_w
@@ -645,7 +724,14 @@ def _run_python(
                 tau_m = flight.magnetorquer_torque(m_B, field_B)
                 m_cmd_all[k], m_B_all[k], tau_m_all[k] = m_cmd, m_B, tau_m
                 tau_ext = tau_ext + tau_m
-        x_all[k + 1] = np.array(step(x, u, tau_ext, dt)).ravel()
+        calls = 1 if rule is None else rule.calls(k, x[4:7], x[7:])
+        if calls == 1:
+            x_all[k + 1] = np.array(step(x, u, tau_ext, dt)).ravel()
+        else:  # the commands held over the tick, the plant in shorter steps
+            x_next = x
+            for _ in range(calls):
+                x_next = np.array(step(x_next, u, tau_ext, dt / calls)).ravel()
+            x_all[k + 1] = x_next
         if not np.all(np.isfinite(x_all[k + 1])):
             _diverged(t[k + 1], x)
 

@@ -36,7 +36,7 @@ class PlantModel:
         self.wheels = wheels
         self.n_w = 0 if wheels is None else wheels.n_wheels
         self.n_x = 7 + self.n_w
-        self._step: ca.Function | None = None
+        self._steps: dict[int, ca.Function] = {}
 
     def derivative(self, x: list, u: list, tau_ext: list | None) -> list:
         """State derivative of the plant under held inputs.
@@ -99,7 +99,7 @@ class PlantModel:
         casadi.Function
             :meth:`hold_step` on symbols, for the compiled engine paths.
         """
-        if self._step is None:
+        if substeps not in self._steps:
             n_u = self.n_w if self.wheels is not None else 3
             x = ca.SX.sym("x", self.n_x)
             u = ca.SX.sym("u", n_u)
@@ -108,8 +108,8 @@ class PlantModel:
             xn = self.hold_step(
                 split_components(x, self.n_x), split_components(u, n_u), split_components(tau, 3), dt, substeps
             )
-            self._step = ca.Function("hold_step", [x, u, tau, dt], [ca.vertcat(*xn)])
-        return self._step
+            self._steps[substeps] = ca.Function("hold_step", [x, u, tau, dt], [ca.vertcat(*xn)])
+        return self._steps[substeps]
 
     def command(self, tau_cmd: list, x: list) -> tuple[list, list]:
         """Motor (or body) torque and the applied body torque for a command.

@@ -148,7 +148,8 @@ class TestGeometricIntegrator:
         t = np.linspace(0.0, 200.0, 2001)
         w0 = np.array([0.5, 1.5, -0.8])  # fast tumble, 2000 steps of 0.1 s
         q0 = quat.random(32, rng=3)
-        traj = propagate(BODY, q0, w0, t, method="geometric")
+        # The step-size rule off (inf budget): this checks the method's own steps, 2000 of them.
+        traj = propagate(BODY, q0, w0, t, method="geometric", attitude_error_budget_rad=np.inf)
         # Each step multiplies unit quaternions, so |q| changes only by
         # rounding: measured as a random walk of ~5e-17 per step (RMS 1.7e-15
         # after 10^3 steps, 6.5e-15 after 10^4), well inside 1e-14 here.
@@ -274,7 +275,8 @@ def _convergence_slope(method: str) -> float:
     steps = np.array([0.2, 0.1, 0.05, 0.025])
     errors = []
     for h in steps:
-        traj = propagate(body, q0, omega0, t, method=method, max_step=h)
+        # The step-size rule off (inf budget): the slope is of the steps asked for.
+        traj = propagate(body, q0, omega0, t, method=method, max_step=h, attitude_error_budget_rad=np.inf)
         err_q = np.max(quat.error_angle(exact.q, traj.q))
         err_w = np.max(np.linalg.norm(traj.omega - exact.omega, axis=-1))
         errors.append(max(err_q, err_w))
@@ -335,9 +337,15 @@ class TestDivergenceIsReported:
     def test_a_step_too_long_for_the_rates_raises_instead_of_returning_nan(self, method):
         from attitude.propagate import PropagationDivergedError
 
-        # |omega| h = 11.6: far outside RK4's stability region; the state overflows.
-        with pytest.raises(PropagationDivergedError, match=r"\|omega\| h = 11.6"):
+        # |omega| h = 11.6: far outside RK4's stability region; the state overflows. With the
+        # step-size rule on, the run is refused before it starts (TestStepSizeRule); off, the
+        # divergence is still named.
+        with pytest.raises(ValueError, match="max_step <="):
             propagate(BODY, Q0, [3.0, 5.0, 10.0], np.arange(0.0, 600.0, 1.0), method=method)
+        with pytest.raises(PropagationDivergedError, match=r"\|omega\| h = 11.6"):
+            propagate(
+                BODY, Q0, [3.0, 5.0, 10.0], np.arange(0.0, 600.0, 1.0), method=method, attitude_error_budget_rad=np.inf
+            )
 
     def test_a_mistyped_max_step_is_named(self):
         with pytest.raises(ValueError, match="max_step = 1e-300 s makes"):
@@ -353,3 +361,76 @@ def test_trajectory_load_refuses_nan_quaternions(tmp_path):
     bad = traj.save(tmp_path / "bad")
     with pytest.raises(ValueError, match="q must be finite"):
         Trajectory.load(bad)
+
+
+# ---------------------------------------------------------------------------
+# The step-size rule (docs/rk4_step_rule.md): no silent wrong attitude from fixed-step RK4
+# ---------------------------------------------------------------------------
+
+
+class TestStepSizeRule:
+    # A spin about a principal axis keeps a constant rate: the exact attitude is
+    # q0 ⊗ exp(omega t / 2) (Wertz, Spacecraft Attitude Determination and Control, eq. 17-1).
+    SPIN_BODY = RigidBody([10.0, 12.0, 8.0])
+
+    def _spin(self, rate, t, **kwargs):
+        from attitude.integrators import StepSizeWarning
+
+        with pytest.warns(StepSizeWarning, match="step-size rule") as caught:
+            traj = propagate(self.SPIN_BODY, [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, rate], t, **kwargs)
+        exact = quat.from_axis_angle([0.0, 0.0, 1.0], rate * t)
+        return traj, float(np.max(quat.error_angle(exact, quat.normalize(traj.q)))), str(caught[0].message)
+
+    def test_25_rad_s_at_0_1_s_is_sub_stepped_with_a_warning(self):
+        # Before the rule: 148 deg off the exact rotation with zero invariant drift, and no warning.
+        traj, error, message = self._spin(25.0, np.arange(0.0, 10.01, 0.1))
+        # The rule's budget is 1e-6 rad; the prediction is exact for a constant rate (theta^5/1920 per step).
+        assert error < 1e-6
+        assert "method='geometric'" in message and "25 rad/s" in message and "0.1 s" in message
+        assert traj.info["step_rule"]["substeps_added"]
+
+    def test_5_rad_s_over_600_s_is_within_the_budget(self):
+        # Before the rule: 5.5 deg (6000 steps of 0.5^5/1920 rad), no warning.
+        _, error, message = self._spin(5.0, np.arange(0.0, 600.0001, 0.1))
+        assert error < 1e-6
+        assert "sub-stepped to 18 steps" in message  # (0.0977 rad / 1e-6 rad)^(1/4) = 17.7
+
+    @pytest.mark.parametrize("batch", [(), (2,)])
+    def test_the_numpy_and_batch_paths_follow_the_rule(self, batch):
+        from attitude.integrators import StepSizeWarning
+
+        t = np.arange(0.0, 10.01, 0.1)
+        q0 = np.broadcast_to([1.0, 0.0, 0.0, 0.0], (*batch, 4))
+        with pytest.warns(StepSizeWarning):
+            traj = propagate(self.SPIN_BODY, q0, [0.0, 0.0, 25.0], t, method="rk4", torque=lambda _t, q, w: 0 * w)
+        exact = quat.from_axis_angle([0.0, 0.0, 1.0], 25.0 * t[-1])
+        assert np.all(quat.error_angle(exact, quat.normalize(traj.q[..., -1, :])) < 1e-6)
+
+    def test_a_torque_that_spins_the_body_up_is_caught_after_the_run(self):
+        # From rest the initial check passes; 5 N m about z on I_z = 8 kg m^2 reaches 62.5 rad/s in 100 s:
+        # the exact angle is 0.5 a t^2, a = 5/8 rad/s^2.
+        from attitude.integrators import StepSizeWarning
+
+        t = np.arange(0.0, 100.01, 0.1)
+        with pytest.warns(StepSizeWarning):
+            traj = propagate(self.SPIN_BODY, [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0], t, [0.0, 0.0, 5.0])
+        exact = quat.from_axis_angle([0.0, 0.0, 1.0], 0.5 * 5.0 / 8.0 * t[-1] ** 2)
+        # The quadratic angle is integrated exactly by RK4 in omega; the kinematic error is the rule's.
+        assert float(quat.error_angle(exact, quat.normalize(traj.q[-1]))) < 1e-6
+
+    def test_an_absurd_step_is_refused_naming_max_step(self):
+        with pytest.raises(ValueError, match=r"max_step <= .*method='geometric'"):
+            propagate(self.SPIN_BODY, [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 25.0], np.arange(0.0, 1e4, 100.0))
+
+    def test_the_geometric_method_is_exact_for_the_spin_and_not_sub_stepped(self):
+        import warnings
+
+        from attitude.integrators import StepSizeWarning
+
+        t = np.arange(0.0, 10.01, 0.1)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", StepSizeWarning)
+            traj = propagate(self.SPIN_BODY, [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 25.0], t, method="geometric")
+        exact = quat.from_axis_angle([0.0, 0.0, 1.0], 25.0 * t[-1])
+        # Exact exponential per step: only rounding over 100 steps (1e-12 rad with margin).
+        assert float(quat.error_angle(exact, traj.q[-1])) < 1e-10

@@ -1,0 +1,326 @@
+"""The fixed-step rule (docs/rk4_step_rule.md) applied to the closed loop's plant, tick by tick.
+
+The plant is RK4 over each tick with the commands held
+(:meth:`attitude.simulation.plant.PlantModel.hold_step`). :class:`TickRule`
+checks :func:`attitude.integrators.predicted_attitude_error` at every tick
+on the rate reached, projecting it over the ticks left, and asks for more
+steps per tick when the accumulated attitude error would exceed the budget.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from attitude.integrators import (
+    MAX_RULE_SUBSTEPS,
+    StepSizeWarning,
+    gyroscopic_turn_rate,
+    predicted_attitude_error,
+)
+from attitude.simulation.plant import PlantModel
+
+__all__ = ["TickRule", "batch_broken", "batch_substeps", "history_substeps"]
+
+
+def _rate_and_turn(model: PlantModel, omega: NDArray[np.float64], h: NDArray[np.float64]) -> tuple[Any, Any]:
+    """``|omega|`` and the gyroscopic turn rate (wheel momentum included) of states (..., 3), (..., n) [rad/s]."""
+    h_b = None if model.wheels is None else h @ model.wheels.distribution.T
+    return np.linalg.norm(omega, axis=-1), gyroscopic_turn_rate(model.body, omega, h_b)
+
+
+class TickRule:
+    """Steps per tick that keep the plant's accumulated attitude error within a budget.
+
+    Parameters
+    ----------
+    model : PlantModel
+        The plant (hub body and wheels).
+    dt : float
+        Tick [s].
+    n_ticks : int
+        Ticks in the run.
+    substeps : int
+        RK4 steps per tick asked for.
+    budget_rad : float
+        Accumulated attitude-error budget [rad].
+    """
+
+    def __init__(self, model: PlantModel, dt: float, n_ticks: int, substeps: int, budget_rad: float) -> None:
+        self.model, self.dt, self.n_ticks, self.substeps, self.budget = model, dt, n_ticks, substeps, budget_rad
+        self.turned = 0.0  # Theta so far [rad]
+        self.swept = 0.0  # Phi so far [rad]
+        self.largest = 0.0  # largest rotation per RK4 step so far [rad]
+        self.warned = False
+        self.over = False
+        # Plain floats: the check runs every tick of the Python engine and must cost next to nothing.
+        self._inertia = model.body.inertia.tolist()
+        self._inverse = model.body.inertia_inv.tolist()
+        self._distribution = None if model.wheels is None else model.wheels.distribution.tolist()
+        self.most_calls = 1
+
+    def calls(self, k: int, omega: NDArray[np.float64], h: NDArray[np.float64]) -> int:
+        """Hold steps (of ``substeps`` RK4 steps each, over ``dt / calls``) for tick ``k`` at rate ``omega``.
+
+        Parameters
+        ----------
+        k : int
+            Tick index.
+        omega : ndarray (3,)
+            Body rate at the tick [rad/s].
+        h : ndarray (n,)
+            Wheel momenta at the tick [N m s].
+
+        Returns
+        -------
+        int
+            1 where the rule holds.
+
+        Raises
+        ------
+        ValueError
+            If meeting the rule at the first tick needs more than
+            :data:`attitude.integrators.MAX_RULE_SUBSTEPS` calls (later, a warning: see the comment).
+        """
+        try:
+            rate, turn = self._rate_and_turn(omega, h)
+        except OverflowError:  # float arithmetic raises where numpy returns inf: a blowing-up loop
+            rate = turn = math.inf
+        if not (math.isfinite(rate) and math.isfinite(turn)):
+            return 1  # the engine reports the divergence
+        left = self.n_ticks - k
+        angle = rate * self.dt
+        turned, swept = self.turned + angle * left, self.swept + turn * self.dt * left
+        calls = 1
+        theta = angle / self.substeps
+        if _error(turned, swept, max(self.largest, theta)) > self.budget:
+            theta_s = (1920.0 * self.budget / ((1.0 + 2.0 * swept) * turned)) ** 0.25
+            calls = max(1, math.ceil(theta / theta_s))
+            if calls > MAX_RULE_SUBSTEPS:
+                message = (
+                    f"{self._rule(rate, k, turned, swept)}; meeting it needs {calls * self.substeps} RK4 steps per "
+                    f"tick, more than {MAX_RULE_SUBSTEPS * self.substeps}"
+                )
+                if k == 0:
+                    raise ValueError(f"{message}: shorten dt or raise substeps")
+                # Rates grown this far mid-run are an unstable loop more often than a fast spin: the run goes on
+                # at the steps asked, warned, and the engine names a divergence if it comes.
+                calls = 1
+                if not self.over:
+                    self.over = True
+                    warnings.warn(
+                        f"{message}; the run goes on without sub-stepping and its attitude is NOT within the budget",
+                        StepSizeWarning,
+                        stacklevel=4,
+                    )
+            if calls > 1 and not self.warned:
+                self.warned = True
+                warnings.warn(
+                    f"{self._rule(rate, k, turned, swept)}; the plant is sub-stepped to {calls * self.substeps} "
+                    "RK4 steps per tick with the commands held (substeps sets the steps per tick, "
+                    "attitude_error_budget_rad the budget)",
+                    StepSizeWarning,
+                    stacklevel=4,
+                )
+        self.turned += angle
+        self.swept += turn * self.dt
+        self.largest = max(self.largest, theta / calls)
+        self.most_calls = max(self.most_calls, calls)
+        return calls
+
+    def _rate_and_turn(self, omega: NDArray[np.float64], h: NDArray[np.float64]) -> tuple[float, float]:
+        """:func:`_rate_and_turn` of one state on floats (:func:`attitude.integrators.gyroscopic_turn_rate`)."""
+        w = [float(v) for v in omega]
+        m = [sum(a * b for a, b in zip(row, w)) for row in self._inertia]
+        if self._distribution is not None:
+            hs = [float(v) for v in h]
+            m = [mi + sum(a * b for a, b in zip(row, hs)) for mi, row in zip(m, self._distribution)]
+        c = [w[1] * m[2] - w[2] * m[1], w[2] * m[0] - w[0] * m[2], w[0] * m[1] - w[1] * m[0]]
+        accel = math.sqrt(sum(sum(a * b for a, b in zip(row, c)) ** 2 for row in self._inverse))
+        rate = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
+        return rate, (accel / rate if rate > 0.0 else 0.0)
+
+    def _rule(self, rate: float, k: int, turned: float, swept: float) -> str:
+        error = _error(turned, swept, max(self.largest, rate * self.dt / self.substeps))
+        return (
+            f"simulate breaks the step-size rule E = (1 + 2 Phi) Theta theta^4 / 1920 <= {self.budget:.3g} rad "
+            f"(docs/rk4_step_rule.md) at t = {k * self.dt:.6g} s: body rate {rate:.3g} rad/s with "
+            f"{self.substeps} RK4 step(s) per tick of {self.dt:.3g} s "
+            f"(|omega| h = {rate * self.dt / self.substeps:.3g} rad per step) predicts an accumulated attitude "
+            f"error of {error:.3g} rad"
+        )
+
+    def info(self) -> dict[str, Any]:
+        """The run's ``info["step_rule"]``: predicted error [rad], budget [rad], most calls per tick."""
+        return {
+            "predicted_error_rad": _error(self.turned, self.swept, self.largest),
+            "budget_rad": self.budget,
+            "substeps_added": self.most_calls > 1,
+            "most_substeps_per_tick": self.most_calls * self.substeps,
+        }
+
+
+def _error(turned: float, swept: float, theta: float) -> float:
+    """``(1 + 2 Phi) Theta theta^4 / 1920`` [rad]: :func:`attitude.integrators.predicted_attitude_error` on floats.
+
+    Written out because the Python engine evaluates it every tick; ``tests/attitude/simulation/test_step_rule.py``
+    checks the two agree.
+    """
+    return (1.0 + 2.0 * swept) * turned * theta**4 / 1920.0
+
+
+def history_substeps(
+    model: PlantModel, x: NDArray[np.float64], dt: float, n_ticks: int, substeps: int, budget_rad: float
+) -> tuple[int, float]:
+    """RK4 steps per tick (one count for the whole run) that a state history asks for, and its predicted error.
+
+    Parameters
+    ----------
+    model : PlantModel
+        The plant.
+    x : ndarray (n_ticks + 1, 7 + n_w) or (7 + n_w,)
+        States at the ticks (or the initial state alone, held over ``n_ticks``).
+    dt : float
+        Tick [s].
+    n_ticks : int
+        Ticks in the run.
+    substeps : int
+        RK4 steps per tick of that history.
+    budget_rad : float
+        Accumulated attitude-error budget [rad].
+
+    Returns
+    -------
+    tuple
+        ``(steps per tick >= substeps, predicted error [rad] at substeps)``.
+    """
+    rate, turn = _rate_and_turn(model, x[..., 4:7], x[..., 7:])
+    rate, turn = np.atleast_1d(rate), np.atleast_1d(turn)
+    if rate.size > 1:
+        rate, turn = np.maximum(rate[:-1], rate[1:]), np.maximum(turn[:-1], turn[1:])
+    else:
+        rate, turn = np.full(n_ticks, rate[0]), np.full(n_ticks, turn[0])
+    error = float(predicted_attitude_error(rate, dt, turn, substeps=substeps, method="rk4"))
+    if not math.isfinite(error) or error <= budget_rad:
+        return substeps, error
+    weight = 1.0 + 2.0 * float(np.sum(turn * dt))
+    theta_s = (1920.0 * budget_rad / (weight * float(np.sum(rate * dt)))) ** 0.25
+    return max(substeps, math.ceil(float(np.max(rate)) * dt / theta_s)), error
+
+
+def _batch_turn_bound(model: PlantModel, rate: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Largest gyroscopic turn rate at body rate ``rate`` [rad/s]: ``(I_max / I_min) |omega| + |A| |h|_max / I_min``."""
+    moments = np.linalg.eigvalsh(model.body.inertia)
+    nu = moments[..., -1] / moments[..., 0] * rate
+    if model.wheels is not None:  # the wheels at their momentum limits
+        h_max = np.linalg.norm(model.wheels.distribution, 2) * np.linalg.norm(model.wheels.momentum_max)
+        nu = nu + h_max / moments[..., 0]
+    return nu
+
+
+def batch_substeps(
+    model: PlantModel,
+    omega0: NDArray[np.float64],
+    dt: float,
+    n_ticks: int,
+    substeps: int,
+    budget_rad: float,
+) -> tuple[int, NDArray[np.bool_]]:
+    """RK4 steps per tick for a vectorised batch, chosen before the run from every run's initial rate.
+
+    The batch cannot sub-step one run mid-run, so the check is a bound: the
+    rate is the larger of ``|omega0|`` and the torque-free energy bound
+    ``sqrt(omega . I omega / I_min)``, held over the run, and the turn rate
+    its largest (:func:`batch_broken` then flags the runs that went faster).
+    A run that would need more than :data:`attitude.integrators.MAX_RULE_SUBSTEPS`
+    times ``substeps`` is left out of the count and returned as refused: one
+    wild dispersion must not slow or stop the others.
+
+    Parameters
+    ----------
+    model : PlantModel
+        The plant (hub body single or batched, wheels).
+    omega0 : ndarray (N, 3)
+        Initial body rates [rad/s].
+    dt : float
+        Tick [s].
+    n_ticks : int
+        Ticks in the run.
+    substeps : int
+        RK4 steps per tick asked for.
+    budget_rad : float
+        Accumulated attitude-error budget [rad].
+
+    Returns
+    -------
+    tuple
+        ``(steps per tick >= substeps, refused (N,) bool)``; a
+        :class:`attitude.integrators.StepSizeWarning` when steps were added
+        or runs refused.
+    """
+    i_min = np.linalg.eigvalsh(model.body.inertia)[..., 0]
+    energy = np.einsum("...i,...ij,...j->...", omega0, model.body.inertia, omega0)
+    rate = np.maximum(np.linalg.norm(omega0, axis=-1), np.sqrt(energy / i_min))
+    nu = _batch_turn_bound(model, rate)
+    duration = n_ticks * dt
+    error = predicted_attitude_error(rate[:, None], duration, nu[:, None], substeps=n_ticks * substeps)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        theta_s = (1920.0 * budget_rad / ((1.0 + 2.0 * nu * duration) * rate * duration)) ** 0.25
+        needed = np.where(error > budget_rad, np.ceil(rate * dt / theta_s), substeps)
+    refused = needed > MAX_RULE_SUBSTEPS * substeps
+    steps = int(max(substeps, np.max(needed[~refused], initial=substeps)))
+    if steps == substeps and not np.any(refused):
+        return substeps, refused
+    worst = int(np.argmax(np.where(refused, -np.inf, rate)))
+    message = (
+        f"the batch breaks the step-size rule E = (1 + 2 Phi) Theta theta^4 / 1920 <= {budget_rad:.3g} rad "
+        f"(docs/rk4_step_rule.md) with {substeps} RK4 step(s) per tick of {dt:.3g} s"
+    )
+    if steps > substeps:
+        message += (
+            f": body rate up to {float(rate[worst]):.3g} rad/s (run {worst}); every run is sub-stepped to {steps}"
+        )
+    if np.any(refused):
+        message += (
+            f"; {int(np.sum(refused))} run(s) (first: run {int(np.argmax(refused))}) would need more than "
+            f"{MAX_RULE_SUBSTEPS * substeps} RK4 steps per tick and are reported as failed (shorten dt)"
+        )
+    warnings.warn(message, StepSizeWarning, stacklevel=3)
+    return steps, refused
+
+
+def batch_broken(
+    model: PlantModel, rate_peak: NDArray[np.float64], dt: float, n_ticks: int, substeps: int, budget_rad: float
+) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
+    """Runs of a batch whose peak rate may have broken the rule mid-run, and their error bound [rad].
+
+    The bound of :func:`batch_substeps` at each run's peak rate: a run that
+    stayed below the rate assumed before the run is never flagged.
+
+    Parameters
+    ----------
+    model : PlantModel
+        The plant.
+    rate_peak : ndarray (N,)
+        Each run's largest body rate [rad/s] (NaN for a diverged run: not flagged).
+    dt : float
+        Tick [s].
+    n_ticks : int
+        Ticks in the run.
+    substeps : int
+        RK4 steps per tick flown.
+    budget_rad : float
+        Accumulated attitude-error budget [rad].
+
+    Returns
+    -------
+    tuple
+        ``(broken (N,) bool, bound (N,) [rad])``.
+    """
+    nu = _batch_turn_bound(model, rate_peak)
+    bound = predicted_attitude_error(rate_peak[:, None], n_ticks * dt, nu[:, None], substeps=n_ticks * substeps)
+    return np.isfinite(bound) & (bound > budget_rad), bound
