@@ -54,7 +54,8 @@ def _fov(value: ArrayLike, name: str, *, to_rad: float, unit: str, closed_at_90:
     half = positive_scalar(value, name, why="one half-angle of a conical field of view")
     right = 90.0 if unit == "deg" else np.pi / 2
     if half > right or (half == right and not closed_at_90):
-        rule = "(0, 90] deg" if closed_at_90 else "(0, 90) deg"
+        right_text = "90 deg" if unit == "deg" else "pi/2 rad"
+        rule = f"(0, {right_text}]" if closed_at_90 else f"(0, {right_text})"
         raise ValueError(f"{name} must be in {rule} (a half-angle about the boresight or normal), got {half!r} {unit}")
     return half * to_rad
 
