@@ -283,7 +283,10 @@ def test_fine_noise_from_a_three_sigma_datasheet_within_chi_square_bounds():
         ),
         (lambda: CoarseSunSensors.cube(period=1.0, fov_half_angle_rad=None), r"fov_half_angle_rad is required"),
         (lambda: CoarseSunSensors.cube(period=1.0, fov_half_angle_rad=-0.1), r"fov_half_angle_rad must be strictly"),
-        (lambda: CoarseSunSensors.cube(period=1.0, fov_half_angle_rad=2.0), r"fov_half_angle_rad must be in \(0, pi/2 rad\] .* got 2.0 rad"),
+        (
+            lambda: CoarseSunSensors.cube(period=1.0, fov_half_angle_rad=2.0),
+            r"fov_half_angle_rad must be in \(0, pi/2 rad\] .* got 2.0 rad",
+        ),
         (lambda: CoarseSunSensors(np.zeros((0, 3)), period=1.0, fov_half_angle_rad=1.0), r"normals_B must have shape"),
         (lambda: CoarseSunSensors([[1, 0, 0], [0, 0, 0]], period=1.0, fov_half_angle_rad=1.0), r"normals_B .* zero"),
         (lambda: CoarseSunSensors.cube(period=1.0, noise_fraction=-0.1), r"noise_fraction must be non-negative"),
