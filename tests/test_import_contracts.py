@@ -31,6 +31,7 @@ PHYSICS_MODULES = (
     "attitude.actuators",
     "attitude.environment",
     "attitude.sensors",
+    "attitude.sun_sensors",
     "attitude.simulation",
     "attitude.simulation.batch",
     "attitude.simulation.batch_estimated",
