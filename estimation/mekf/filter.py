@@ -7,6 +7,11 @@ quaternion ``q_hat`` (``q_BN``) and gyro bias ``b_hat`` [rad/s] live outside
 the Kalman state, whose six components are the error ``[delta_theta [rad],
 delta_b [rad/s]]``; gyro samples propagate it, star-tracker samples update
 it behind an innovation gate, and each update is followed by a reset.
+Vector measurements (:class:`attitude.simulation.protocols.VectorMeasurement`:
+a Sun sensor, a magnetometer with its field model) update it the same way,
+one at a time, with ``H = [[b_hat x] 0]`` projected on the plane
+perpendicular to the predicted vector ``b_hat = A(q_hat) r_N`` (2 degrees of
+freedom), so the filter runs on any subset of tracker and vectors.
 
 The batch (:mod:`estimation.mekf.batch`), the runner over recorded
 histories (:mod:`estimation.mekf.runner`) and the steady state
@@ -20,7 +25,7 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -30,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 from attitude import quaternion as quat
 from attitude.rigid_body import skew
 from attitude.sensors import Gyro, StarTracker, farrenkopf_process_noise
-from attitude.simulation.protocols import Estimate
+from attitude.simulation.protocols import Estimate, VectorMeasurement
 from attitude.validation import as_float_array, check_covariance, check_positive, positive_scalar
 from estimation.consistency import GATE_PROBABILITY, NIS_CAP, NisHealth, gate_threshold, nis_health
 
@@ -43,6 +48,7 @@ __all__ = [
     "initial_covariance",
     "process_noise",
     "transition_matrix",
+    "vector_update_model",
 ]
 
 _I3 = np.eye(3)
@@ -61,6 +67,9 @@ _COUNT_KEYS = (
     "gyro_missing",
     "gyro_nan",
     "gyro_rejected",
+    "vector_updates",
+    "vector_nan",
+    "vector_gated",
 )
 
 
@@ -269,8 +278,109 @@ def initial_covariance(*, attitude_sigma: float, bias_sigma: float) -> NDArray[n
     return np.diag([a**2] * 3 + [b**2] * 3)
 
 
+def _tangent_basis(b: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Orthonormal ``t1, t2`` with ``(t1, t2, b)`` right-handed, for a unit vector ``b`` (3,)."""
+    # Cross with the axis least aligned with b: |b x e| >= sqrt(2/3), no cancellation.
+    k = int(np.argmin(np.abs(b)))
+    e = np.zeros(3)
+    e[k] = 1.0
+    t1 = np.cross(b, e)
+    t1 /= math.sqrt(float(t1 @ t1))
+    return t1, np.cross(b, t1)
+
+
+def _dcm_BN_one(q: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``C_BN`` (3, 3) of one unit quaternion ``q_BN`` (maps N components to B components)."""
+    w, x, y, z = (float(c) for c in q)
+    return np.array(
+        [
+            [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y + w * z), 2.0 * (x * z - w * y)],
+            [2.0 * (x * y - w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z + w * x)],
+            [2.0 * (x * z + w * y), 2.0 * (y * z - w * x), 1.0 - 2.0 * (x * x + y * y)],
+        ]
+    )
+
+
+def _vector_model(
+    q_hat: NDArray[np.float64], m: VectorMeasurement
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Residual (2,), attitude Jacobian (2, 3), noise (2, 2) and predicted vector (3,) of one vector sample."""
+    b_pred = _dcm_BN_one(q_hat) @ m.reference_N
+    t1, t2 = _tangent_basis(b_pred)
+    # T (b - b_pred) = T b, since T b_pred = 0.
+    z = np.array([t1 @ m.vector_B, t2 @ m.vector_B])
+    # T [b_pred x]: the rows are t1 x b_pred = -t2 and t2 x b_pred = t1.
+    h = np.stack([-t2, t1])
+    if m.covariance is None:
+        r = (m.sigma * m.sigma) * np.eye(2)  # T sigma^2 (I - b b^T) T^T, exactly, with b the predicted vector
+    else:
+        tt = np.stack([t1, t2])
+        r = tt @ m.covariance @ tt.T
+    return z, h, r, b_pred
+
+
+def vector_update_model(
+    q_hat: ArrayLike, measurement: VectorMeasurement
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The MEKF's linearised model of one vector measurement at the attitude estimate ``q_hat``.
+
+    With ``b_hat = A(q_hat) r_N`` the predicted unit vector and ``T`` (2, 3)
+    an orthonormal basis of the plane perpendicular to it, the residual is
+    ``z = T (b - b_hat) = T b``, the Jacobian of ``b`` with respect to the
+    error state is ``[[b_hat x] 0]`` (Markley and Crassidis 2014, sec. 6.2;
+    Crassidis and Junkins, sec. 7.2), projected ``H = T [[b_hat x] 0]``, and
+    the noise ``R = T R3 T^T`` (``sigma^2 I`` for the QUEST model). See
+    docs/mekf.md, "Vector measurements".
+
+    Parameters
+    ----------
+    q_hat : array_like (4,)
+        Attitude estimate ``q_BN`` (unit norm).
+    measurement : VectorMeasurement
+        The sample.
+
+    Returns
+    -------
+    z : ndarray (2,)
+        Residual [rad].
+    H : ndarray (2, 6)
+        Measurement matrix of ``[delta_theta, delta_b]``.
+    R : ndarray (2, 2)
+        Noise covariance of ``z`` [rad^2].
+    """
+    q = quat.as_unit_quaternion(q_hat, "q_hat")
+    if q.shape != (4,):
+        raise ValueError(f"q_hat must have shape (4,), got shape {q.shape}")
+    m = _as_vector_measurement(measurement, "measurement")
+    if not m.valid:
+        raise ValueError(f"measurement.vector_B must be finite, got {m.vector_B.tolist()!r}")
+    z, h, r, _ = _vector_model(q, m)
+    return z, np.hstack([h, np.zeros((2, 3))]), r
+
+
 # ---------------------------------------------------------------------------
 # Validation
+
+
+def _as_vector_measurement(sample: Any, name: str) -> VectorMeasurement:
+    if isinstance(sample, VectorMeasurement):
+        return sample
+    if isinstance(sample, Mapping):
+        unknown = set(sample) - {"vector_B", "reference_N", "sigma", "covariance"}
+        if unknown or "vector_B" not in sample or "reference_N" not in sample:
+            raise ValueError(
+                f"vector measurement {name!r} must have the keys vector_B, reference_N and one of sigma and "
+                f"covariance, got keys {sorted(sample)}"
+            )
+        try:
+            return VectorMeasurement(**sample)
+        except ValueError as err:
+            raise ValueError(f"vector measurement {name!r}: {err}") from None
+    raise ValueError(
+        f"vector measurement {name!r} must be an attitude.simulation.protocols.VectorMeasurement, a mapping with "
+        f"its fields, or None; got {type(sample).__name__}"
+    )
+
 
 
 def _check_name(value: Any, name: str) -> str:
@@ -284,7 +394,7 @@ def _check_name(value: Any, name: str) -> str:
 
 
 class MEKF:
-    """Multiplicative EKF: attitude ``q_BN`` and gyro bias from a gyro and a star tracker.
+    """Multiplicative EKF: attitude ``q_BN`` and gyro bias from a gyro, a star tracker and vector sensors.
 
     See the module docstring for the equations. The object is also an
     estimator for :func:`attitude.simulation.engine.simulate`: :attr:`period` (the
@@ -307,6 +417,13 @@ class MEKF:
       ``gyro_rate_max`` as ``gyro_rejected``. The held rate's error is not in
       ``Q``: a long gyro outage makes the filter over-confident, which the
       counts and the NIS reveal;
+    - vector samples (:class:`attitude.simulation.protocols.VectorMeasurement`
+      or a mapping of its fields, read under ``vector_names``): each applied
+      in turn after the tracker, with its own reset and gate (2 degrees of
+      freedom); None: absent; a non-finite ``vector_B``: skipped, counted as
+      ``vector_nan``; above the gate: rejected, counted as ``vector_gated``.
+      Any subset of tracker and vectors may be present at a step (a tracker
+      blinded or in eclipse, a Sun sensor in eclipse);
     - a time that goes backwards raises ValueError (a repeated time
       propagates nothing and may still update);
     - a finite tracker quaternion whose norm differs from 1 by more than
@@ -343,6 +460,9 @@ class MEKF:
     gyro_name, tracker_name : str
         Keys of the gyro and tracker samples in the measurements (the
         sensors' ``name``).
+    vector_names : sequence of str, optional
+        Keys of the vector samples in the measurements (e.g.
+        ``("sun_sensor", "magnetometer")``), applied in this order.
     gate_probability : float or None
         Probability of the innovation gate, in (0, 1) (module docstring);
         default ``1 - 1e-9``; None disables the gate.
@@ -374,6 +494,7 @@ class MEKF:
         tracker_name: str = "star_tracker",
         gate_probability: float | None = GATE_PROBABILITY,
         gyro_rate_max: float | None = None,
+        vector_names: Sequence[str] = (),
     ) -> None:
         self.sigma_v = positive_scalar(sigma_v, "sigma_v")
         su = as_float_array(sigma_u, "sigma_u")
@@ -398,18 +519,29 @@ class MEKF:
         self.covariance_reset = covariance_reset
         self.gyro_name = _check_name(gyro_name, "gyro_name")
         self.tracker_name = _check_name(tracker_name, "tracker_name")
+        if isinstance(vector_names, str):
+            raise ValueError(f"vector_names must be a sequence of names, not one string, got {vector_names!r}")
+        self.vector_names = tuple(_check_name(v, "vector_names[]") for v in vector_names)
+        taken = {self.gyro_name, self.tracker_name}
+        if len(set(self.vector_names)) != len(self.vector_names) or taken & set(self.vector_names):
+            raise ValueError(
+                f"vector_names must be distinct and differ from gyro_name and tracker_name, got {self.vector_names!r}"
+            )
         if t0 is not None:
             t0 = float(as_float_array(t0, "t0"))
         if gate_probability is None:
             self.gate_probability = None
             #: The NIS gate ``chi2.ppf(gate_probability, 3)`` (inf when disabled).
             self.gate_threshold = math.inf
+            self.vector_gate_threshold = math.inf
         else:
             gp = as_float_array(gate_probability, "gate_probability")
             if gp.ndim != 0 or not 0.0 < float(gp) < 1.0:
                 raise ValueError(f"gate_probability must be a scalar in (0, 1) or None, got {gp.tolist()!r}")
             self.gate_probability = float(gp)
             self.gate_threshold = gate_threshold(self.gate_probability, 3)
+            #: The vector-sample gate ``chi2.ppf(gate_probability, 2)`` (the residual's 2 components).
+            self.vector_gate_threshold = gate_threshold(self.gate_probability, 2)
         #: Largest accepted gyro component [rad/s].
         self.gyro_rate_max = (
             math.pi / self.period if gyro_rate_max is None else positive_scalar(gyro_rate_max, "gyro_rate_max")
@@ -432,6 +564,9 @@ class MEKF:
         self._nis_t: list[float] = []
         self._nis: list[float] = []
         self._counts = dict.fromkeys(_COUNT_KEYS, 0)
+        self._vnis_t: list[float] = []
+        self._vnis_name: list[str] = []
+        self._vnis: list[float] = []
 
     @classmethod
     def from_sensors(
@@ -587,6 +722,11 @@ class MEKF:
         """Times [s] and NIS values of every tracker sample tested so far (applied or gated)."""
         return np.array(self._nis_t), np.array(self._nis)
 
+    @property
+    def vector_nis_history(self) -> tuple[NDArray[np.float64], tuple[str, ...], NDArray[np.float64]]:
+        """Times [s], sensor names and NIS values (2 dof) of every vector sample tested (applied or gated)."""
+        return np.array(self._vnis_t), tuple(self._vnis_name), np.array(self._vnis)
+
     def copy(self) -> MEKF:
         """An independent copy (state, covariance, counters and history)."""
         return copy.deepcopy(self)
@@ -607,18 +747,26 @@ class MEKF:
             Time [s]; must not go backwards.
         measurements : mapping
             Sensor name -> newest sample or None. Reads ``gyro_name``
-            ((3,) [rad/s]) and ``tracker_name`` ((4,) quaternion ``q_BN``);
-            other keys are ignored.
+            ((3,) [rad/s]), ``tracker_name`` ((4,) quaternion ``q_BN``) and
+            each of ``vector_names`` (:class:`VectorMeasurement`); other keys
+            are ignored.
 
         Returns
         -------
         attitude.simulation.engine.Estimate
             ``q_hat``, ``omega_hat = omega_meas - b_hat`` and ``covariance = P``.
         """
-        return self.step(t, measurements.get(self.gyro_name), measurements.get(self.tracker_name))
+        vectors = {name: measurements.get(name) for name in self.vector_names} if self.vector_names else None
+        return self.step(t, measurements.get(self.gyro_name), measurements.get(self.tracker_name), vectors)
 
-    def step(self, t: float, gyro: ArrayLike | None = None, tracker: ArrayLike | None = None) -> Estimate:
-        """Propagate to ``t`` with the gyro sample, then update with the tracker sample.
+    def step(
+        self,
+        t: float,
+        gyro: ArrayLike | None = None,
+        tracker: ArrayLike | None = None,
+        vectors: Mapping[str, Any] | Sequence[Any] | None = None,
+    ) -> Estimate:
+        """Propagate to ``t`` with the gyro sample, then update with the tracker and vector samples.
 
         Parameters
         ----------
@@ -630,6 +778,10 @@ class MEKF:
         tracker : array_like (4,), optional
             Star tracker attitude ``q_BN`` at ``t`` (None: no sample; NaN:
             skipped; above the innovation gate: rejected and counted).
+        vectors : mapping or sequence, optional
+            Vector samples at ``t``: name -> :class:`VectorMeasurement` (or a
+            mapping of its fields, or None), or a sequence of them (named
+            ``vector[i]`` in the history); applied in order after the tracker.
 
         Returns
         -------
@@ -639,13 +791,15 @@ class MEKF:
         ------
         ValueError
             If ``t`` is not finite or goes backwards, or a sample has the
-            wrong shape or (tracker) a finite non-unit norm.
+            wrong shape or (tracker) a finite non-unit norm, or a vector
+            sample is malformed (:class:`VectorMeasurement`).
         """
         t = float(as_float_array(t, "t"))
         if self._t is not None and t < self._t:
             raise ValueError(f"t must not go backwards: t = {t!r} s < previous time {self._t!r} s")
         rate = self._accept_gyro(gyro)
         q_meas = self._accept_tracker(tracker)
+        vector_samples = self._accept_vectors(vectors)
 
         if self._t is not None and t > self._t:
             held = rate if rate is not None else self._last_gyro
@@ -657,6 +811,8 @@ class MEKF:
         self._last_gated = False
         if q_meas is not None:
             self._correct(q_meas, t)
+        for name, m in vector_samples:
+            self._correct_vector(m, name, t)
         self._counts["steps"] += 1
         return self.estimate()
 
@@ -692,6 +848,29 @@ class MEKF:
             )
         return y / n
 
+    def _accept_vectors(self, vectors: Mapping[str, Any] | Sequence[Any] | None) -> list:
+        if vectors is None:
+            return []
+        if isinstance(vectors, Mapping):
+            items = list(vectors.items())
+        elif isinstance(vectors, (str, np.ndarray)) or not isinstance(vectors, Sequence):
+            raise ValueError(
+                "vectors must be a mapping name -> VectorMeasurement or a sequence of VectorMeasurement, got "
+                f"{type(vectors).__name__}"
+            )
+        else:
+            items = [(f"vector[{i}]", v) for i, v in enumerate(vectors)]
+        out = []
+        for name, sample in items:
+            if sample is None:
+                continue
+            m = _as_vector_measurement(sample, name)
+            if not m.valid:
+                self._counts["vector_nan"] += 1
+                continue
+            out.append((name, m))
+        return out
+
     def _propagate(self, rate: NDArray[np.float64], dt: float) -> None:
         w = rate - self._b
         self._q = _compose_one(self._q, w * dt)
@@ -717,20 +896,48 @@ class MEKF:
         kf.update(z)
         nis_value = float(kf.y @ kf.SI @ kf.y)
         self._last_innovation, self._last_S = np.array(kf.y, dtype=np.float64), np.array(kf.S, dtype=np.float64)
-        dtheta, db = kf.x[:3].copy(), kf.x[3:].copy()
+        self._reset(kf.x[:3].copy(), kf.x[3:].copy(), kf.P)
+        self._last_nis = nis_value
+        self._nis_t.append(t)
+        self._nis.append(nis_value)
+        self._counts["updates"] += 1
+
+    def _reset(self, dtheta: NDArray[np.float64], db: NDArray[np.float64], p: NDArray[np.float64]) -> None:
+        """Move the estimated error into ``q_hat`` and ``b_hat``, reset the covariance and zero ``x``."""
+        kf = self._kf
         self._q = _compose_one(self._q, dtheta)
         self._b = self._b + db
-        p = kf.P
         if self.covariance_reset == "second_order":
             g = np.eye(6)
             g[:3, :3] -= 0.5 * skew(dtheta)
             p = g @ p @ g.T
         kf.P = 0.5 * (p + p.T)
         kf.x = np.zeros(6)
-        self._last_nis = nis_value
-        self._nis_t.append(t)
-        self._nis.append(nis_value)
-        self._counts["updates"] += 1
+
+    def _correct_vector(self, m: VectorMeasurement, name: str, t: float) -> None:
+        z, h, r, _ = _vector_model(self._q, m)
+        p = self._kf.P
+        pht = p[:, :3] @ h.T  # P H^T (6, 2); H = [h 0]
+        s = h @ pht[:3] + r
+        # 2 x 2 inverse in closed form (S is symmetric positive definite: R is).
+        det = s[0, 0] * s[1, 1] - s[0, 1] * s[1, 0]
+        si = np.array([[s[1, 1], -s[0, 1]], [-s[1, 0], s[0, 0]]]) / det
+        nis_value = float(z @ si @ z)
+        self._vnis_t.append(t)
+        self._vnis_name.append(name)
+        if not nis_value <= self.vector_gate_threshold:
+            self._vnis.append(nis_value if nis_value <= NIS_CAP else NIS_CAP)
+            self._counts["vector_gated"] += 1
+            return
+        self._vnis.append(nis_value)
+        k = pht @ si
+        dx = k @ z
+        # Joseph form, as filterpy's update for the tracker: (I - K H) P (I - K H)^T + K R K^T.
+        ikh = np.eye(6)
+        ikh[:, :3] -= k @ h
+        p = ikh @ p @ ikh.T + k @ r @ k.T
+        self._reset(dx[:3], dx[3:], p)
+        self._counts["vector_updates"] += 1
 
     # -- reporting --------------------------------------------------------------------
 
@@ -741,7 +948,8 @@ class MEKF:
         tracker sample at this step; the rejected value for a gated one),
         ``gated`` (0/1 this step) and the running counts (``updates``,
         ``tracker_nan``, ``tracker_gated``, ``gyro_nan``, ``gyro_rejected``,
-        ``tracker_missing``, ``gyro_missing``).
+        ``tracker_missing``, ``gyro_missing``, ``vector_updates``,
+        ``vector_nan``, ``vector_gated``).
         """
         out: dict[str, Any] = {
             "bias": self._b.copy(),
@@ -757,6 +965,9 @@ class MEKF:
             "gyro_rejected",
             "tracker_missing",
             "gyro_missing",
+            "vector_updates",
+            "vector_nan",
+            "vector_gated",
         ):
             out[key] = float(self._counts[key])
         return out
