@@ -180,11 +180,12 @@ class VectorMeasurement:
         object.__setattr__(self, "reference_N", r)
         object.__setattr__(self, "sigma", sig)
         object.__setattr__(self, "covariance", cov)
+        object.__setattr__(self, "_valid", bool(np.all(np.isfinite(b))))
 
     @property
     def valid(self) -> bool:
         """False for a failed sample (a non-finite ``vector_B``)."""
-        return bool(np.all(np.isfinite(self.vector_B)))
+        return self._valid
 
 
 def _direction(value: ArrayLike, name: str, *, allow_nonfinite: bool) -> NDArray[np.float64]:

@@ -153,7 +153,7 @@ MIN_FRACTION = 0.85
 @pytest.mark.slow
 def test_vector_only_filter_converges_with_consistent_nees():
     # Sun sensor and magnetometer only, 2 deg initial attitude error per axis, through a 60 deg slew and a hold.
-    t, values, p = run_campaign(90.0, N_RUNS, seed=11, sig_a0=np.radians(2.0), tracker_on=lambda _t: False)
+    _, values, p = run_campaign(90.0, N_RUNS, seed=11, sig_a0=np.radians(2.0), tracker_on=lambda _t: False)
     sig_att = np.sqrt(np.trace(p[:, :, :3, :3], axis1=-2, axis2=-1) / 3.0)
     # Converges: from 2 deg to the vectors' level (sigma_sun = 0.06 deg bounds the two axes it sees, the
     # magnetometer's 0.3 deg the third) within the run.
@@ -212,8 +212,13 @@ def test_single_vector_leaves_rotation_about_it_unobservable():
     sv, su = 1e-4, 1e-6
     pa, pb = 1e-6, 1e-8
     f = MEKF(
-        sigma_v=sv, sigma_u=su, tracker_covariance=np.eye(3) * 1e-8, period=DT, q0=q,
-        P0=np.diag([pa] * 3 + [pb] * 3), t0=0.0,
+        sigma_v=sv,
+        sigma_u=su,
+        tracker_covariance=np.eye(3) * 1e-8,
+        period=DT,
+        q0=q,
+        P0=np.diag([pa] * 3 + [pb] * 3),
+        t0=0.0,
     )
     m = VectorMeasurement(b, r_N, sigma=1e-4)
     n = 600
@@ -269,8 +274,8 @@ def test_full_covariance_projects_onto_the_plane():
     q_hat = quat.random(1, rng)[0]
     r_N = np.array([0.0, 0.0, 1.0])
     b = c_BN(q_hat) @ r_N
-    z1, h1, r1 = vector_update_model(q_hat, VectorMeasurement(b, r_N, covariance=4e-6 * np.eye(3)))
-    z2, h2, r2 = vector_update_model(q_hat, VectorMeasurement(b, r_N, sigma=2e-3))
+    _, h1, r1 = vector_update_model(q_hat, VectorMeasurement(b, r_N, covariance=4e-6 * np.eye(3)))
+    _, h2, r2 = vector_update_model(q_hat, VectorMeasurement(b, r_N, sigma=2e-3))
     # T (s^2 I) T^T = s^2 I2 to rounding of the basis products (1e-16 relative).
     np.testing.assert_allclose(r1, r2, rtol=0, atol=1e-15 * 4e-6)
     np.testing.assert_array_equal(h1, h2)
@@ -279,8 +284,14 @@ def test_full_covariance_projects_onto_the_plane():
 def test_gate_nan_and_absent_vector_samples():
     q = quat.identity()
     f = MEKF(
-        sigma_v=1e-5, sigma_u=1e-7, tracker_covariance=np.eye(3) * 1e-8, period=DT, q0=q,
-        P0=initial_covariance(attitude_sigma=1e-3, bias_sigma=1e-5), t0=0.0, vector_names=NAMES,
+        sigma_v=1e-5,
+        sigma_u=1e-7,
+        tracker_covariance=np.eye(3) * 1e-8,
+        period=DT,
+        q0=q,
+        P0=initial_covariance(attitude_sigma=1e-3, bias_sigma=1e-5),
+        t0=0.0,
+        vector_names=NAMES,
     )
     p_before = f.P
     # 90 deg off: NIS ~ 1 / (P + sigma^2) ~ 5e5, far above the 2-dof gate chi2.ppf(1 - 1e-9, 2) = 41.4.
@@ -290,7 +301,7 @@ def test_gate_nan_and_absent_vector_samples():
     np.testing.assert_array_equal(f.q, q)
     np.testing.assert_array_equal(f.P, p_before)
     assert f.vector_gate_threshold == pytest.approx(stats.chi2.ppf(1 - 1e-9, 2))
-    times, names, values = f.vector_nis_history
+    _, names, values = f.vector_nis_history
     assert names == ("sun_sensor",) and values[0] > 1e5
     # A failed sample (NaN) is skipped and counted; a mapping of the fields is accepted.
     f.update(0.0, {"magnetometer": {"vector_B": [np.nan, 0, 0], "reference_N": [1, 0, 0], "sigma": 1e-2}})
@@ -325,8 +336,14 @@ def test_bad_vector_measurement_names_the_argument(kwargs, match):
 
 
 def test_bad_vector_input_to_the_filter_names_the_argument():
-    kw = {"sigma_v": 1e-5, "sigma_u": 1e-7, "tracker_covariance": np.eye(3) * 1e-8, "period": DT, "q0": [1, 0, 0, 0],
-          "P0": np.eye(6) * 1e-6}
+    kw = {
+        "sigma_v": 1e-5,
+        "sigma_u": 1e-7,
+        "tracker_covariance": np.eye(3) * 1e-8,
+        "period": DT,
+        "q0": [1, 0, 0, 0],
+        "P0": np.eye(6) * 1e-6,
+    }
     with pytest.raises(ValueError, match="vector_names must be a sequence"):
         MEKF(**kw, vector_names="sun_sensor")
     with pytest.raises(ValueError, match="vector_names must be distinct"):
