@@ -358,3 +358,35 @@ def test_bad_vector_input_to_the_filter_names_the_argument():
     with pytest.raises(ValueError, match="vectors must be a mapping"):
         f.step(0.0, None, None, np.ones(3))
     assert f.counts["steps"] == 0  # every check runs before the state changes
+
+
+def test_projected_update_equals_the_unprojected_three_axis_update():
+    # Crassidis and Junkins (sec. 7.2) update a vector with H3 = [[b_hat x] 0] and R = sigma^2 I3: b_hat is
+    # then an eigenvector of S that H3^T annihilates, so state and covariance updates equal the projected
+    # 2-dof ones (docs/mekf.md). Independent 3-axis computation here, Joseph form.
+    rng = np.random.default_rng(7)
+    q_hat = quat.random(1, rng)[0]
+    a = rng.standard_normal((6, 6))
+    p0 = a @ a.T * 1e-6 + np.eye(6) * 1e-7
+    r_N = np.array([0.3, -0.4, 0.866])
+    sigma = 2e-3
+    q_true = quat.multiply(q_hat, quat.from_rotation_vector([1e-3, -2e-3, 5e-4]))
+    b = c_BN(q_true) @ r_N
+    b /= np.linalg.norm(b)
+    f = MEKF(sigma_v=1e-5, sigma_u=1e-7, tracker_covariance=np.eye(3) * 1e-8, period=DT, q0=q_hat, P0=p0, t0=0.0)
+    f.step(0.0, None, None, [VectorMeasurement(b, r_N, sigma=sigma)])
+    b_hat = c_BN(q_hat) @ r_N / np.linalg.norm(r_N)
+    h3 = np.hstack(
+        [np.array([[0, -b_hat[2], b_hat[1]], [b_hat[2], 0, -b_hat[0]], [-b_hat[1], b_hat[0], 0]]), np.zeros((3, 3))]
+    )
+    s3 = h3 @ p0 @ h3.T + sigma**2 * np.eye(3)
+    k3 = p0 @ h3.T @ np.linalg.inv(s3)
+    dx = k3 @ (b - b_hat)
+    ikh = np.eye(6) - k3 @ h3
+    p3 = ikh @ p0 @ ikh.T + sigma**2 * k3 @ k3.T
+    # Equal to rounding (|dx| ~ 4e-4, |P| ~ 1e-5; cond(S3) ~ 1e3 bounds the relative rounding by ~1e-13):
+    # the radial part of b - b_hat is an eigenvector of S3 that H3^T annihilates exactly.
+    np.testing.assert_allclose(f.bias, dx[3:], rtol=0, atol=1e-13 * np.abs(dx).max())
+    q_expected = quat.normalize(quat.multiply(q_hat, quat.from_rotation_vector(dx[:3])))
+    np.testing.assert_allclose(f.q, q_expected, atol=1e-15)
+    np.testing.assert_allclose(f.P, p3, rtol=0, atol=1e-13 * np.abs(p0).max())
