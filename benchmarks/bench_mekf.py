@@ -6,6 +6,12 @@ advanced together by the batched numpy path of ``run_mekf``. Gyro at 10 Hz
 2 Hz, a slowly rotating body. The Monte Carlo case times a 50-run campaign
 through the batched path, measurement generation included and apart, in wall
 seconds (``time.perf_counter``) and CPU seconds (``time.process_time``).
+
+Vector measurements: one filter stepped by ``MEKF.step`` with the tracker
+only, then with the tracker and two vectors (a Sun sensor and a
+magnetometer, each a ``VectorMeasurement`` at every gyro step, the worst
+case), medians of interleaved repeats in one run, side by side; the
+requirement is a ratio of at least 0.5.
 """
 
 from __future__ import annotations
@@ -17,6 +23,7 @@ import numpy as np
 
 from attitude import quaternion as quat
 from attitude.sensors import Gyro, StarTracker
+from attitude.simulation.protocols import VectorMeasurement
 from estimation.mekf import MEKF, initial_covariance, run_mekf
 
 try:
@@ -72,6 +79,67 @@ def monte_carlo(n_runs: int = 50) -> dict[str, Any]:
     }
 
 
+#: Required ratio of steps per second, tracker + two vectors over tracker only.
+VECTOR_SPEED_RATIO_MIN = 0.5
+
+
+def vector_measurements(repeats: int = 5) -> dict[str, Any]:
+    """Steps per CPU second of one filter, tracker only vs tracker + Sun sensor + magnetometer (medians)."""
+    mekf, t, gyro_meas, tracker_meas, q_true = _data(1)
+    rng = np.random.default_rng(1)
+    sun_N = np.array([0.6, 0.7, 0.39])
+    c_BN = quat.to_dcm(q_true)
+    vectors = []
+    for k in range(N_STEPS):
+        field_N = np.array([np.cos(1e-3 * t[k]), 0.8 * np.sin(1e-3 * t[k]), 0.6])
+        vectors.append(
+            {
+                "sun_sensor": VectorMeasurement(c_BN[k] @ sun_N + 1e-3 * rng.standard_normal(3), sun_N, sigma=1e-3),
+                "magnetometer": VectorMeasurement(
+                    c_BN[k] @ field_N + 5e-3 * rng.standard_normal(3), field_N, sigma=5e-3
+                ),
+            }
+        )
+    trackers = [None if np.isnan(y[0]) else y for y in tracker_meas[0]]
+    base = mekf.copy()
+    with_vectors = MEKF(
+        sigma_v=base.sigma_v,
+        sigma_u=base.sigma_u,
+        tracker_covariance=base.tracker_covariance,
+        period=base.period,
+        q0=base.q,
+        P0=base.P,
+        vector_names=("sun_sensor", "magnetometer"),
+    )
+
+    def loop(use_vectors: bool) -> None:
+        f = (with_vectors if use_vectors else base).copy()
+        for k in range(N_STEPS):
+            f.step(t[k], gyro_meas[0, k], trackers[k], vectors[k] if use_vectors else None)
+        assert f.counts["vector_updates"] == (2 * N_STEPS if use_vectors else 0)
+
+    # Interleaved so that both see the same machine load.
+    times: dict[bool, list[float]] = {False: [], True: []}
+    loop(False), loop(True)  # warm-up
+    for _ in range(repeats):
+        for use_vectors in (False, True):
+            start = time.process_time()
+            loop(use_vectors)
+            times[use_vectors].append(time.process_time() - start)
+    tracker_only = N_STEPS / float(np.median(times[False]))
+    tracker_vectors = N_STEPS / float(np.median(times[True]))
+    ratio = tracker_vectors / tracker_only
+    return {
+        "case": f"MEKF.step, {N_STEPS} steps, gyro 10 Hz, tracker 2 Hz, two vectors at 10 Hz",
+        "tracker_only_steps_per_s": tracker_only,
+        "tracker_and_two_vectors_steps_per_s": tracker_vectors,
+        "ratio": ratio,
+        "ratio_min": VECTOR_SPEED_RATIO_MIN,
+        "ratio_ok": bool(ratio >= VECTOR_SPEED_RATIO_MIN),
+        "repeats": repeats,
+    }
+
+
 def run() -> dict[str, Any]:
     mekf, t, gyro_meas, tracker_meas, _ = _data(N_RUNS)
     mask = ~np.isnan(tracker_meas[..., 0])
@@ -82,6 +150,7 @@ def run() -> dict[str, Any]:
         "single_filter": {"cpu_s": single, "filter_steps_per_s": N_STEPS / single["median_s"]},
         f"batched_{N_RUNS}_runs": {"cpu_s": batch, "filter_steps_per_s": N_RUNS * N_STEPS / batch["median_s"]},
         "monte_carlo_50_runs": monte_carlo(),
+        "vector_measurements": vector_measurements(),
     }
 
 

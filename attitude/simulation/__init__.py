@@ -18,6 +18,7 @@ from attitude.simulation.protocols import (
     Estimator,
     Sensor,
     Truth,
+    VectorMeasurement,
 )
 
 __all__ = [
@@ -32,6 +33,7 @@ __all__ = [
     "SimulationDivergedError",
     "SimulationResult",
     "Truth",
+    "VectorMeasurement",
     "closed_loop_metrics",
     "settling_time_after",
     "simulate",

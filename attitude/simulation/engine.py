@@ -53,6 +53,7 @@ from attitude.simulation.protocols import (
     Estimator,
     Sensor,
     Truth,
+    VectorMeasurement,
 )
 from attitude.simulation.step_rule import TickRule, history_substeps
 from attitude.validation import as_float_array, check_positive, check_vector
@@ -97,7 +98,10 @@ class SimulationResult(ResultIO):
     logs : dict of ndarray
         Whatever the components logged (keys ``controller.*``, ``estimator.*``,
         ``sensor.<name>``, ``dipole_controller.*``), one row per tick, NaN where
-        a component did not sample.
+        a component did not sample. A sensor returning a
+        :class:`~attitude.simulation.protocols.VectorMeasurement` logs its unit
+        ``vector_B`` under ``sensor.<name>`` and its ``reference_N`` under
+        ``sensor.<name>.reference_N``.
     info : dict
         Engine details: tick, engine ("compiled" or "python"), wall time [s].
     disturbance_torques : dict of ndarray (n, 3)
@@ -677,7 +681,10 @@ def _run_python(
             sample = None
             if k % every[f"sensor {s.name}"] == 0:
                 sample = s.measure(tk, truth, gen)
-                if sample is not None:
+                if isinstance(sample, VectorMeasurement):
+                    # Logged as numbers: the measured direction and its reference.
+                    record("sensor", k, {s.name: sample.vector_B, f"{s.name}.reference_N": sample.reference_N})
+                elif sample is not None:
                     record("sensor", k, {s.name: sample})
             measurements[s.name] = sample
             samples[s.name] = sample

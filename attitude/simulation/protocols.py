@@ -15,7 +15,9 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
+
+from attitude.validation import as_float_array, describe, positive_scalar
 
 __all__ = [
     "BatchEstimator",
@@ -27,6 +29,7 @@ __all__ = [
     "Estimator",
     "Sensor",
     "Truth",
+    "VectorMeasurement",
 ]
 
 
@@ -97,6 +100,132 @@ class Estimate:
     h_wheels: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     h_body: NDArray[np.float64] = field(default_factory=lambda: np.zeros(3))
     covariance: NDArray[np.float64] | None = None
+
+
+@dataclass(frozen=True, init=False)
+class VectorMeasurement:
+    """A measured direction in body axes with its reference direction in N and its noise.
+
+    The sample a vector sensor (a Sun sensor, a magnetometer with the field
+    model's direction) hands an attitude estimator: the measured direction
+    ``vector_B``, the known direction of the same thing in the inertial frame
+    ``reference_N`` at the sample time (the Sun direction, the model field),
+    and the noise of the measured *unit* vector, either
+
+    - ``sigma`` [rad]: the QUEST measurement model (Shuster and Oh 1981;
+      Markley and Crassidis, *Fundamentals of Spacecraft Attitude
+      Determination and Control*, 2014, sec. 5.5 and 6.2), covariance
+      ``sigma^2 (I - b b^T)``: isotropic angular noise perpendicular to the
+      unit vector ``b``, none along it; or
+    - ``covariance`` (3, 3) [rad^2]: the covariance of the unit vector's
+      error, symmetric positive semi-definite, positive definite on the plane
+      perpendicular to ``vector_B`` (its component along the vector is
+      ignored: a unit vector's error along itself is second order and says
+      nothing about the attitude).
+
+    Both vectors are normalised on construction (their magnitudes, e.g. the
+    field strength in tesla, carry no attitude information): a magnetometer
+    with noise ``sigma_T`` per axis on a field of magnitude ``|B|`` has
+    ``sigma ~ sigma_T / |B|``. A ``vector_B`` with a NaN or infinite
+    component is kept as a failed sample, which an estimator skips; every
+    other bad value raises ValueError. Estimators read it from
+    ``Estimator.update``'s measurements under the sensor's name (None: no
+    sample at that time); :class:`estimation.mekf.MEKF` also accepts a
+    mapping with the same keys.
+
+    Parameters
+    ----------
+    vector_B : array_like (3,)
+        Measured direction in body axes (any non-zero length; NaN: failed sample).
+    reference_N : array_like (3,)
+        The same direction in N at the sample time (any non-zero length).
+    sigma : float, optional
+        Angular noise per axis perpendicular to the vector [rad] (> 0).
+    covariance : array_like (3, 3), optional
+        Covariance of the unit vector's error [rad^2]; exactly one of
+        ``sigma`` and ``covariance`` is given.
+
+    Raises
+    ------
+    ValueError
+        A vector of the wrong shape or zero length, a non-finite reference,
+        a non-positive ``sigma``, neither or both noise descriptions, or a
+        covariance that is not symmetric positive semi-definite with a
+        positive-definite part perpendicular to ``vector_B``.
+    """
+
+    vector_B: NDArray[np.float64]
+    reference_N: NDArray[np.float64]
+    sigma: float | None
+    covariance: NDArray[np.float64] | None
+
+    def __init__(
+        self,
+        vector_B: ArrayLike,
+        reference_N: ArrayLike,
+        *,
+        sigma: float | None = None,
+        covariance: ArrayLike | None = None,
+    ) -> None:
+        b = _direction(vector_B, "vector_B", allow_nonfinite=True)
+        r = _direction(reference_N, "reference_N", allow_nonfinite=False)
+        if (sigma is None) == (covariance is None):
+            raise ValueError(
+                "give exactly one of sigma [rad] (the QUEST model sigma^2 (I - b b^T)) and covariance (3, 3) "
+                f"[rad^2], got sigma={sigma!r} and covariance={describe(covariance)}"
+            )
+        sig = None if sigma is None else positive_scalar(sigma, "sigma")
+        cov = None if covariance is None else _vector_covariance(covariance, b)
+        object.__setattr__(self, "vector_B", b)
+        object.__setattr__(self, "reference_N", r)
+        object.__setattr__(self, "sigma", sig)
+        object.__setattr__(self, "covariance", cov)
+        object.__setattr__(self, "_valid", bool(np.all(np.isfinite(b))))
+
+    @property
+    def valid(self) -> bool:
+        """False for a failed sample (a non-finite ``vector_B``)."""
+        return self._valid
+
+
+def _direction(value: ArrayLike, name: str, *, allow_nonfinite: bool) -> NDArray[np.float64]:
+    v = as_float_array(value, name, allow_nonfinite=allow_nonfinite)
+    if v.shape != (3,):
+        raise ValueError(f"{name} must have shape (3,), got shape {v.shape}")
+    if not np.all(np.isfinite(v)):
+        out = np.full(3, np.nan)
+        out.flags.writeable = False
+        return out
+    n = float(np.sqrt(v @ v))
+    if not n > 0.0:
+        raise ValueError(f"{name} must have a non-zero length (it is normalised to a direction), got {describe(v)}")
+    out = v / n
+    out.flags.writeable = False
+    return out
+
+
+def _vector_covariance(value: ArrayLike, b: NDArray[np.float64]) -> NDArray[np.float64]:
+    c = as_float_array(value, "covariance")
+    if c.shape != (3, 3):
+        raise ValueError(f"covariance must have shape (3, 3) [rad^2], got shape {c.shape}")
+    scale = float(np.abs(c).max())
+    if not scale > 0.0 or not np.allclose(c, c.T, rtol=0.0, atol=1e-12 * scale):
+        raise ValueError(f"covariance must be symmetric and non-zero, got {describe(c)}")
+    c = 0.5 * (c + c.T)
+    eig = np.linalg.eigvalsh(c)
+    if eig[0] < -1e-12 * scale:
+        raise ValueError(f"covariance must be positive semi-definite, got eigenvalues {describe(eig)}")
+    if np.all(np.isfinite(b)):
+        # Its part perpendicular to the vector, the one the attitude sees, must be positive definite.
+        t = np.linalg.svd(np.eye(3) - np.outer(b, b))[0][:, :2]
+        eig2 = np.linalg.eigvalsh(t.T @ c @ t)
+        if not eig2[0] > 1e-12 * scale:
+            raise ValueError(
+                "covariance must be positive definite on the plane perpendicular to vector_B, got eigenvalues "
+                f"{describe(eig2)} there"
+            )
+    c.flags.writeable = False
+    return c
 
 
 @runtime_checkable
@@ -214,6 +343,12 @@ class Estimator(Protocol):
     sensor did not sample at ``t``), plus ``"torque_command"`` (the body
     torque command held over the last interval [N m]) and
     ``"wheel_momentum"`` (wheel tachometers [N m s]). Optional ``log() -> dict``.
+
+    Convention for direction sensors: a sensor whose sample is a measured
+    direction returns a :class:`VectorMeasurement` (the body vector, its
+    reference in N at the sample time and its noise), so the estimator needs
+    no environment model of its own; :class:`estimation.mekf.MEKF` reads the
+    names listed in its ``vector_names``.
     """
 
     period: float
