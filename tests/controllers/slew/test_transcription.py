@@ -27,25 +27,7 @@ Q_ID = [1.0, 0.0, 0.0, 0.0]
 Q_180X = quat.from_axis_angle([1.0, 0.0, 0.0], math.pi)
 
 
-def sigint_in_ipopt(monkeypatch, at_solve: int, at_iteration: int = 2) -> list[int]:
-    """Send SIGINT from IPOPT's iteration callback of the ``at_solve``-th solve (a Ctrl-C during that solve).
-
-    Returns the list counting the solves started.
-    """
-    original = transcription.Transcription.solve
-    count: list[int] = []
-
-    def solve(self, initial, values):
-        count.append(1)
-        if len(count) == at_solve:
-            self.opti.callback(lambda i: os.kill(os.getpid(), signal.SIGINT) if i == at_iteration else None)
-        return original(self, initial, values)
-
-    monkeypatch.setattr(transcription.Transcription, "solve", solve)
-    return count
-
-
-def test_ctrl_c_in_the_first_start_stops_planning(monkeypatch):
+def test_ctrl_c_in_the_first_start_stops_planning(monkeypatch, sigint_in_ipopt):
     # Two starts: the second used to run after the first was interrupted, and its plan was returned.
     solves = sigint_in_ipopt(monkeypatch, at_solve=1)
     with pytest.raises(KeyboardInterrupt):
@@ -54,7 +36,7 @@ def test_ctrl_c_in_the_first_start_stops_planning(monkeypatch):
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
-def test_ctrl_c_in_the_refinement_does_not_return_the_grid_plan(monkeypatch):
+def test_ctrl_c_in_the_refinement_does_not_return_the_grid_plan(monkeypatch, sigint_in_ipopt):
     # The refinement is the solve after the two grid starts; it used to be "rejected" and the grid plan returned.
     solves = sigint_in_ipopt(monkeypatch, at_solve=3)
     with pytest.raises(KeyboardInterrupt):
