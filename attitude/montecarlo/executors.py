@@ -43,7 +43,7 @@ Faults
   (``prctl(PR_SET_PDEATHSIG, SIGKILL)``, for fork and spawn); and a thread
   in each worker watches the campaign's process, through a pidfd where the
   kernel offers one (Linux >= 5.3: at once), else by polling every
-  ``_PARENT_POLL_S`` (0.25 s), and exits the worker when it is gone.
+  ``_PARENT_POLL_PERIOD_S`` (0.25 s), and exits the worker when it is gone.
 
 Checkpoint
 ----------
@@ -583,7 +583,7 @@ _WORKER_SCENARIO: Any = None
 
 #: How often a pool worker checks that its parent is still alive [s] (the bound on an orphan's life
 #: where the kernel cannot be asked to kill it).
-_PARENT_POLL_S = 0.25
+_PARENT_POLL_PERIOD_S = 0.25
 _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 
 
@@ -635,7 +635,7 @@ def _watch_parent(parent_pid: int, ppid: int, pidfd: int | None) -> None:
         select.select([pidfd], [], [])  # returns when the parent exits
         os._exit(1)
     while not _parent_gone(parent_pid, ppid):
-        time.sleep(_PARENT_POLL_S)
+        time.sleep(_PARENT_POLL_PERIOD_S)
     os._exit(1)
 
 
@@ -646,7 +646,7 @@ def _exit_with_parent(parent_pid: int) -> None:
     once, even while a run holds the GIL in C code, but follows the process that started the worker,
     which under forkserver is the fork server, and that server outlives the campaign's process for as
     long as its workers live. So a daemon thread also watches the campaign's process itself: it waits on
-    a pidfd where the kernel has them, else it polls every ``_PARENT_POLL_S`` whether this worker was
+    a pidfd where the kernel has them, else it polls every ``_PARENT_POLL_PERIOD_S`` whether this worker was
     reparented or the campaign's process is gone, and exits the worker.
 
     Parameters

@@ -18,7 +18,14 @@ string attribute is identified by what it is made of, never by its name:
 
 Functions and classes of the user's own code (any module outside the
 standard library, the installed packages and this toolkit) are identified by
-their content, whatever module they live in; those of the standard library,
+their content, whatever module they live in; so is a module of the user's
+reached as a value (``import helpers`` then ``helpers.g(x)``): by the
+attributes the code that reaches it looks up on it (the names in its code
+objects, followed through submodules: ``pkg.sub.g``), or, reached from data
+(an object's state, a class attribute), by everything it defines. A wrapper
+(``functools.lru_cache``, ``functools.wraps``: anything holding
+``__wrapped__``) is identified with the function it wraps, by content. Those
+of the standard library,
 of installed packages and of this toolkit by their module, qualified name and
 the package's ``__version__`` (they change with an upgrade, not with the
 user's edits). Line numbers and file names are left out: moving a function in
@@ -118,6 +125,10 @@ class _Hasher:
         self._sha = hashlib.sha256()
         self._seen: dict[int, int] = {}
         self._alive: list[Any] = []  # keeps every visited object alive, so no id() is reused meanwhile
+        # The attribute names the code being hashed looks up (None: reached from data, not code), which
+        # say what a user's module reached as a value contributes.
+        self._names: frozenset[str] | None = None
+        self._modules_seen: dict[tuple[int, frozenset[str] | None], int] = {}
 
     def digest(self, value: Any) -> str:
         self._value(value, "the scenario")
@@ -139,6 +150,9 @@ class _Hasher:
     def _value(self, value: Any, where: str) -> None:
         if isinstance(value, _PLAIN):
             self._text(type(value).__name__, repr(value))  # repr of a float round trips exactly
+            return
+        if isinstance(value, types.ModuleType):
+            self._module(value, where)  # not by id alone: what it contributes depends on the code reaching it
             return
         key = id(value)
         if key in self._seen:
@@ -174,8 +188,6 @@ class _Hasher:
             self._function(value, where)
         elif isinstance(value, type):
             self._class(value, where)
-        elif isinstance(value, types.ModuleType):
-            self._text("module", f"{value.__name__} {_version(value.__name__)}")
         elif isinstance(value, (staticmethod, classmethod)):
             self._put(type(value).__name__)
             self._value(value.__func__, where)
@@ -217,10 +229,39 @@ class _Hasher:
             self._value(getattr(code, name), where)
         self._value(code.co_consts, f"the constants of {code.co_name}")
 
+    def _module(self, module: types.ModuleType, where: str) -> None:
+        if _is_library(module.__name__):
+            self._text("module", f"{module.__name__} {_version(module.__name__)}")
+            return
+        key = (id(module), self._names)
+        if key in self._modules_seen:  # a cycle of imports
+            self._put("modref", struct.pack("<Q", self._modules_seen[key]))
+            return
+        self._modules_seen[key] = len(self._modules_seen)
+        self._alive.append(module)
+        defined = vars(module)
+        if self._names is None:
+            names = sorted(n for n in defined if not (n.startswith("__") and n.endswith("__")))
+        else:
+            names = sorted(n for n in self._names if n in defined)
+        self._text("usermodule", module.__name__)
+        self._put("attrs", struct.pack("<Q", len(names)))
+        for n in names:
+            self._text("attr", n)
+            self._value(defined[n], f"{module.__name__}.{n} (reached from {where})")
+
     def _function(self, func: types.FunctionType, where: str) -> None:
         if _is_library(func.__module__):
             self._reference(func)
+            self._wrapped(func, where)
             return
+        outer, self._names = self._names, frozenset(_global_names(func.__code__))
+        try:
+            self._user_function(func)
+        finally:
+            self._names = outer
+
+    def _user_function(self, func: types.FunctionType) -> None:
         name = f"{func.__module__}.{func.__qualname__}"
         self._text("function", func.__qualname__)
         self._code(func.__code__, name)
@@ -239,6 +280,13 @@ class _Hasher:
         if _is_library(cls.__module__):
             self._reference(cls)
             return
+        outer, self._names = self._names, None  # a module as a class attribute: any method may look up anything
+        try:
+            self._user_class(cls)
+        finally:
+            self._names = outer
+
+    def _user_class(self, cls: type) -> None:
         name = f"{cls.__module__}.{cls.__qualname__}"
         self._text("class", cls.__qualname__)
         self._value(cls.__bases__, f"the bases of {name}")
@@ -252,8 +300,23 @@ class _Hasher:
         module = getattr(value, "__module__", None) or ""
         self._text("ref", f"{module}:{getattr(value, '__qualname__', '')}:{_version(module)}")
 
+    def _wrapped(self, value: Any, where: str) -> None:
+        """The function a wrapper named by reference wraps (``__wrapped__``, set by functools), by content."""
+        attrs = getattr(value, "__dict__", None)
+        wrapped = attrs.get("__wrapped__") if isinstance(attrs, dict) else None
+        if wrapped is not None:
+            self._put("wraps")
+            self._value(wrapped, f"the function {where} wraps")
+
     def _reduced(self, value: Any, where: str) -> None:
         """Any other object, through the pickle protocol (its class and its state)."""
+        outer, self._names = self._names, None  # a module in an object's state: any method may look up anything
+        try:
+            self._reduced_state(value, where)
+        finally:
+            self._names = outer
+
+    def _reduced_state(self, value: Any, where: str) -> None:
         what = f"{where} ({type(value).__module__}.{type(value).__qualname__})"
         try:
             reduced = value.__reduce_ex__(4)
@@ -263,6 +326,7 @@ class _Hasher:
             ) from None
         if isinstance(reduced, str):  # a module-level singleton, pickled by name
             self._text("global", f"{type(value).__module__}.{reduced}")
+            self._wrapped(value, where)  # functools.lru_cache pickles by name: what it caches is its content
             return
         parts = list(reduced) + [None] * (6 - len(reduced))
         constructor, args, state, list_items, dict_items = parts[:5]

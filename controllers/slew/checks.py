@@ -180,6 +180,7 @@ def raise_failure(
     status = statuses[0]
     infeasible = any(s in INFEASIBLE for s in statuses)
     if objective == "energy" and duration is not None:
+        _raise_if_rate_limited(prob, duration, n, statuses, details)
         # Is the duration shorter than the minimum time? Solve the minimum-time problem coarsely to find out.
         g = base_guess(prob, min(n, 40), None)
         Xg, Ug = perturbed(prob, g[0], g[1], 0.2, np.random.default_rng(0))
@@ -229,6 +230,72 @@ def raise_failure(
     raise SlewPlanningError(
         f"slew planning failed (IPOPT: {', '.join(sorted(set(statuses)))} on {len(statuses)} start(s)): {cause}",
         status=status,
+        cause=cause,
+        details=details,
+    )
+
+
+def grid_rate_time(prob: Problem, n: int) -> float | None:
+    """The least duration [s] of any slew of the problem on a uniform grid of ``n`` intervals, by its rate limit.
+
+    Any path between the attitudes covers their rotation angle ``phi`` with
+    ``integral |omega| dt >= phi``. On the grid the torque is held over each
+    interval, so from the boundary rate ``omega0`` the rate changes linearly
+    over the first interval (up to gyroscopic terms of order
+    ``|J| rate_max^2``): it covers at most ``h (|omega0| + rate_max) / 2``
+    there, as much at the end, and ``h rate_max`` in each interval between.
+    Hence ``T >= n phi / (rate_max (n - 1) + (|omega0| + |omegaf|) / 2)``,
+    above the continuous bound ``phi / rate_max`` by the factor ``n / (n - 1)``
+    for a rest-to-rest slew.
+
+    Parameters
+    ----------
+    prob : Problem
+        The validated problem.
+    n : int
+        Number of intervals.
+
+    Returns
+    -------
+    float or None
+        The bound [s]; None without a rate limit.
+    """
+    if prob.rate_max is None:
+        return None
+    phi = axis_angle(prob.q0, prob.qf)[1]
+    ends = 0.5 * (np.linalg.norm(prob.omega0) + np.linalg.norm(prob.omegaf))
+    return float(n * phi / (prob.rate_max * (n - 1) + ends))
+
+
+def _raise_if_rate_limited(prob: Problem, duration: float, n: int, statuses: list[str], details: dict) -> None:
+    """InfeasibleSlewError when the duration is below the grid's rate-limited time (:func:`grid_rate_time`)."""
+    grid_time = grid_rate_time(prob, n)
+    if prob.rate_max is None or grid_time is None or duration >= grid_time:
+        return
+    rate = prob.rate_max
+    phi = axis_angle(prob.q0, prob.qf)[1]
+    ends = 0.5 * (np.linalg.norm(prob.omega0) + np.linalg.norm(prob.omegaf))
+    details["grid_minimum_time_s"] = grid_time
+    if duration * rate > phi:
+        # The smallest n with n phi <= duration (rate (n - 1) + ends).
+        fits = max(n + 1, math.ceil(duration * (rate - ends) / (duration * rate - phi) - 1e-9))
+        cause = (
+            f"the requested duration {duration:.6g} s is shorter than any slew of {math.degrees(phi):.6g} deg on a "
+            f"{n}-interval grid at rate_max={rate:.6g} rad/s: the torque is held over each interval, so the first "
+            f"and last intervals cover at most half an interval at the rate limit, and the grid needs at least "
+            f"{grid_time:.6g} s (a continuous slew needs at least phi / rate_max = {phi / rate:.6g} s); use "
+            f"nodes >= {fits} or duration >= {math.ceil(grid_time)} s"
+        )
+        details["nodes_that_fit"] = fits
+    else:
+        cause = (
+            f"the requested duration {duration:.6g} s is shorter than any slew of {math.degrees(phi):.6g} deg at "
+            f"rate_max={rate:.6g} rad/s: it needs at least {grid_time:.6g} s on a {n}-interval grid and "
+            f"phi / rate_max = {phi / rate:.6g} s in continuous time"
+        )
+    raise InfeasibleSlewError(
+        f"slew infeasible (IPOPT: {', '.join(sorted(set(statuses)))}): {cause}",
+        status=statuses[0],
         cause=cause,
         details=details,
     )

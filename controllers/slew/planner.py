@@ -54,7 +54,7 @@ from controllers.slew.problem import (
 )
 from controllers.slew.reference import axis_angle, eigenaxis_profile
 from controllers.slew.refine import REFINEMENT_SLACK, drop_empty, refine_phases
-from controllers.slew.transcription import check_ipopt_options, solve_grid
+from controllers.slew.transcription import check_ipopt_options, sigint_guard, solve_grid
 
 __all__ = [
     "plan_slew",
@@ -171,8 +171,9 @@ def plan_slew(
         IPOPT failed on every start (and on the eigenaxis fallback start), or
         the re-simulation missed the target.
     KeyboardInterrupt
-        Ctrl-C during a solve (docs/slew_planning.md, Interrupts): the
-        planning stops; no plan of the starts solved so far is returned.
+        Ctrl-C during the planning, a solve or the building of a problem
+        (docs/slew_planning.md, Interrupts): the planning stops; no plan of
+        the starts solved so far is returned.
 
     Warns
     -----
@@ -191,179 +192,181 @@ def plan_slew(
     >>> round(plan.refined_duration, 4), round(plan.eigenaxis_duration, 4)
     (3.2431, 3.5449)
     """
-    wall_start = time.perf_counter()
-    prob = validate(body, q0, qf, omega0, omegaf, torque_max, rate_max, keep_out, substeps, keep_out_margin)
-    if objective not in OBJECTIVES:
-        raise ValueError(f"objective must be one of {OBJECTIVES}, got {objective!r}")
-    if objective == "time" and duration is not None:
-        raise ValueError(f"duration must be None for objective='time' (the final time is free), got {duration!r}")
-    if objective == "energy":
-        if duration is None:
-            raise ValueError("duration [s] is required for objective='energy'")
-        duration = float(check_positive(duration, "duration"))
-    if refine is None:
-        refine = objective == "time"
-    if refine and objective != "time":
-        raise ValueError("refine is only available for objective='time' (switch-time refinement of bang-bang arcs)")
-    n = check_count(nodes, "nodes", 4)
-    starts = check_count(starts, "starts", 1)
-    max_iter = check_count(max_iter, "max_iter", 1)
-    refine_steps = n if refine_steps is None else check_count(refine_steps, "refine_steps", 4)
-    smoothing = float(check_positive(smoothing, "smoothing", allow_zero=True))
-    perturbation = float(check_positive(perturbation, "perturbation", allow_zero=True))
-    verify_tolerance = float(check_positive(verify_tolerance, "verify_tolerance"))
-    if initial_guess is not None and not isinstance(initial_guess, SlewPlan):
-        raise ValueError(f"initial_guess must be a SlewPlan, got {type(initial_guess).__name__}")
-    if objective == "time" and np.allclose(prob.omega0, prob.omegaf) and axis_angle(prob.q0, prob.qf)[1] == 0:
-        raise ValueError("q0 equals qf and omega0 equals omegaf: the minimum-time slew is empty")
-    check_not_blocked(prob)
-    gen = as_generator(rng)
-    options = check_ipopt_options(ipopt_options)
-    prob = prob.scaled_to(duration if duration is not None else _eigenaxis_time(prob))
-    duration_s = None if duration is None else duration / prob.t_s
-    notes: list[str] = []
+    with sigint_guard("slew planning interrupted (Ctrl-C)"):
+        wall_start = time.perf_counter()
+        prob = validate(body, q0, qf, omega0, omegaf, torque_max, rate_max, keep_out, substeps, keep_out_margin)
+        if objective not in OBJECTIVES:
+            raise ValueError(f"objective must be one of {OBJECTIVES}, got {objective!r}")
+        if objective == "time" and duration is not None:
+            raise ValueError(f"duration must be None for objective='time' (the final time is free), got {duration!r}")
+        if objective == "energy":
+            if duration is None:
+                raise ValueError("duration [s] is required for objective='energy'")
+            duration = float(check_positive(duration, "duration"))
+        if refine is None:
+            refine = objective == "time"
+        if refine and objective != "time":
+            raise ValueError("refine is only available for objective='time' (switch-time refinement of bang-bang arcs)")
+        n = check_count(nodes, "nodes", 4)
+        starts = check_count(starts, "starts", 1)
+        max_iter = check_count(max_iter, "max_iter", 1)
+        refine_steps = n if refine_steps is None else check_count(refine_steps, "refine_steps", 4)
+        smoothing = float(check_positive(smoothing, "smoothing", allow_zero=True))
+        perturbation = float(check_positive(perturbation, "perturbation", allow_zero=True))
+        verify_tolerance = float(check_positive(verify_tolerance, "verify_tolerance"))
+        if initial_guess is not None and not isinstance(initial_guess, SlewPlan):
+            raise ValueError(f"initial_guess must be a SlewPlan, got {type(initial_guess).__name__}")
+        if objective == "time" and np.allclose(prob.omega0, prob.omegaf) and axis_angle(prob.q0, prob.qf)[1] == 0:
+            raise ValueError("q0 equals qf and omega0 equals omegaf: the minimum-time slew is empty")
+        check_not_blocked(prob)
+        gen = as_generator(rng)
+        options = check_ipopt_options(ipopt_options)
+        prob = prob.scaled_to(duration if duration is not None else _eigenaxis_time(prob))
+        duration_s = None if duration is None else duration / prob.t_s
+        notes: list[str] = []
 
-    base_X, base_U, base_T = base_guess(prob, n, duration_s)
-    guesses = []
-    for i in range(starts):
-        if i == 0 and initial_guess is not None:
-            X0, U0, T0 = guess_from_plan(prob, initial_guess, n)
-            guesses.append((X0, project(prob, U0), T0 if duration_s is None else duration_s))
-            continue
-        # Later starts perturb more: they are there to explore other local optima.
-        X0, U0 = perturbed(prob, base_X, base_U, perturbation * (1.0 + 0.5 * i), gen)
-        guesses.append((X0, U0, base_T))
+        base_X, base_U, base_T = base_guess(prob, n, duration_s)
+        guesses = []
+        for i in range(starts):
+            if i == 0 and initial_guess is not None:
+                X0, U0, T0 = guess_from_plan(prob, initial_guess, n)
+                guesses.append((X0, project(prob, U0), T0 if duration_s is None else duration_s))
+                continue
+            # Later starts perturb more: they are there to explore other local optima.
+            X0, U0 = perturbed(prob, base_X, base_U, perturbation * (1.0 + 0.5 * i), gen)
+            guesses.append((X0, U0, base_T))
 
-    best, results = solve_grid(prob, n, objective, duration_s, smoothing, guesses, max_iter, options)
-    eig = eigenaxis_comparison(prob, torque_max)
-    # The eigenaxis slew itself as one more start (docs/slew_planning.md, Guess and multi-start): when no start
-    # converged, or when the best minimum-time answer is slower than an eigenaxis slew that meets every limit by
-    # more than the grid error.
-    fallback = None
-    if best is None or (objective == "time" and _wrong_optimum(eig, best.duration * prob.t_s, n)):
-        fallback = eigenaxis_start(prob, n, duration_s)
-        if fallback is not None:
-            alt, more = solve_grid(prob, n, objective, duration_s, smoothing, [fallback], max_iter, options)
-            results += more
-            if alt is not None and (best is None or alt.objective < best.objective):
-                best = alt
-    starts_info = [
-        {
-            "status": r.status,
-            "iterations": r.iterations,
-            "solve_time_s": r.solve_time,
-            "objective": r.objective,
-            "duration_s": r.duration * prob.t_s,
-        }
-        for r in results
-    ]
-    solve_time = sum(r.solve_time for r in results)
-    if best is None:
-        raise_failure(prob, objective, duration, results, n, options, max_iter)
+        best, results = solve_grid(prob, n, objective, duration_s, smoothing, guesses, max_iter, options)
+        eig = eigenaxis_comparison(prob, torque_max)
+        # The eigenaxis slew itself as one more start (docs/slew_planning.md, Guess and multi-start): when no start
+        # converged, or when the best minimum-time answer is slower than an eigenaxis slew that meets every limit by
+        # more than the grid error.
+        fallback = None
+        if best is None or (objective == "time" and _wrong_optimum(eig, best.duration * prob.t_s, n)):
+            fallback = eigenaxis_start(prob, n, duration_s)
+            if fallback is not None:
+                alt, more = solve_grid(prob, n, objective, duration_s, smoothing, [fallback], max_iter, options)
+                results += more
+                if alt is not None and (best is None or alt.objective < best.objective):
+                    best = alt
+        starts_info = [
+            {
+                "status": r.status,
+                "iterations": r.iterations,
+                "solve_time_s": r.solve_time,
+                "objective": r.objective,
+                "duration_s": r.duration * prob.t_s,
+            }
+            for r in results
+        ]
+        solve_time = sum(r.solve_time for r in results)
+        if best is None:
+            raise_failure(prob, objective, duration, results, n, options, max_iter)
 
-    grid_duration = best.duration * prob.t_s
-    chosen = best
-    refined_duration = None
-    switch_times = np.zeros(0)
-    refine_info: dict[str, Any] = {"requested": bool(refine)}
-    if refine:
-        sol, rinfo = refine_phases(prob, best, refine_steps, max_iter, options)
-        refine_info.update(rinfo)
-        if sol is not None:
-            solve_time += sol.solve_time
-            if not sol.converged:
-                refine_info["status"] = f"rejected: IPOPT {sol.status}"
-            elif sol.duration > best.duration * (1 + REFINEMENT_SLACK):
-                refine_info["status"] = (
-                    f"rejected: refined time {sol.duration * prob.t_s:.6g} s exceeds the grid time "
-                    f"{grid_duration:.6g} s (the detected switching structure is wrong)"
-                )
-            else:
-                chosen = drop_empty(sol)
-                refined_duration = sol.duration * prob.t_s
-                # Boundaries between phases of non-zero length (empty phases collapse onto a neighbour).
-                d = np.asarray(rinfo["phase_durations"])
-                tol = 1e-9 * refined_duration
-                after = np.cumsum(d[::-1])[::-1]
-                keep = (d > tol) & (after - d > tol)
-                switch_times = np.cumsum(d)[keep]
-    t, torque, ratio = _trajectory(prob, chosen)
-    try:
-        check = verify(prob, t, torque, verify_tolerance)
-    except SlewPlanningError as exc:
-        if chosen is best:
-            raise
-        # The refined answer misses the target on re-simulation (a phase far shorter than the slew, e.g. the
-        # accelerations of a slew at a tight rate limit, at an acceptable-level IPOPT answer): keep the grid one.
-        refine_info["status"] = f"rejected: {exc}"
-        chosen, refined_duration, switch_times = best, None, np.zeros(0)
+        grid_duration = best.duration * prob.t_s
+        chosen = best
+        refined_duration = None
+        switch_times = np.zeros(0)
+        refine_info: dict[str, Any] = {"requested": bool(refine)}
+        if refine:
+            sol, rinfo = refine_phases(prob, best, refine_steps, max_iter, options)
+            refine_info.update(rinfo)
+            if sol is not None:
+                solve_time += sol.solve_time
+                if not sol.converged:
+                    refine_info["status"] = f"rejected: IPOPT {sol.status}"
+                elif sol.duration > best.duration * (1 + REFINEMENT_SLACK):
+                    refine_info["status"] = (
+                        f"rejected: refined time {sol.duration * prob.t_s:.6g} s exceeds the grid time "
+                        f"{grid_duration:.6g} s (the detected switching structure is wrong)"
+                    )
+                else:
+                    chosen = drop_empty(sol)
+                    refined_duration = sol.duration * prob.t_s
+                    # Boundaries between phases of non-zero length (empty phases collapse onto a neighbour).
+                    d = np.asarray(rinfo["phase_durations"])
+                    tol = 1e-9 * refined_duration
+                    after = np.cumsum(d[::-1])[::-1]
+                    keep = (d > tol) & (after - d > tol)
+                    switch_times = np.cumsum(d)[keep]
         t, torque, ratio = _trajectory(prob, chosen)
-        check = verify(prob, t, torque, verify_tolerance)
-    if refine and refined_duration is None and not str(refine_info.get("status", "")).startswith("skipped"):
-        notes.append(f"slew refinement not used ({refine_info.get('status')}); returning the {n}-node grid solution")
-    h = np.diff(t)
-    energy = float(np.sum(np.sum(torque[:-1] ** 2, axis=1) * h))
-    duration_out = float(t[-1])
-    if objective == "time":
-        note = slower_than_eigenaxis(eig, duration_out, n, str(refine_info.get("status", "not requested")))
-        if note:
-            notes.append(note)
-    for note in notes:
-        warnings.warn(note, RuntimeWarning, stacklevel=2)
-    bore, direc, half = cone_arrays(prob.cones)
-    info = {
-        "scaling": {"inertia_kg_m2": prob.j_s, "torque_n_m": prob.tau_s, "time_s": prob.t_s},
-        "nodes": n,
-        "substeps": prob.substeps,
-        "smoothing": smoothing,
-        "perturbation": perturbation,
-        "keep_out_margin": prob.keep_out_margin,
-        "torque_set": prob.torque_set.label,
-        "keep_out_names": [c.name for c in prob.cones],
-        "starts": starts_info,
-        "best_start": int(results.index(best)),
-        "eigenaxis_fallback": fallback is not None,
-        "grid_status": best.status,
-        "grid_iterations": best.iterations,
-        "refinement": refine_info,
-        "energy_n2m2s": energy,
-        "torque_clip_ratio": float(np.max(ratio)),
-        "verification": {k: v for k, v in check.items() if k != "separation_min"},
-        "eigenaxis_enters_keep_out": eig.get("enters_keep_out"),
-        "eigenaxis_separation_min_deg": eig.get("separation_min_deg"),
-        "warnings": notes,
-    }
-    return SlewPlan(
-        t=t,
-        q=chosen.X[:4].T.copy(),
-        omega=chosen.X[4:].T / prob.t_s,
-        torque=torque,
-        duration=duration_out,
-        objective=objective,
-        objective_value=duration_out if objective == "time" else energy,
-        status=chosen.status,
-        iterations=chosen.iterations,
-        wall_time=time.perf_counter() - wall_start,
-        solve_time=solve_time,
-        grid_duration=grid_duration,
-        refined_duration=refined_duration,
-        switch_times=switch_times,
-        final_attitude_error=check["final_attitude_error"],
-        final_rate_error=check["final_rate_error"],
-        separation_min=check["separation_min"],
-        rate_peak=check["rate_peak"],
-        q_target=prob.qf.copy(),
-        omega_target=prob.omegaf.copy(),
-        inertia=prob.body.inertia,
-        torque_envelope=prob.torque_set.envelope.copy(),
-        torque_rows=prob.torque_set.rows.copy(),
-        rate_max=prob.rate_max,
-        keep_out_boresight_B=bore,
-        keep_out_direction_N=direc,
-        keep_out_half_angle=half,
-        eigenaxis_duration=eig.get("duration_s"),
-        info=info,
-    )
+        try:
+            check = verify(prob, t, torque, verify_tolerance)
+        except SlewPlanningError as exc:
+            if chosen is best:
+                raise
+            # The refined answer misses the target on re-simulation (a phase far shorter than the slew, e.g. the
+            # accelerations of a slew at a tight rate limit, at an acceptable-level IPOPT answer): keep the grid one.
+            refine_info["status"] = f"rejected: {exc}"
+            chosen, refined_duration, switch_times = best, None, np.zeros(0)
+            t, torque, ratio = _trajectory(prob, chosen)
+            check = verify(prob, t, torque, verify_tolerance)
+        if refine and refined_duration is None and not str(refine_info.get("status", "")).startswith("skipped"):
+            status = refine_info.get("status")
+            notes.append(f"slew refinement not used ({status}); returning the {n}-node grid solution")
+        h = np.diff(t)
+        energy = float(np.sum(np.sum(torque[:-1] ** 2, axis=1) * h))
+        duration_out = float(t[-1])
+        if objective == "time":
+            note = slower_than_eigenaxis(eig, duration_out, n, str(refine_info.get("status", "not requested")))
+            if note:
+                notes.append(note)
+        for note in notes:
+            warnings.warn(note, RuntimeWarning, stacklevel=2)
+        bore, direc, half = cone_arrays(prob.cones)
+        info = {
+            "scaling": {"inertia_kg_m2": prob.j_s, "torque_n_m": prob.tau_s, "time_s": prob.t_s},
+            "nodes": n,
+            "substeps": prob.substeps,
+            "smoothing": smoothing,
+            "perturbation": perturbation,
+            "keep_out_margin": prob.keep_out_margin,
+            "torque_set": prob.torque_set.label,
+            "keep_out_names": [c.name for c in prob.cones],
+            "starts": starts_info,
+            "best_start": int(results.index(best)),
+            "eigenaxis_fallback": fallback is not None,
+            "grid_status": best.status,
+            "grid_iterations": best.iterations,
+            "refinement": refine_info,
+            "energy_n2m2s": energy,
+            "torque_clip_ratio": float(np.max(ratio)),
+            "verification": {k: v for k, v in check.items() if k != "separation_min"},
+            "eigenaxis_enters_keep_out": eig.get("enters_keep_out"),
+            "eigenaxis_separation_min_deg": eig.get("separation_min_deg"),
+            "warnings": notes,
+        }
+        return SlewPlan(
+            t=t,
+            q=chosen.X[:4].T.copy(),
+            omega=chosen.X[4:].T / prob.t_s,
+            torque=torque,
+            duration=duration_out,
+            objective=objective,
+            objective_value=duration_out if objective == "time" else energy,
+            status=chosen.status,
+            iterations=chosen.iterations,
+            wall_time=time.perf_counter() - wall_start,
+            solve_time=solve_time,
+            grid_duration=grid_duration,
+            refined_duration=refined_duration,
+            switch_times=switch_times,
+            final_attitude_error=check["final_attitude_error"],
+            final_rate_error=check["final_rate_error"],
+            separation_min=check["separation_min"],
+            rate_peak=check["rate_peak"],
+            q_target=prob.qf.copy(),
+            omega_target=prob.omegaf.copy(),
+            inertia=prob.body.inertia,
+            torque_envelope=prob.torque_set.envelope.copy(),
+            torque_rows=prob.torque_set.rows.copy(),
+            rate_max=prob.rate_max,
+            keep_out_boresight_B=bore,
+            keep_out_direction_N=direc,
+            keep_out_half_angle=half,
+            eigenaxis_duration=eig.get("duration_s"),
+            info=info,
+        )
 
 
 def _eigenaxis_time(prob: Problem) -> float | None:

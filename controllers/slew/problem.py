@@ -203,9 +203,13 @@ class Problem:
     j_s : float
         Inertia scale: the largest principal moment [kg m^2].
     tau_s : float
-        Torque scale: the largest per-axis torque [N m].
+        Torque scale ``j_s / t_s^2`` [N m]: the largest per-axis torque as
+        validated, smaller after :meth:`scaled_to` lengthens ``t_s`` for a
+        long slew (the torque bounds are then ``>= 1`` in its units).
     t_s : float
-        Time scale ``sqrt(j_s / tau_s)`` [s].
+        Time scale [s]: ``sqrt(j_s / tau_max)`` for the largest per-axis
+        torque ``tau_max``, or longer after :meth:`scaled_to`; always
+        ``sqrt(j_s / tau_s)``.
     keep_out_margin : bool, optional
         Add the second-order margin between checkpoints (docs/keep_out.md).
     """

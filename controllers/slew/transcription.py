@@ -30,6 +30,7 @@ __all__ = [
     "Transcription",
     "check_ipopt_options",
     "interval_function",
+    "sigint_guard",
     "solve_grid",
     "solve_nlp",
 ]
@@ -254,16 +255,22 @@ class Transcription:
 USER_STOP = "User_Requested_Stop"
 
 
+#: The flags of the SIGINT guards active in the main thread, innermost last.
+_GUARDS: list[list[bool]] = []
+
+
 @contextmanager
 def _sigint_seen() -> Iterator[list[bool]]:
-    """Note whether SIGINT raised KeyboardInterrupt inside the block (casadi swallows it inside a solve).
+    """Note whether SIGINT raised KeyboardInterrupt inside the block (casadi may swallow it).
 
     casadi polls for Ctrl-C inside IPOPT's callbacks, runs the Python handler
     there, and turns the KeyboardInterrupt into an aborted solve
     (``NonIpopt_Exception_Thrown`` in casadi 3.8) with no Python exception
-    left: the flag is what remains of it. Handlers other than a Python
-    callable (SIG_IGN in a campaign's worker, SIG_DFL) and threads other
-    than the main one (where Python sets no handlers) are left alone.
+    left; while it builds a problem, its SWIG layer discards a
+    KeyboardInterrupt raised in a Python callback (an array's ``shape``): the
+    flag is what remains of it. Handlers other than a Python callable
+    (SIG_IGN in a campaign's worker, SIG_DFL) and threads other than the main
+    one (where Python sets no handlers) are left alone.
     """
     seen = [False]
     previous = signal.getsignal(signal.SIGINT)
@@ -279,10 +286,53 @@ def _sigint_seen() -> Iterator[list[bool]]:
             raise
 
     signal.signal(signal.SIGINT, handler)
+    _GUARDS.append(seen)
     try:
         yield seen
     finally:
+        _GUARDS.pop()  # guards nest: this one is the innermost
         signal.signal(signal.SIGINT, previous)
+
+
+@contextmanager
+def sigint_guard(what: str) -> Iterator[None]:
+    """Raise KeyboardInterrupt at the end of the block if SIGINT arrived in it, whatever casadi did with it.
+
+    The planner runs inside one guard (:func:`controllers.slew.planner.plan_slew`)
+    and each solve inside another (:func:`solve_nlp`), which also refuses to
+    start once an enclosing guard has seen Ctrl-C: a Ctrl-C swallowed while a
+    problem was being built stops the planning at its next solve at the
+    latest. An exception that replaced the interrupt (casadi turns some into
+    a TypeError) gives way to KeyboardInterrupt. The previous handler is
+    restored on every path.
+
+    Parameters
+    ----------
+    what : str
+        The KeyboardInterrupt's message.
+
+    Raises
+    ------
+    KeyboardInterrupt
+        SIGINT arrived inside the block.
+    """
+    with _sigint_seen() as seen:
+        try:
+            yield
+        except KeyboardInterrupt:
+            raise
+        except BaseException as exc:
+            if seen[0]:
+                raise KeyboardInterrupt(what) from exc
+            raise
+    if seen[0]:
+        raise KeyboardInterrupt(what)
+
+
+def _raise_if_interrupted(what: str) -> None:
+    """KeyboardInterrupt if an enclosing guard has seen SIGINT (swallowed by casadi since)."""
+    if any(seen[0] for seen in _GUARDS):
+        raise KeyboardInterrupt(what)
 
 
 def solve_nlp(opti: ca.Opti) -> dict[str, Any]:
@@ -292,7 +342,8 @@ def solve_nlp(opti: ca.Opti) -> dict[str, Any]:
     (any IPOPT status) returns normally, its status in the statistics; a
     solve stopped by Ctrl-C raises KeyboardInterrupt instead of coming back
     as one more failed start (or a rejected refinement) from which the
-    planner would go on and return another plan.
+    planner would go on and return another plan. No solve starts once an
+    enclosing :func:`sigint_guard` has seen Ctrl-C.
 
     Parameters
     ----------
@@ -302,17 +353,20 @@ def solve_nlp(opti: ca.Opti) -> dict[str, Any]:
     Raises
     ------
     KeyboardInterrupt
-        SIGINT arrived during the solve, or IPOPT stopped on the user's
-        request (:data:`USER_STOP`).
+        SIGINT arrived during the solve or before it inside an enclosing
+        :func:`sigint_guard`, or IPOPT stopped on the user's request
+        (:data:`USER_STOP`).
     """
-    with _sigint_seen() as interrupted:
+    what = "slew planning interrupted (Ctrl-C during an IPOPT solve)"
+    _raise_if_interrupted("slew planning interrupted (Ctrl-C while the problem was built)")
+    with sigint_guard(what):
         try:
             opti.solve()
         except RuntimeError:
             pass  # not converged: the status says why
     stats = opti.stats()
-    if interrupted[0] or stats.get("return_status") == USER_STOP:
-        raise KeyboardInterrupt("slew planning interrupted (Ctrl-C during an IPOPT solve)")
+    if stats.get("return_status") == USER_STOP:
+        raise KeyboardInterrupt(what)
     return stats
 
 

@@ -712,30 +712,10 @@ def campaign_table(out: Path) -> list[dict[str, str]]:
         return [{k: v for k, v in row.items() if k not in TIMING_COLUMNS} for row in csv.DictReader(f)]
 
 
-def sigint_in_ipopt(monkeypatch, at_solve: int = 1, at_iteration: int = 2) -> None:
-    """Deliver SIGINT inside IPOPT's iteration loop of the planner's ``at_solve``-th solve (a real Ctrl-C).
-
-    The signal is sent from IPOPT's per-iteration callback, so it arrives while
-    the solver runs, deterministically, as a key press would.
-    """
-    import signal
-
-    from controllers.slew import transcription
-
-    original = transcription.Transcription.solve
-    count = [0]
-
-    def solve(self, initial, values):
-        count[0] += 1
-        if count[0] == at_solve:
-            self.opti.callback(lambda i: os.kill(os.getpid(), signal.SIGINT) if i == at_iteration else None)
-        return original(self, initial, values)
-
-    monkeypatch.setattr(transcription.Transcription, "solve", solve)
-
-
 @pytest.mark.slow
-def test_montecarlo_ctrl_c_while_planning_stops_and_the_same_command_resumes(tmp_path, monkeypatch, capsys):
+def test_montecarlo_ctrl_c_while_planning_stops_and_the_same_command_resumes(
+    tmp_path, monkeypatch, capsys, sigint_in_ipopt
+):
     """Ctrl-C while the slew is planned: exit 130, no table; the same command then gives the uninterrupted table.
 
     IPOPT used to swallow the interrupt: the planner went on with another start

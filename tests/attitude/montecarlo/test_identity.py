@@ -198,3 +198,118 @@ def test_identities_are_the_same_in_every_process_whatever_the_hash_seed(tmp_pat
         outputs.append(json.loads(out))
     assert outputs[0] == outputs[1]
     assert len(set(outputs[0].values())) == len(outputs[0])
+
+
+HELPERS = """
+import functools
+
+SCALE = 2.0
+
+
+def g(x):
+    return SCALE * x
+
+
+@functools.lru_cache(maxsize=None)
+def cached(x):
+    return 2.0 * x
+
+
+def traced(func):
+    @functools.wraps(func)
+    def wrapper(*args):
+        return func(*args)
+
+    return wrapper
+
+
+@traced
+def wrapped(x):
+    return 2.0 * x
+
+
+def untraced(func):
+    def wrapper(*args):
+        return func(*args)
+
+    return wrapper
+
+
+def twice(params, rng, k=2.0):
+    return {"y": k * params["x"]}
+"""
+
+SCENARIO = """
+import functools
+import user_helpers
+
+
+def through_module(params, rng):
+    return {"y": user_helpers.g(params["x"])}
+
+
+def through_package(params, rng):
+    return {"y": user_helpers.sub.g(params["x"])}
+
+
+def cached(params, rng):
+    return {"y": user_helpers.cached(params["x"])}
+
+
+def wrapped(params, rng):
+    return {"y": user_helpers.wrapped(params["x"])}
+
+
+PARTIAL = functools.partial(user_helpers.twice, k=1.0)
+
+
+class Holder:
+    def __init__(self):
+        self.helpers = user_helpers
+
+    def __call__(self, params, rng):
+        return {"y": self.helpers.g(params["x"])}
+
+
+HOLDER = Holder()
+"""
+
+# (scenario attribute, edit of the helpers' source): the scenario reaches the edited code only
+# through an attribute of the user's module it imports, or through a wrapper of the edited function.
+HELPER_EDITS = {
+    "module function": ("through_module", ("return SCALE * x", "return SCALE * x + 1.0")),
+    "module constant": ("through_module", ("SCALE = 2.0", "SCALE = 3.0")),
+    "submodule function": ("through_package", ("return SCALE * x", "return SCALE / x")),
+    "lru_cache": ("cached", ("def cached(x):\n    return 2.0", "def cached(x):\n    return 3.0")),
+    "functools.wraps": ("wrapped", ("def wrapped(x):\n    return 2.0", "def wrapped(x):\n    return 3.0")),
+    "partial": ("PARTIAL", ("k * params", "k / params")),
+    "module in instance state": ("HOLDER", ("return SCALE * x", "return SCALE - x")),
+}
+
+
+def user_package(monkeypatch, helpers: str) -> types.ModuleType:
+    """The scenario module, importing ``user_helpers`` (itself holding a submodule ``sub``) built from ``helpers``."""
+    package = user_module(monkeypatch, helpers, "user_helpers")
+    package.sub = user_module(monkeypatch, helpers, "user_helpers.sub")
+    return user_module(monkeypatch, SCENARIO, "user_scenario")
+
+
+@pytest.mark.parametrize("edit", list(HELPER_EDITS))
+def test_an_edit_of_a_helper_module_refuses_the_old_checkpoint(edit, monkeypatch, tmp_path):
+    attribute, (old, new) = HELPER_EDITS[edit]
+    assert HELPERS.count(old) == 1
+    first = run_campaign(campaign(getattr(user_package(monkeypatch, HELPERS), attribute)), workers=1, out_dir=tmp_path)
+    assert list(first.status) == ["ok"] * 3
+    edited = getattr(user_package(monkeypatch, HELPERS.replace(old, new)), attribute)
+    with pytest.raises(ValueError, match="checkpoint of a different campaign"):
+        run_campaign(campaign(edited), workers=1, out_dir=tmp_path)
+    same = getattr(user_package(monkeypatch, HELPERS), attribute)
+    again = run_campaign(campaign(same), workers=1, out_dir=tmp_path)
+    assert again.info["resumed_runs"] == 3
+
+
+def test_a_helper_module_is_identified_by_what_the_scenario_uses_of_it(monkeypatch):
+    """An edit of a part of the helper module the scenario never looks up keeps its identity."""
+    before = scenario_identity(user_package(monkeypatch, HELPERS).through_module)
+    unrelated = HELPERS.replace("def twice(params, rng, k=2.0)", "def twice(params, rng, k=5.0)")
+    assert scenario_identity(user_package(monkeypatch, unrelated).through_module) == before

@@ -226,6 +226,25 @@ class TestMinimumEnergy:
         # The reported minimum time is a coarse-grid estimate of 3.2431 s (grid error < 1 %).
         assert info.value.details["minimum_time_s"] == pytest.approx(3.2431, rel=1e-2)
 
+    def test_a_duration_the_grid_cannot_fit_names_the_nodes_that_do(self):
+        """A slow rate-limited energy slew: feasible in continuous time, not on a 20-interval grid.
+
+        A rate-limited slew covers its angle phi with integral |omega| dt >= phi and |omega| <= rate_max,
+        so it needs at least phi / rate_max = 15,708 s (90 deg at 1e-4 rad/s). On the grid the torque is
+        held over each interval: from rest, the first and last intervals cover at most half an interval
+        at the rate limit, so n intervals of T / n cover at most rate_max T (n - 1) / n, and T >= 15,708 *
+        n / (n - 1) s: 16,535 s for 20 intervals, 15,999.0 s for 55, 16,004 s for 54 (by hand). 16,000 s
+        fits 55 intervals, not 54 nor 20.
+        """
+        kw = {"torque_max": 0.02, "rate_max": 1e-4, "objective": "energy", "duration": 1.6e4}
+        with pytest.raises(InfeasibleSlewError, match=r"nodes >= 55 or duration >= 16535") as info:
+            plan_slew(SMALLSAT, Q_ID, Q_90Z, nodes=20, **kw)
+        assert "admit no slew" not in str(info.value)
+        assert info.value.details["grid_minimum_time_s"] == pytest.approx(math.pi / 2 / 1e-4 * 20 / 19, rel=1e-12)
+        # The count it names is enough: the optimiser itself finds the slew on that grid.
+        plan = plan_slew(SMALLSAT, Q_ID, Q_90Z, nodes=55, **kw)
+        assert plan.duration == pytest.approx(1.6e4, rel=1e-12)
+
 
 class TestSmallSatellite:
     def test_time_between_rate_bound_and_eigenaxis_reference(self, smallsat_free):

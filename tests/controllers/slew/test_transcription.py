@@ -12,38 +12,22 @@ import math
 import os
 import signal
 
+import casadi as ca
+import numpy as np
 import pytest
 
 from attitude import RigidBody
 from attitude import quaternion as quat
 from controllers.slew import transcription
 from controllers.slew.planner import plan_slew
-from controllers.slew.transcription import solve_nlp
+from controllers.slew.transcription import sigint_guard, solve_nlp
 
 UNIT = RigidBody([1.0, 1.0, 1.0])
 Q_ID = [1.0, 0.0, 0.0, 0.0]
 Q_180X = quat.from_axis_angle([1.0, 0.0, 0.0], math.pi)
 
 
-def sigint_in_ipopt(monkeypatch, at_solve: int, at_iteration: int = 2) -> list[int]:
-    """Send SIGINT from IPOPT's iteration callback of the ``at_solve``-th solve (a Ctrl-C during that solve).
-
-    Returns the list counting the solves started.
-    """
-    original = transcription.Transcription.solve
-    count: list[int] = []
-
-    def solve(self, initial, values):
-        count.append(1)
-        if len(count) == at_solve:
-            self.opti.callback(lambda i: os.kill(os.getpid(), signal.SIGINT) if i == at_iteration else None)
-        return original(self, initial, values)
-
-    monkeypatch.setattr(transcription.Transcription, "solve", solve)
-    return count
-
-
-def test_ctrl_c_in_the_first_start_stops_planning(monkeypatch):
+def test_ctrl_c_in_the_first_start_stops_planning(monkeypatch, sigint_in_ipopt):
     # Two starts: the second used to run after the first was interrupted, and its plan was returned.
     solves = sigint_in_ipopt(monkeypatch, at_solve=1)
     with pytest.raises(KeyboardInterrupt):
@@ -52,7 +36,7 @@ def test_ctrl_c_in_the_first_start_stops_planning(monkeypatch):
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
-def test_ctrl_c_in_the_refinement_does_not_return_the_grid_plan(monkeypatch):
+def test_ctrl_c_in_the_refinement_does_not_return_the_grid_plan(monkeypatch, sigint_in_ipopt):
     # The refinement is the solve after the two grid starts; it used to be "rejected" and the grid plan returned.
     solves = sigint_in_ipopt(monkeypatch, at_solve=3)
     with pytest.raises(KeyboardInterrupt):
@@ -105,3 +89,63 @@ def test_ignored_sigint_is_left_alone(monkeypatch):
     monkeypatch.setattr(signal, "signal", lambda *a: installed.append(a))
     assert solve_nlp(_SwallowingOpti("Solve_Succeeded", interrupt=False))["return_status"] == "Solve_Succeeded"
     assert installed == []
+
+
+class _SigintOnShape(np.ndarray):
+    """An array whose shape casadi reads through Python while it builds an expression: a Ctrl-C arriving there.
+
+    casadi's SWIG layer discards the KeyboardInterrupt raised in that callback (it returns its result as if
+    nothing happened), so without a guard around the whole planning it is lost.
+    """
+
+    @property
+    def shape(self):
+        os.kill(os.getpid(), signal.SIGINT)
+        return np.ndarray.shape.__get__(self)
+
+
+def test_casadi_discards_an_interrupt_in_a_python_callback():
+    # The premise of the next test: no exception leaves casadi.
+    assert np.array_equal(np.asarray(ca.DM(np.zeros(3).view(_SigintOnShape))).ravel(), np.zeros(3))
+
+
+def test_ctrl_c_while_the_problem_is_built_stops_planning(monkeypatch):
+    original = transcription.Transcription.__init__
+    built: list[int] = []
+
+    def init(self, *args, **kwargs):
+        original(self, *args, **kwargs)
+        built.append(1)
+        if len(built) == 1:
+            ca.DM(np.zeros(3).view(_SigintOnShape))  # a casadi call back into Python during the build
+
+    solves: list[int] = []
+    original_solve = ca.Opti.solve
+
+    def solve(self):
+        solves.append(1)
+        return original_solve(self)
+
+    monkeypatch.setattr(transcription.Transcription, "__init__", init)
+    monkeypatch.setattr(ca.Opti, "solve", solve)
+    with pytest.raises(KeyboardInterrupt):
+        plan_slew(UNIT, Q_ID, Q_180X, torque_max=1.0, nodes=20, starts=2)
+    assert solves == []  # stopped at the first solve after the interrupt, before IPOPT ran
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_an_error_casadi_made_of_an_interrupt_gives_way_to_it():
+    # casadi turns a KeyboardInterrupt in an operand's callback into "unsupported operand type(s)" (TypeError).
+    with pytest.raises(KeyboardInterrupt) as caught, sigint_guard("stopped"):
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+        except KeyboardInterrupt:
+            raise TypeError("unsupported operand type(s) for +: 'MX' and 'ndarray'") from None
+    assert isinstance(caught.value.__cause__, TypeError)
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_an_error_without_interrupt_passes_through_the_guard():
+    with pytest.raises(TypeError), sigint_guard("stopped"):
+        raise TypeError("a bug, not a Ctrl-C")
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
