@@ -5,8 +5,9 @@ it imports :mod:`estimation`; no ground-floor module imports it.
 
 The truth is the slew flown in closed loop in section 4 (attitude, body rate
 and wheel momenta at the gyro sample times). Each run draws its own gyro
-errors from the Farrenkopf model of the file's gyro (angle and rate random
-walk, :meth:`attitude.sensors.Gyro.sample_errors`), its star-tracker noise
+errors from the file's gyro (angle random walk, the bias instability as a
+Gauss-Markov bias, rate random walk: :meth:`attitude.sensors.Gyro.sample_errors`;
+the filters model the bias as a random walk tuned by ``Gyro.filter_sigma_u``), its star-tracker noise
 and its initial estimation errors from the filters' initial covariance, so a
 consistent filter has an average NEES inside the chi-square band from the
 first step on. The gyro's deterministic errors (scale factor, misalignment,

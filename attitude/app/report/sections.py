@@ -505,7 +505,9 @@ def _estimation(results: dict[str, Any]) -> list[Block]:
         Paragraph(
             f"Both filters run over {e['truth']} ({e['steps']} gyro steps of {fmt(e['gyro_period_s'])} s; star "
             f"tracker every {e['tracker_every_steps']} steps, {e['tracker_blinded_steps']} steps blinded by the "
-            "Sun). Each Monte Carlo run draws its own gyro noise (the file's angle and rate random walk), "
+            "Sun). Each Monte Carlo run draws its own gyro noise (the file's angle random walk, its bias "
+            "instability as a Gauss-Markov bias and its rate random walk; the filters model the bias as a random walk "
+            "tuned by Gyro.filter_sigma_u), "
             "star-tracker noise and initial errors from the filters' initial covariance: "
             f"{fmt(e['attitude_sigma0_deg'])} deg attitude, {fmt(e['bias_sigma0_deg_per_h'])} deg/h bias and "
             f"{fmt(e['rate_sigma0_deg_per_s'])} deg/s rate (1 sigma per axis). A consistent filter keeps the "
