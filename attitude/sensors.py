@@ -23,7 +23,15 @@ from numpy.typing import ArrayLike, NDArray
 from attitude import quaternion as quat
 from attitude.rigid_body import skew
 from attitude.rng import NormalStreams, as_generator
-from attitude.validation import as_float_array, check_positive, check_vector, describe, positive_scalar, scalar_time
+from attitude.validation import (
+    as_float_array,
+    check_direction,
+    check_positive,
+    check_vector,
+    describe,
+    positive_scalar,
+    scalar_time,
+)
 
 __all__ = [
     "ARCSEC",
@@ -379,15 +387,6 @@ def _per_axis(value: ArrayLike, name: str) -> NDArray[np.float64]:
     out.flags.writeable = False
     return out
 
-
-def _unit_vector(value: ArrayLike, name: str) -> NDArray[np.float64]:
-    arr = check_vector(value, name, 3)
-    if arr.shape != (3,):
-        raise ValueError(f"{name} must have shape (3,), got shape {arr.shape}")
-    n = float(np.linalg.norm(arr))
-    if n == 0.0:
-        raise ValueError(f"{name} must be a non-zero vector (it is normalised), got {describe(arr)}")
-    return arr / n
 
 
 def _misalignment_matrix(value: ArrayLike) -> NDArray[np.float64]:
@@ -1535,7 +1534,7 @@ class StarTracker:
         self.sigma_cross = positive_scalar(sigma_cross_rad, "sigma_cross_rad")
         self.sigma_roll = positive_scalar(sigma_roll_rad, "sigma_roll_rad")
         self.period = positive_scalar(period, "period")
-        self.boresight_B = _unit_vector(boresight_B, "boresight_B")
+        self.boresight_B = check_direction(boresight_B, "boresight_B")
         self.boresight_B.flags.writeable = False
         #: Sensor axes in body components (columns); the third is the boresight.
         self.C_BS = _sensor_frame(self.boresight_B)
@@ -1554,7 +1553,7 @@ class StarTracker:
                 raise ValueError(f"sun_exclusion_rad must be in (0, pi) [rad], got {half!r}")
             self.sun_exclusion = half
             self.sun_direction_N = (
-                sun_direction_N if callable(sun_direction_N) else _unit_vector(sun_direction_N, "sun_direction_N")
+                sun_direction_N if callable(sun_direction_N) else check_direction(sun_direction_N, "sun_direction_N")
             )
         if not isinstance(name, str) or not name:
             raise ValueError(f"name must be a non-empty string, got {name!r}")
@@ -1678,7 +1677,7 @@ class StarTracker:
         if self.sun_direction_N is None:
             return None
         if callable(self.sun_direction_N):
-            return _unit_vector(self.sun_direction_N(t), "sun_direction_N(t)")
+            return check_direction(self.sun_direction_N(t), "sun_direction_N(t)")
         return self.sun_direction_N
 
     def sun_blinded(self, t: float, q_BN: ArrayLike) -> bool | NDArray[np.bool_]:

@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from attitude.rng import as_generator
-from attitude.validation import as_float_array, check_vector, describe, positive_scalar, scalar_time
+from attitude.validation import as_float_array, check_direction, check_vector, describe, positive_scalar, scalar_time
 
 __all__ = ["CoarseSunSensors", "FineSunSample", "FineSunSensor", "SunVectorEstimate"]
 
@@ -36,15 +36,6 @@ def _name(name: str) -> str:
         raise ValueError(f"name must be a non-empty string, got {name!r}")
     return name
 
-
-def _unit(value: ArrayLike, name: str) -> NDArray[np.float64]:
-    arr = check_vector(value, name, 3)
-    if arr.shape != (3,):
-        raise ValueError(f"{name} must have shape (3,), got shape {arr.shape}")
-    n = float(np.linalg.norm(arr))
-    if n == 0.0:
-        raise ValueError(f"{name} must be a non-zero vector (it is normalised), got {describe(arr)}")
-    return arr / n
 
 
 def _fov(value: ArrayLike, name: str, *, to_rad: float, unit: str, closed_at_90: bool) -> float:
@@ -69,7 +60,7 @@ def _sun(truth: Any, who: str) -> tuple[NDArray[np.float64], float]:
             f"{who} needs truth.sun_B (the Sun direction in body axes) and truth.illumination (0 umbra .. 1 full "
             "Sun), got None: fly it with an environment (simulate(..., environment=OrbitEnvironment(...)))"
         )
-    sun_B = _unit(sun_B, "truth.sun_B")
+    sun_B = check_direction(sun_B, "truth.sun_B")
     illum = float(as_float_array(illumination, "truth.illumination"))
     if not 0.0 <= illum <= 1.0:
         raise ValueError(f"truth.illumination must be in [0, 1], got {illum!r}")
@@ -269,7 +260,7 @@ class CoarseSunSensors:
             raise ValueError(f"tilt_rad must be in (0, pi/2) [rad], got {tilt!r}")
         if not isinstance(n_cells, int | np.integer) or n_cells < 3:
             raise ValueError(f"n_cells must be an integer >= 3 (fewer cannot span 3 axes), got {n_cells!r}")
-        axis = _unit(axis_B, "axis_B")
+        axis = check_direction(axis_B, "axis_B")
         helper = np.zeros(3)
         helper[int(np.argmin(np.abs(axis)))] = 1.0
         u = np.cross(helper, axis)
@@ -527,13 +518,13 @@ class FineSunSensor:
         self.sigma = positive_scalar(sigma_rad, "sigma_rad", allow_zero=True)
         self.period = positive_scalar(period, "period")
         self.fov_half_angle = _fov(fov_half_angle_rad, "fov_half_angle_rad", to_rad=1.0, unit="rad", closed_at_90=False)
-        z = _unit(boresight_B, "boresight_B")
+        z = check_direction(boresight_B, "boresight_B")
         if x_axis_B is None:
             helper = np.zeros(3)
             helper[int(np.argmin(np.abs(z)))] = 1.0
             x = np.cross(helper, z)
         else:
-            x_in = _unit(x_axis_B, "x_axis_B")
+            x_in = check_direction(x_axis_B, "x_axis_B")
             x = x_in - (x_in @ z) * z
             if np.linalg.norm(x) < 1e-6:
                 raise ValueError(f"x_axis_B must not be along boresight_B, got {describe(x_in)} and {describe(z)}")
@@ -647,7 +638,7 @@ class FineSunSensor:
         -------
         bool
         """
-        s = _unit(sun_B, "sun_B")
+        s = check_direction(sun_B, "sun_B")
         return bool(s @ self.C_BS[:, 2] >= np.cos(self.fov_half_angle))
 
     def sample(self, t: float, truth: Any, rng: Any = None) -> FineSunSample | None:

@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 __all__ = [
     "as_float_array",
     "check_covariance",
+    "check_direction",
     "check_positive",
     "check_time_grid",
     "check_vector",
@@ -110,6 +111,35 @@ def check_vector(value: ArrayLike, name: str, length: int) -> NDArray[np.float64
     if arr.ndim == 0 or arr.shape[-1] != length:
         raise ValueError(f"{name} must have shape (..., {length}), got shape {arr.shape}")
     return arr
+
+
+def check_direction(value: ArrayLike, name: str) -> NDArray[np.float64]:
+    """A finite, non-zero 3-vector, normalised: a direction given by any vector along it.
+
+    Parameters
+    ----------
+    value : array_like, shape (3,)
+        The vector (any length but zero).
+    name : str
+        Argument name for the error message.
+
+    Returns
+    -------
+    ndarray, shape (3,)
+        The unit vector along ``value``.
+
+    Raises
+    ------
+    ValueError
+        If ``value`` is not a finite 3-vector or is zero.
+    """
+    arr = check_vector(value, name, 3)
+    if arr.shape != (3,):
+        raise ValueError(f"{name} must have shape (3,), got shape {arr.shape}")
+    n = float(np.linalg.norm(arr))
+    if n == 0.0:
+        raise ValueError(f"{name} must be a non-zero vector (it is normalised), got {describe(arr)}")
+    return arr / n
 
 
 def check_positive(value: ArrayLike, name: str, *, allow_zero: bool = False) -> NDArray[np.float64]:
