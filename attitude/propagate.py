@@ -447,33 +447,93 @@ def _propagate_fixed(
     asked = _substeps(t, max_step)
     dt = np.diff(t)
     rate = np.linalg.norm(omega0, axis=-1)[..., None]
-    turn = gyroscopic_turn_rate(body, omega0)[..., None]
-    subs = _rule_substeps(rate, turn, dt, asked, asked, method, budget, max_step)
+    tau0 = None if kind == "callable" else (tq if kind == "const" else tq[0])
+    turn = gyroscopic_turn_rate(body, omega0, torque=tau0)[..., None]
+    subs, message = _rule_substeps(rate, turn, dt, asked, asked, method, budget, max_step)
     sampled_body = body if not body.batch_shape else RigidBody(body.inertia[..., None, :, :])
-    for _ in range(RULE_PASSES):
+    met = True
+    for passes in range(1, RULE_PASSES + 1):
         if method == "rk4" and not batch and kind != "callable":
-            q, omega, info = _propagate_rk4_casadi(body, q0, omega0, t, kind, tq, subs)
+            q, omega, info, peaks = _propagate_rk4_casadi(body, q0, omega0, t, kind, tq, subs)
         else:
             # A diverging run overflows; _check_finite reports it as an error.
             with np.errstate(over="ignore", invalid="ignore"):
-                q, omega, info = _propagate_fixed_numpy(body, q0, omega0, t, kind, tq, batch, subs, method)
+                q, omega, info, peaks = _propagate_fixed_numpy(body, q0, omega0, t, kind, tq, batch, subs, method)
         if not (np.all(np.isfinite(omega)) and np.all(np.isfinite(q))):
             break  # _check_finite names the divergence
-        ends = np.linalg.norm(omega, axis=-1)
-        rate = np.maximum(ends[..., :-1], ends[..., 1:])
-        nu = gyroscopic_turn_rate(sampled_body, omega)
-        turn = np.maximum(nu[..., :-1], nu[..., 1:])
-        needed = _rule_substeps(rate, turn, dt, subs, asked, method, budget, max_step)
+        rate, turn = _flown_rates(sampled_body, omega, kind, tq, peaks)
+        needed, again = _rule_substeps(rate, turn, dt, subs, asked, method, budget, max_step)
         if np.all(needed <= subs):
             break
-        subs = needed
-    error = predicted_attitude_error(rate, dt, turn, substeps=subs, method=method)
+        message = again
+        if passes == RULE_PASSES:
+            met = False  # the count the rates flown ask for was never run: say so rather than rerun forever
+        else:
+            subs = needed
+    error = float(np.max(predicted_attitude_error(rate, dt, turn, substeps=subs, method=method), initial=0.0))
+    if message is not None:
+        if met:
+            note = (
+                f"; sub-stepped to {int(np.max(subs))} steps per output interval (step {float(np.min(dt / subs)):.3g}"
+                f" s), predicted error {error:.4g} rad within the budget {budget:.4g} rad"
+            )
+        else:
+            note = (
+                f"; after {RULE_PASSES} runs, sub-stepped to {int(np.max(subs))} steps per output interval, the "
+                f"result is NOT within the budget: predicted error {error:.4g} rad against {budget:.4g} rad "
+                "(pass a smaller max_step)"
+            )
+        warnings.warn(
+            f"{message}{note}. method='geometric' is exact for a constant rate and method='adaptive' controls its "
+            "own error; attitude_error_budget_rad sets the budget",
+            StepSizeWarning,
+            stacklevel=3,
+        )
     info["step_rule"] = {
-        "predicted_error_rad": float(np.max(error, initial=0.0)),
+        "predicted_error_rad": error,
         "budget_rad": budget,
         "substeps_added": bool(np.any(subs > asked)),
     }
     return q, omega, info
+
+
+def _flown_rates(
+    sampled_body: RigidBody, omega: NDArray[np.float64], kind: str, tq: Any, peaks: tuple[NDArray, NDArray]
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``|omega|`` and the turn rate over each output interval, the largest at its ends and every step inside.
+
+    Parameters
+    ----------
+    sampled_body : RigidBody
+        The body, batched inertias given an axis for the samples.
+    omega : ndarray, shape batch + (n, 3)
+        Body rates at the output samples [rad/s].
+    kind : {"const", "grid", "callable"}
+        Torque kind; a callable's torque is in ``peaks`` (evaluated at the samples during the run).
+    tq : ndarray or callable
+        Torque [N m] of that kind.
+    peaks : (ndarray, ndarray), shape batch + (n - 1,)
+        Largest ``|omega|`` and turn rate at the step starts inside each interval [rad/s].
+
+    Returns
+    -------
+    rate, turn : ndarray, shape batch + (n - 1,)
+        [rad/s].
+    """
+    ends = np.linalg.norm(omega, axis=-1)
+    rate = np.maximum(np.maximum(ends[..., :-1], ends[..., 1:]), peaks[0])
+    if kind == "callable":
+        nu = gyroscopic_turn_rate(sampled_body, omega)
+        turn = np.maximum(nu[..., :-1], nu[..., 1:])
+    else:
+        held = tq if kind == "const" else np.moveaxis(tq[:-1], 0, -2)  # interval k flies under tq[k]
+        if kind == "const":
+            held = np.asarray(held)[..., None, :]
+        turn = np.maximum(
+            gyroscopic_turn_rate(sampled_body, omega[..., :-1, :], torque=held),
+            gyroscopic_turn_rate(sampled_body, omega[..., 1:, :], torque=held),
+        )
+    return rate, np.maximum(turn, peaks[1])
 
 
 def _rule_substeps(
@@ -485,8 +545,8 @@ def _rule_substeps(
     method: str,
     budget: float,
     max_step: float | None,
-) -> NDArray[np.int64]:
-    """Steps per interval the rule asks for, warning when it adds steps and refusing when it adds too many.
+) -> tuple[NDArray[np.int64], str | None]:
+    """Steps per interval the rule asks for, refusing when it adds too many.
 
     Parameters
     ----------
@@ -507,14 +567,16 @@ def _rule_substeps(
 
     Returns
     -------
-    ndarray of int, shape (n - 1,)
+    needed : ndarray of int, shape (n - 1,)
         Steps per interval (``subs`` itself when the rule holds).
+    message : str or None
+        The broken rule, for the caller's one warning (None when it holds).
     """
     rate = np.broadcast_to(rate, (*rate.shape[:-1], dt.size))
     turn = np.broadcast_to(turn, rate.shape)
     needed = substeps_for_budget(rate, dt, turn, substeps=subs, budget_rad=budget, method=method)
     if np.all(needed <= subs):
-        return subs
+        return subs, None
     needed = np.maximum(needed, subs)
     worst = int(np.argmax(needed / asked))
     rate_max = float(np.max(rate[..., worst]))
@@ -533,14 +595,7 @@ def _rule_substeps(
             f"{MAX_RULE_SUBSTEPS}: pass max_step <= {h_new:.3g} s (max_step = {max_step!r}), or use "
             "method='geometric' (exact attitude for a constant rate) or method='adaptive'"
         )
-    warnings.warn(
-        f"{rule}; sub-stepped to {int(np.max(needed))} steps per output interval (step {h_new:.3g} s). "
-        "method='geometric' is exact for a constant rate and method='adaptive' controls its own error; "
-        "attitude_error_budget_rad sets the budget",
-        StepSizeWarning,
-        stacklevel=4,
-    )
-    return needed
+    return needed, rule
 
 
 class PropagationDivergedError(FloatingPointError):
@@ -702,7 +757,16 @@ def _propagate_rk4_casadi(
         x = xs[:, hi - 1]
     ends = np.cumsum(subs) - 1
     out = np.concatenate([np.concatenate([q0, omega0])[None, :], xs[:, ends].T], axis=0)
-    return out[:, :4], out[:, 4:], {"steps": int(n_fine), "substeps_max": int(subs.max()), "engine": "casadi mapaccum"}
+    info = {"steps": int(n_fine), "substeps_max": int(subs.max()), "engine": "casadi mapaccum"}
+    if subs.max() == 1:
+        peaks = (np.zeros(subs.size), np.zeros(subs.size))
+    else:  # the state after every step (the ends included): the rule's rates between the samples
+        w_fine = xs[4:, :n_fine].T
+        starts = ends + 1 - subs
+        rate_fine = np.linalg.norm(w_fine, axis=-1)
+        turn_fine = gyroscopic_turn_rate(body, w_fine, torque=tau_fine[:, :n_fine].T)
+        peaks = (np.maximum.reduceat(rate_fine, starts), np.maximum.reduceat(turn_fine, starts))
+    return out[:, :4], out[:, 4:], info, peaks
 
 
 # Largest number of bodies advanced together per vectorised step. Component
@@ -767,8 +831,8 @@ def _propagate_fixed_numpy(
     """
     if kind == "callable" or not batch:
         # A user's callable sees the whole batch at once, as documented.
-        q, w, steps = _run_fixed(body, q0, omega0, t, subs, kind, tq, batch, method)
-        return np.moveaxis(q, 0, -2), np.moveaxis(w, 0, -2), _fixed_info(steps, subs)
+        q, w, steps, peaks = _run_fixed(body, q0, omega0, t, subs, kind, tq, batch, method)
+        return np.moveaxis(q, 0, -2), np.moveaxis(w, 0, -2), _fixed_info(steps, subs), peaks
     size = int(np.prod(batch))
     q0f = q0.reshape(size, 4)
     w0f = omega0.reshape(size, 3)
@@ -795,6 +859,8 @@ def _propagate_fixed_numpy(
         inertia = np.broadcast_to(body.inertia, (*batch, 3, 3)).reshape(size, 3, 3) if body.batch_shape else None
     q_out = np.empty((t.size, size, 4))
     w_out = np.empty((t.size, size, 3))
+    peak_rate = np.zeros((size, t.size - 1))
+    peak_turn = np.zeros((size, t.size - 1))
     steps = 0
     n_chunks = -(-size // BATCH_CHUNK)
     chunk = -(-size // n_chunks)  # balanced chunks, none larger than BATCH_CHUNK
@@ -804,12 +870,13 @@ def _propagate_fixed_numpy(
         chunk_tq = tqf[sl] if kind == "const" else tqf[:, sl]
         n = sl.stop - sl.start
         frame = None if principal is None else (principal[0][sl], principal[1][sl])
-        q_out[:, sl], w_out[:, sl], steps = _run_fixed(
+        q_out[:, sl], w_out[:, sl], steps, (peak_rate[sl], peak_turn[sl]) = _run_fixed(
             chunk_body, q0f[sl], w0f[sl], t, subs, kind, chunk_tq, (n,), method, output_frame=frame
         )
     q = np.moveaxis(q_out.reshape(t.size, *batch, 4), 0, -2)
     w = np.moveaxis(w_out.reshape(t.size, *batch, 3), 0, -2)
-    return q, w, _fixed_info(steps, subs)
+    peaks = (peak_rate.reshape(*batch, t.size - 1), peak_turn.reshape(*batch, t.size - 1))
+    return q, w, _fixed_info(steps, subs), peaks
 
 
 def _fixed_info(steps: int, subs: NDArray[np.int64]) -> dict[str, Any]:
@@ -902,11 +969,31 @@ def _run_fixed(
         return lambda _t, _q, _w: comps
 
     steps = 0
+    # The rule's rates at every step start not on the output grid (and, for a callable torque, at the
+    # samples too, with the torque the step used): the peaks between samples the after-run check needs.
+    peak_rate = np.zeros((n - 1, *batch))
+    peak_turn = np.zeros((n - 1, *batch))
+    seen: list[Components | None] = []
     for k in range(n - 1):
         tau_fun = torque_components(k)
         h = (t[k + 1] - t[k]) / subs[k]
+        track = kind == "callable" or subs[k] > 1
+        if track:
+            plain_fun = tau_fun
+
+            def tau_fun(
+                tt: float, qs: Components, ws: Components, plain_fun: Callable = plain_fun
+            ) -> Components | None:
+                value = plain_fun(tt, qs, ws)
+                if not seen:
+                    seen.append(value)
+                return value
+
         for j in range(subs[k]):
             ts = t[k] + j * h
+            if track:
+                seen.clear()
+                w_start = wc
             if method == "geometric":
                 qc, wc = rkmk4_step(body, tau_fun, ts, qc, wc, h)
             else:
@@ -921,6 +1008,14 @@ def _run_fixed(
                 xc = normalize_quaternion_components(rk4_step(derivative, ts, [*qc, *wc], h))
                 qc, wc = xc[:4], xc[4:]
             steps += 1
+            if track and (j > 0 or kind == "callable"):
+                rate_j, turn_j = _rule_rates(body, w_start, seen[0] if seen else None)
+                peak_rate[k] = np.maximum(peak_rate[k], rate_j)
+                peak_turn[k] = np.maximum(peak_turn[k], turn_j)
+        if kind == "callable":  # the end sample, with the torque of the last step
+            rate_j, turn_j = _rule_rates(body, wc, seen[0] if seen else None)
+            peak_rate[k] = np.maximum(peak_rate[k], rate_j)
+            peak_turn[k] = np.maximum(peak_turn[k], turn_j)
         q_store, w_store = qc, wc
         if output_frame is not None:
             q_store = quat.multiply_components(qc, conj)
@@ -929,7 +1024,15 @@ def _run_fixed(
             q_soa[k + 1, i] = q_store[i]
         for i in range(3):
             w_soa[k + 1, i] = w_store[i]
-    return np.moveaxis(q_soa, 1, -1), np.moveaxis(w_soa, 1, -1), steps
+    peaks = (np.moveaxis(peak_rate, 0, -1), np.moveaxis(peak_turn, 0, -1))
+    return np.moveaxis(q_soa, 1, -1), np.moveaxis(w_soa, 1, -1), steps, peaks
+
+
+def _rule_rates(body: RigidBody, omega: Components, tau: Components | None) -> tuple[Any, Any]:
+    """``|omega|`` and the turn rate (:func:`attitude.integrators.gyroscopic_turn_rate`) of a state on components."""
+    w = np.stack(np.broadcast_arrays(*omega), axis=-1)
+    torque = None if tau is None else np.stack(np.broadcast_arrays(*tau), axis=-1)
+    return np.linalg.norm(w, axis=-1), gyroscopic_turn_rate(body, w, torque=torque)
 
 
 def _propagate_adaptive(

@@ -426,6 +426,7 @@ def simulate(
         rule = TickRule(model, dt, n_ticks, substeps, budget)
         result = _run_python(*args, substeps, every, rng, rule=rule)
         result.info["step_rule"] = rule.info()
+    _warn_over_budget(result.info["step_rule"])
     if wheels is not None:
         result.info["wheel_speed_limit_rpm"] = (
             wheels.momentum_max / wheels.spin_inertia * 60.0 / (2.0 * np.pi)
@@ -763,3 +764,16 @@ def _run_python(
     if model.wheels is None:
         u_all = np.zeros((n_ticks + 1, 0))
     return _finish(model, t, x_all, tau_c_all, tau_a_all, u_all, err, est_q, est_w, packed, orbit)
+
+
+def _warn_over_budget(step_rule: dict[str, Any]) -> None:
+    """Warn when the rates actually flown predict an attitude error over the budget (the run's own figure)."""
+    error, budget = step_rule["predicted_error_rad"], step_rule["budget_rad"]
+    if np.isfinite(error) and error > budget:
+        warnings.warn(
+            f"simulate: the result is NOT within the attitude-error budget: the rates flown predict "
+            f"{error:.4g} rad against {budget:.4g} rad (docs/rk4_step_rule.md); use a shorter dt or more "
+            "substeps, or propagate the plant with method='geometric' or 'adaptive'",
+            StepSizeWarning,
+            stacklevel=3,
+        )

@@ -434,3 +434,67 @@ class TestStepSizeRule:
         exact = quat.from_axis_angle([0.0, 0.0, 1.0], 25.0 * t[-1])
         # Exact exponential per step: only rounding over 100 steps (1e-12 rad with margin).
         assert float(quat.error_angle(exact, traj.q[-1])) < 1e-10
+
+    # -- The rule on the rates actually flown: between sparse samples, under a turning torque, one warning ------
+
+    @staticmethod
+    def _reference(body, omega0, t, torque):
+        # DOP853 at rtol 1e-12: its own error is orders below the budgets used here.
+        q0 = [1.0, 0.0, 0.0, 0.0]
+        return propagate(body, q0, omega0, t, torque=torque, method="adaptive", rtol=1e-12, atol=1e-14)
+
+    @pytest.mark.parametrize(
+        "torque",
+        [
+            pytest.param(lambda t, q, w: np.array([0.0, 0.0, 4.0 * np.sin(2.0 * np.pi * t / 20.0)]), id="callable"),
+            pytest.param([0.0, 0.0, 4.0], id="constant (compiled path)"),
+        ],
+    )
+    def test_rates_between_sparse_samples_are_checked(self, torque):
+        # Before: the rule saw only the rates at t = 0 and 20 s (0 rad/s for the sine: predicted 1e-79),
+        # while the body reached 3.2 rad/s (sine) or 10 rad/s (constant) between them; 2e-2 / 2e-4 rad off.
+        from attitude.integrators import StepSizeWarning
+
+        budget = 1e-4  # a loose budget keeps the sub-stepped run short
+        t = np.array([0.0, 20.0])
+        with pytest.warns(StepSizeWarning, match="step-size rule"):
+            traj = propagate(
+                self.SPIN_BODY, [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0], t, torque=torque, max_step=0.5,
+                attitude_error_budget_rad=budget,
+            )
+        ref = self._reference(self.SPIN_BODY, [0.0, 0.0, 0.0], t, torque)
+        assert float(quat.error_angle(ref.q[-1], traj.q[-1])) <= budget
+        assert traj.info["step_rule"]["predicted_error_rad"] <= budget
+
+    def test_the_geometric_method_sees_a_torque_that_turns_the_rate(self):
+        # A sphere spun at 5 rad/s about z, 2 N m about x: no gyroscopic term, but the torque turns the rate
+        # vector in the body. Before: predicted 1.5e-11 rad, 0.029 rad off, no warning.
+        from attitude.integrators import StepSizeWarning
+
+        body, budget = RigidBody([10.0, 10.0, 10.0]), 1e-4
+        t = np.arange(0.0, 30.01, 0.5)
+        with pytest.warns(StepSizeWarning, match="step-size rule"):
+            traj = propagate(
+                body, [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 5.0], t, torque=[2.0, 0.0, 0.0], method="geometric",
+                attitude_error_budget_rad=budget,
+            )
+        ref = self._reference(body, [0.0, 0.0, 5.0], t, [2.0, 0.0, 0.0])
+        assert float(np.max(quat.error_angle(ref.q, traj.q))) <= budget
+
+    def test_one_warning_per_call_and_not_met_said_when_the_passes_run_out(self, monkeypatch):
+        import warnings
+
+        import attitude.propagate as propagate_module
+        from attitude.integrators import StepSizeWarning
+
+        t = np.arange(0.0, 100.01, 0.1)
+        # The spin-up above re-runs with more steps: one warning, with the final figures.
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            propagate(self.SPIN_BODY, [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0], t, [0.0, 0.0, 5.0])
+        assert [type(w.message) for w in caught] == [StepSizeWarning]
+        # With a single pass the count the rates flown ask for is never run: the result must say so.
+        monkeypatch.setattr(propagate_module, "RULE_PASSES", 1)
+        with pytest.warns(StepSizeWarning, match="NOT within the budget"):
+            traj = propagate(self.SPIN_BODY, [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0], t, [0.0, 0.0, 5.0])
+        assert traj.info["step_rule"]["predicted_error_rad"] > traj.info["step_rule"]["budget_rad"]
