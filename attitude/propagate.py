@@ -327,9 +327,15 @@ def propagate(
         the run (default :data:`attitude.integrators.ATTITUDE_ERROR_BUDGET_RAD`,
         1e-6 rad). The step-size rule (docs/rk4_step_rule.md) is checked
         before the run on the initial rates and after it on the rates
-        reached; where it is broken the steps are sub-stepped (and the run
-        repeated) with a :class:`attitude.integrators.StepSizeWarning`.
-        ``inf`` turns the rule off.
+        reached at every internal step, the applied torque's turn of the
+        rate included; where it is broken the steps are sub-stepped (and the
+        run repeated) with a :class:`attitude.integrators.StepSizeWarning`.
+        ``inf`` turns the rule off. Outside the rule: a callable torque that
+        changes strongly *within* one step (a jump, or a time scale shorter
+        than the step), because RK4 samples it at the step's start, middle
+        and end. Put a discontinuity on the output grid and pass the torque
+        as an array on that grid (held over each interval), or shorten
+        ``max_step`` below its time scale.
 
     Returns
     -------
@@ -350,7 +356,9 @@ def propagate(
     Warns
     -----
     StepSizeWarning
-        When the step-size rule sub-stepped the run.
+        When the step-size rule sub-stepped the run (one warning per call,
+        with the final figures), or, saying "NOT within the budget", when
+        the steps it asked for could not be run.
     """
     if not isinstance(body, RigidBody):
         raise ValueError(f"body must be a RigidBody, got {type(body).__name__}")

@@ -601,7 +601,11 @@ class ClosedLoopScenario:
             surface_parameters=surface,
         )
         return recorder.outputs(
-            out["diverged_at"], out.get("disturbance_torque_peak", {}), out.get("step_rule_refused")
+            out["diverged_at"],
+            out.get("disturbance_torque_peak", {}),
+            out.get("step_rule_refused"),
+            out.get("step_rule_broken"),
+            out.get("step_rule_error_bound_rad"),
         )
 
 
@@ -671,7 +675,12 @@ class _BatchRecorder:
                 self.history.setdefault(name, []).append(value)
 
     def outputs(
-        self, diverged_at: np.ndarray, torque_peaks: Mapping[str, np.ndarray], refused: np.ndarray | None = None
+        self,
+        diverged_at: np.ndarray,
+        torque_peaks: Mapping[str, np.ndarray],
+        refused: np.ndarray | None = None,
+        broken: np.ndarray | None = None,
+        bound: np.ndarray | None = None,
     ) -> list[RunOutput]:
         last = self.last_outside
         settle = settling_time_after(self.t, last)
@@ -688,6 +697,9 @@ class _BatchRecorder:
                         "(docs/rk4_step_rule.md: more than 1000 sub-steps per tick); shorten the tick"
                     )
                 )
+                continue
+            if broken is not None and broken[r]:
+                outputs.append(RunOutput(error=_STEP_RULE_ERROR.format(bound=float(bound[r]))))
                 continue
             metrics = {
                 "settling_time": float(settle[r]),

@@ -213,7 +213,8 @@ def simulate_batch(
         batch with a :class:`attitude.integrators.StepSizeWarning` where it is
         broken) and after it on every run's peak rate: a run that may have
         broken it mid-run is reported as failed (NaN metrics,
-        ``info["step_rule_broken"]``) with a warning.
+        ``info["step_rule_broken"]``) with a warning; its final state is
+        returned as run and is not within the budget: do not use it.
 
     Returns
     -------

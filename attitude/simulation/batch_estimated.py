@@ -45,7 +45,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
 from attitude.environment.orbit_environment import OrbitEnvironment
-from attitude.integrators import ATTITUDE_ERROR_BUDGET_RAD, check_error_budget
+from attitude.integrators import ATTITUDE_ERROR_BUDGET_RAD, StepSizeWarning, check_error_budget
 from attitude.rigid_body import RigidBody, symmetric_entries
 from attitude.rng import NormalStreams
 from attitude.sensors import GyroBatch, StarTracker
@@ -55,7 +55,7 @@ from attitude.simulation.engine import ticks_per_period, whole_ticks
 from attitude.simulation.kernel import CompiledHold, command, disturbance_torques
 from attitude.simulation.plant import PlantModel
 from attitude.simulation.protocols import BatchEstimator, CompiledController
-from attitude.simulation.step_rule import batch_substeps
+from attitude.simulation.step_rule import batch_broken, batch_substeps
 from attitude.validation import as_float_array, check_positive
 
 __all__ = ["simulate_batch_estimated"]
@@ -128,7 +128,9 @@ def simulate_batch_estimated(
         Accumulated attitude error [rad] the plant's RK4 may make in a run,
         checked on every run's initial state before the run (``substeps``
         raised with a :class:`attitude.integrators.StepSizeWarning`;
-        docs/rk4_step_rule.md); ``inf`` turns the rule off.
+        docs/rk4_step_rule.md) and after it on every run's peak body rate
+        (a run that outgrew the rule mid-run is flagged in
+        ``step_rule_broken``, with a warning); ``inf`` turns the rule off.
 
     Returns
     -------
@@ -136,7 +138,10 @@ def simulate_batch_estimated(
         ``x`` (N, 7 + n_w) final true states, ``diverged_at`` (N,) [s] (NaN
         for runs that stayed finite), ``step_rule_refused`` (N,) (runs too fast
         for the tick under the step-size rule: failed, to be discarded with the
-        diverged ones), ``backend``, ``backend_note`` and
+        diverged ones), ``step_rule_broken`` (N,) and ``step_rule_error_bound_rad``
+        (N,) [rad] (runs whose peak rate may have broken the rule mid-run: their
+        attitude may be off by more than the budget; failed likewise),
+        ``backend``, ``backend_note`` and
         ``wall_time_s``; with an environment, ``disturbance_torques``: the
         last tick's torque per source (N, 3) [N m], and
         ``disturbance_torque_peak``: each source's largest torque magnitude
@@ -198,6 +203,7 @@ def simulate_batch_estimated(
     q_hat, w_hat = q0.copy(), omega0.copy()
     u = np.zeros((n, wheels.n_wheels))
     diverged_at = np.full(n, np.nan)
+    rate_peak = np.linalg.norm(omega0, axis=1)  # each run's largest body rate [rad/s], for the rule after the run
     for k in range(n_ticks + 1):
         tk = float(t[k])
         q_true = x[:, :4] / np.linalg.norm(x[:, :4], axis=1, keepdims=True)
@@ -239,10 +245,26 @@ def simulate_batch_estimated(
             diverged_at[bad & np.isnan(diverged_at)] = t[k + 1]
             x_next[bad] = x[bad]  # frozen: the run is reported, the others go on
         x = x_next
+        np.fmax(rate_peak, np.linalg.norm(x[:, 4:7], axis=1), out=rate_peak)
+    rate_peak[~np.isnan(diverged_at)] = np.nan  # a diverged run is reported as such, not as a broken rule
+    broken, bound = batch_broken(model, rate_peak, dt, n_ticks, substeps, budget)
+    broken &= ~refused
+    if np.any(broken):
+        first = int(np.argmax(broken))
+        warnings.warn(
+            f"{int(np.sum(broken))} run(s) of the batch may have broken the step-size rule mid-run "
+            f"(docs/rk4_step_rule.md; run {first}: peak body rate {float(rate_peak[first]):.3g} rad/s, "
+            f"error bound {float(bound[first]):.3g} rad > {budget:.3g} rad): their attitude may be off by more "
+            "than the budget (info step_rule_broken); shorten dt or raise substeps",
+            StepSizeWarning,
+            stacklevel=2,
+        )
     out = {
         "x": x,
         "diverged_at": diverged_at,
         "step_rule_refused": refused,
+        "step_rule_broken": broken,
+        "step_rule_error_bound_rad": bound,
         "backend": "numpy" if hold is None else "compiled",
         "backend_note": note,
         "wall_time_s": time.perf_counter() - start,

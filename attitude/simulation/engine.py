@@ -290,7 +290,10 @@ def simulate(
         rate reached (the compiled path: before the run and on its history,
         running again if needed); where it is broken the plant is sub-stepped
         with the commands held, with one :class:`attitude.integrators.StepSizeWarning`
-        per run. ``inf`` turns the rule off.
+        per run, and a second one saying "NOT within the budget" at the end
+        of a run whose predicted error still exceeds it (a rate that kept
+        growing). ``inf`` turns the rule off. A disturbance that changes
+        strongly within one tick is outside the rule (docs/rk4_step_rule.md).
 
     Returns
     -------

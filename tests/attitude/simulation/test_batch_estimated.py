@@ -157,3 +157,34 @@ def test_bad_arguments_are_named():
         _run_batch(inertia, q0, omega0, seeds, 1.0, backend="gpu")
     with pytest.raises(ValueError, match="tracker_mounting"):
         _run_batch(inertia, q0, omega0, seeds, 1.0, tracker_mounting=np.ones((2, 4)))
+
+
+def test_a_run_that_outgrew_the_step_rule_mid_run_is_flagged():
+    """The step-size rule after the run (docs/rk4_step_rule.md): a run whose peak rate breaks it is flagged.
+
+    The slew raises each run's rate well above its initial rate, which is all the check before the run
+    sees. The budget is set between the two predictions: below the bound at the run's peak rate, above the
+    one at its initial rate (both from :mod:`attitude.simulation.step_rule`), so the check before the run
+    passes and only the check after it can catch the run. Before, the batch never looked after the run.
+    """
+    from attitude.simulation.plant import PlantModel
+    from attitude.simulation.step_rule import batch_broken
+
+    inertia, q0, omega0, _, seeds = _setup()
+    peaks = np.linalg.norm(omega0, axis=1)
+
+    def record_peak(k, tk, x, q_hat, w_hat, updated):
+        np.fmax(peaks, np.linalg.norm(x[:, 4:7], axis=1), out=peaks)
+
+    n_ticks = round(DURATION / 0.1)
+    _run_batch(inertia, q0, omega0, seeds, DURATION, observer=record_peak, attitude_error_budget_rad=np.inf)
+    model = PlantModel(WHEELS.hub_body(RigidBody(inertia)), WHEELS)
+    _, bound_peak = batch_broken(model, peaks, 0.1, n_ticks, 1, np.inf)
+    _, bound_start = batch_broken(model, np.linalg.norm(omega0, axis=1), 0.1, n_ticks, 1, np.inf)
+    budget = float(np.sqrt(np.min(bound_peak) * np.max(bound_start) * 1e4))  # a decade or two inside the gap
+    assert np.max(bound_start) * 10 < budget < np.min(bound_peak) / 10  # the premise: a wide gap
+    with pytest.warns(Warning) as caught:
+        out = _run_batch(inertia, q0, omega0, seeds, DURATION, attitude_error_budget_rad=budget)
+    assert out["step_rule_broken"].all() and not out["step_rule_refused"].any()
+    assert np.allclose(out["step_rule_error_bound_rad"], bound_peak)
+    assert any("broken the step-size rule mid-run" in str(w.message) for w in caught)
