@@ -352,9 +352,14 @@ class RateLimitedPD:
     whose direction is rounding noise). The limits are continuous across
     ``|e(0)| = (c/k) rate_max``: either choice leaves that slew unsaturated.
 
-    Limitation of the published law: in a slew that does reach the limit,
-    an axis with ``e_i(0) = 0`` gets ``L_i = 0``, i.e. no attitude stiffness
-    about it until the next retarget (only rate damping).
+    A flaw of the published law, corrected here: in a slew that does reach
+    the limit, an axis with ``e_i(0) = 0`` gets ``L_i = 0``, i.e. no
+    attitude stiffness about it until the next retarget (only rate damping),
+    so a small off-axis rate never settles. The limits are therefore opened
+    near the target, ``L'_i = max(L_i, (c/k) rate_max - |e|)``: identical to
+    the published law while ``|e| >= (c/k) rate_max`` and along the
+    eigenaxis, linear on every axis as ``|e|`` goes to zero, continuous, and
+    ``|sat(e)| <= (c/k) rate_max`` still bounds the coast rate.
     ``saturation="norm"`` is the memoryless variant
     ``sat(e) = e min(1, (c/k) rate_max / |e|)``: identical to the latched
     law along the eigenaxis (``e`` parallel to ``e(0)``), stiff about every
@@ -618,7 +623,13 @@ class RateLimitedPD:
             scale = self.error_limit / bk.fmax(norm, self.error_limit)
             sat = [scale * ei for ei in e]
         else:
-            sat = [bk.clip(ei, -li, li) for ei, li in zip(e, inputs[4:7])]
+            # The latched limits, opened to the linear region near the target: L'_i = max(L_i, (c/k) rate_max
+            # - |e|). Unchanged while |e| >= (c/k) rate_max (the published coast) and along the eigenaxis,
+            # where the published law is linear there too; near the target every axis is linear again, so an
+            # axis with L_i ~ 0 (off the slew) regains its stiffness. |sat| <= (c/k) rate_max still holds.
+            norm = bk.sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+            opening = self.error_limit - norm
+            sat = [bk.clip(ei, -bk.fmax(li, opening), bk.fmax(li, opening)) for ei, li in zip(e, inputs[4:7])]
         accel = [-(self.k * s + self.c * w) for s, w in zip(sat, omega)]
         tau = []
         for i in range(3):
