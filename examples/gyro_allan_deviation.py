@@ -51,7 +51,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from attitude.allan import AllanDeviation, gyro_allan_deviation
+from attitude.allan import AllanDeviation, gyro_allan_deviation, plateau_index
 from attitude.sensors import BIAS_INSTABILITY_FLOOR_FACTOR, GYRO_PRESETS, Gyro
 
 DEG_PER_H = np.pi / 180.0 / 3600.0  # 1 deg/h in rad/s
@@ -82,23 +82,6 @@ def recovered_arw(result: AllanDeviation, tau_max_s: float = 1.0) -> tuple[float
     return n_deg_per_h_sqrt_s / 60.0, result.adev_low[last] * scale, result.adev_high[last] * scale
 
 
-def plateau(adev: np.ndarray) -> int:
-    """Index of the first point where an Allan curve stops falling (the bias-instability plateau).
-
-    Parameters
-    ----------
-    adev : ndarray (k,)
-        Allan deviation on increasing averaging times.
-
-    Returns
-    -------
-    int
-        The index; the last one when the curve falls all the way (no plateau in the record).
-    """
-    rising = np.flatnonzero(np.diff(adev) >= 0.0)
-    return int(rising[0]) if rising.size else adev.size - 1
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("figures/gyro_allan_deviation"), help="folder for the figures")
@@ -120,7 +103,7 @@ def main() -> None:
 
         arw, arw_lo, arw_hi = recovered_arw(result)
         to_b = 1.0 / DEG_PER_H / BIAS_INSTABILITY_FLOOR_FACTOR  # rad/s of the floor -> B [deg/h]
-        i_min, i_model = plateau(result.adev), plateau(result.model_adev)
+        i_min, i_model = plateau_index(result.adev), plateau_index(result.model_adev)
         b, b_lo, b_hi = result.adev[i_min] * to_b, result.adev_low[i_min] * to_b, result.adev_high[i_min] * to_b
         tau_sheet = figures["bias_instability_time_s"]
         global_tau, global_adev = result.floor()

@@ -14,7 +14,7 @@ import allantools
 import numpy as np
 import pytest
 
-from attitude.allan import AllanDeviation, allan_deviation, gyro_allan_deviation
+from attitude.allan import AllanDeviation, allan_deviation, gyro_allan_deviation, plateau_index
 from attitude.sensors import BIAS_INSTABILITY_FLOOR_FACTOR, Gyro
 
 DEG_PER_H = np.pi / 180.0 / 3600.0
@@ -107,6 +107,15 @@ def test_result_saves_loads_and_draws(tmp_path):
     assert png.stat().st_size > 10_000
     tau, dev = r.floor()
     assert dev == r.adev.min() and tau in r.tau
+
+
+def test_plateau_is_the_first_point_where_the_curve_stops_falling():
+    # A Gauss-Markov curve: the ARW slope, a plateau, then a fall again past the correlation time. The
+    # global minimum (floor) is past the plateau; plateau_index finds the flat part the datasheet quotes.
+    adev = np.array([10.0, 5.0, 3.0, 3.0, 3.1, 2.0, 1.0])
+    assert plateau_index(adev) == 2
+    assert int(np.argmin(adev)) == 6
+    assert plateau_index(np.array([4.0, 2.0, 1.0])) == 2  # no plateau in the record: the last point
 
 
 @pytest.mark.parametrize(
