@@ -492,14 +492,15 @@ def _run_compiled_rule(args: tuple, substeps: int, every: dict, rng: Any, budget
     The compiled loop is a pure function of its inputs, so a run that broke
     the rule is run again with one step count per tick for the whole run.
     """
-    model, dt, n_ticks = args[0], args[9], args[10]
+    model, disturbance, dt, n_ticks = args[0], args[5], args[9], args[10]
     x0 = np.concatenate([args[6], args[7], args[8]])
-    steps, error = history_substeps(model, x0, dt, n_ticks, substeps, budget)
+    steps, error = history_substeps(model, x0, dt, n_ticks, substeps, budget, disturbance)
     _check_rule_steps(steps, substeps)
     for _ in range(RULE_PASSES):
         result = _run_compiled(*args, steps, every, rng)
         x = np.concatenate([result.q, result.omega, result.h_wheels], axis=1)
-        needed, error = history_substeps(model, x, dt, n_ticks, steps, budget)
+        torque = _body_torque_history(result, disturbance)
+        needed, error = history_substeps(model, x, dt, n_ticks, steps, budget, torque)
         if needed <= steps:
             break
         if needed > MAX_RULE_SUBSTEPS * substeps:
@@ -531,6 +532,18 @@ def _run_compiled_rule(args: tuple, substeps: int, every: dict, rng: Any, budget
         "most_substeps_per_tick": steps,
     }
     return result
+
+
+def _body_torque_history(result: SimulationResult, disturbance: Any) -> NDArray[np.float64]:
+    """Body torque at the ticks [N m]: the actuators', a constant disturbance, the environment and magnetorquers."""
+    torque = result.torque_applied.copy()
+    if disturbance is not None:
+        torque += np.asarray(disturbance, dtype=float)
+    for source in result.disturbance_torques.values():
+        torque += source
+    if result.torque_magnetorquer.size:
+        torque += result.torque_magnetorquer
+    return torque
 
 
 def _check_rule_steps(steps: int, substeps: int) -> None:
@@ -735,7 +748,7 @@ def _run_python(
                 tau_m = flight.magnetorquer_torque(m_B, field_B)
                 m_cmd_all[k], m_B_all[k], tau_m_all[k] = m_cmd, m_B, tau_m
                 tau_ext = tau_ext + tau_m
-        calls = 1 if rule is None else rule.calls(k, x[4:7], x[7:])
+        calls = 1 if rule is None else rule.calls(k, x[4:7], x[7:], tau_app + tau_ext)
         if calls == 1:
             x_all[k + 1] = np.array(step(x, u, tau_ext, dt)).ravel()
         else:  # the commands held over the tick, the plant in shorter steps

@@ -21,16 +21,19 @@ from attitude.integrators import (
     StepSizeWarning,
     gyroscopic_turn_rate,
     predicted_attitude_error,
+    substeps_for_budget,
 )
 from attitude.simulation.plant import PlantModel
 
 __all__ = ["TickRule", "batch_broken", "batch_substeps", "history_substeps"]
 
 
-def _rate_and_turn(model: PlantModel, omega: NDArray[np.float64], h: NDArray[np.float64]) -> tuple[Any, Any]:
-    """``|omega|`` and the gyroscopic turn rate (wheel momentum included) of states (..., 3), (..., n) [rad/s]."""
+def _rate_and_turn(
+    model: PlantModel, omega: NDArray[np.float64], h: NDArray[np.float64], torque: Any = None
+) -> tuple[Any, Any]:
+    """``|omega|`` and the turn rate (wheel momentum and the applied body torque [N m] included) [rad/s]."""
     h_b = None if model.wheels is None else h @ model.wheels.distribution.T
-    return np.linalg.norm(omega, axis=-1), gyroscopic_turn_rate(model.body, omega, h_b)
+    return np.linalg.norm(omega, axis=-1), gyroscopic_turn_rate(model.body, omega, h_b, torque)
 
 
 class TickRule:
@@ -63,7 +66,7 @@ class TickRule:
         self._distribution = None if model.wheels is None else model.wheels.distribution.tolist()
         self.most_calls = 1
 
-    def calls(self, k: int, omega: NDArray[np.float64], h: NDArray[np.float64]) -> int:
+    def calls(self, k: int, omega: NDArray[np.float64], h: NDArray[np.float64], torque: Any = None) -> int:
         """Hold steps (of ``substeps`` RK4 steps each, over ``dt / calls``) for tick ``k`` at rate ``omega``.
 
         Parameters
@@ -74,6 +77,9 @@ class TickRule:
             Body rate at the tick [rad/s].
         h : ndarray (n,)
             Wheel momenta at the tick [N m s].
+        torque : array_like (3,), optional
+            Body torque applied over the tick [N m] (control and disturbance): its
+            component across ``omega`` turns the rate vector (docs/rk4_step_rule.md).
 
         Returns
         -------
@@ -87,7 +93,7 @@ class TickRule:
             :data:`attitude.integrators.MAX_RULE_SUBSTEPS` calls (later, a warning: see the comment).
         """
         try:
-            rate, turn = self._rate_and_turn(omega, h)
+            rate, turn = self._rate_and_turn(omega, h, torque)
         except OverflowError:  # float arithmetic raises where numpy returns inf: a blowing-up loop
             rate = turn = math.inf
         if not (math.isfinite(rate) and math.isfinite(turn)):
@@ -132,7 +138,7 @@ class TickRule:
         self.most_calls = max(self.most_calls, calls)
         return calls
 
-    def _rate_and_turn(self, omega: NDArray[np.float64], h: NDArray[np.float64]) -> tuple[float, float]:
+    def _rate_and_turn(self, omega: NDArray[np.float64], h: NDArray[np.float64], torque: Any) -> tuple[float, float]:
         """:func:`_rate_and_turn` of one state on floats (:func:`attitude.integrators.gyroscopic_turn_rate`)."""
         w = [float(v) for v in omega]
         m = [sum(a * b for a, b in zip(row, w)) for row in self._inertia]
@@ -142,7 +148,15 @@ class TickRule:
         c = [w[1] * m[2] - w[2] * m[1], w[2] * m[0] - w[0] * m[2], w[0] * m[1] - w[1] * m[0]]
         accel = math.sqrt(sum(sum(a * b for a, b in zip(row, c)) ** 2 for row in self._inverse))
         rate = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
-        return rate, (accel / rate if rate > 0.0 else 0.0)
+        if rate == 0.0:
+            return rate, 0.0
+        turn = accel / rate
+        if torque is not None:
+            tau = [float(v) for v in torque]
+            a = [sum(p * q for p, q in zip(row, tau)) for row in self._inverse]
+            across = [w[1] * a[2] - w[2] * a[1], w[2] * a[0] - w[0] * a[2], w[0] * a[1] - w[1] * a[0]]
+            turn += math.sqrt(sum(v * v for v in across)) / (rate * rate)
+        return rate, turn
 
     def _rule(self, rate: float, k: int, turned: float, swept: float) -> str:
         error = _error(turned, swept, max(self.largest, rate * self.dt / self.substeps))
@@ -174,7 +188,13 @@ def _error(turned: float, swept: float, theta: float) -> float:
 
 
 def history_substeps(
-    model: PlantModel, x: NDArray[np.float64], dt: float, n_ticks: int, substeps: int, budget_rad: float
+    model: PlantModel,
+    x: NDArray[np.float64],
+    dt: float,
+    n_ticks: int,
+    substeps: int,
+    budget_rad: float,
+    torque: Any = None,
 ) -> tuple[int, float]:
     """RK4 steps per tick (one count for the whole run) that a state history asks for, and its predicted error.
 
@@ -192,13 +212,15 @@ def history_substeps(
         RK4 steps per tick of that history.
     budget_rad : float
         Accumulated attitude-error budget [rad].
+    torque : array_like (n_ticks + 1, 3) or (3,), optional
+        Body torque applied at the ticks [N m] (control and disturbance), for the turn rate.
 
     Returns
     -------
     tuple
         ``(steps per tick >= substeps, predicted error [rad] at substeps)``.
     """
-    rate, turn = _rate_and_turn(model, x[..., 4:7], x[..., 7:])
+    rate, turn = _rate_and_turn(model, x[..., 4:7], x[..., 7:], torque)
     rate, turn = np.atleast_1d(rate), np.atleast_1d(turn)
     if rate.size > 1:
         rate, turn = np.maximum(rate[:-1], rate[1:]), np.maximum(turn[:-1], turn[1:])
@@ -207,9 +229,9 @@ def history_substeps(
     error = float(predicted_attitude_error(rate, dt, turn, substeps=substeps, method="rk4"))
     if not math.isfinite(error) or error <= budget_rad:
         return substeps, error
-    weight = 1.0 + 2.0 * float(np.sum(turn * dt))
-    theta_s = (1920.0 * budget_rad / (weight * float(np.sum(rate * dt)))) ** 0.25
-    return max(substeps, math.ceil(float(np.max(rate)) * dt / theta_s)), error
+    # One count for the whole run: the most any tick needs under the integrators' one allocation.
+    needed = substeps_for_budget(rate, dt, turn, substeps=substeps, budget_rad=budget_rad, method="rk4")
+    return int(np.max(needed)), error
 
 
 def _batch_turn_bound(model: PlantModel, rate: NDArray[np.float64]) -> NDArray[np.float64]:

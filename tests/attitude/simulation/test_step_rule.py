@@ -152,6 +152,25 @@ def test_the_tick_rule_evaluates_the_one_rule_of_the_integrators():
     assert _error(30.0, 4.0, 0.1) == pytest.approx(float(predicted_attitude_error([30.0], 1.0, [4.0], substeps=300)))
 
 
+def test_the_tick_rule_counts_the_applied_torque_as_the_integrators_do():
+    # The Python engine's float evaluation of the turn rate against attitude.integrators.gyroscopic_turn_rate,
+    # with wheels and with a torque across the rate (which turns it: it used to be left out of the tick rule).
+    from attitude import ReactionWheels
+    from attitude.integrators import gyroscopic_turn_rate
+    from attitude.simulation.plant import PlantModel
+    from attitude.simulation.step_rule import TickRule
+
+    body = RigidBody([10.0, 12.0, 8.0])
+    wheels = ReactionWheels.pyramid(spin_inertia=1e-4, torque_max=0.01, momentum_max=0.1)
+    model = PlantModel(wheels.hub_body(body), wheels)
+    rule = TickRule(model, 0.1, 10, 1, 1e-6)
+    omega, h, torque = np.array([0.3, -0.2, 0.5]), np.array([0.01, -0.02, 0.03, 0.0]), np.array([0.2, 0.1, -0.3])
+    expected = gyroscopic_turn_rate(model.body, omega, h @ wheels.distribution.T, torque)
+    _, turn = rule._rate_and_turn(omega, h, torque)
+    assert turn == pytest.approx(float(expected), rel=1e-12)
+    assert turn > rule._rate_and_turn(omega, h, None)[1]  # the torque across omega adds to the turn
+
+
 def test_a_spin_up_that_ends_over_the_budget_says_not_within_it():
     # 2 N m about z on I_z = 8 kg m^2 from 0.1 rad/s for 60 s (exact angle 0.1 t + a t^2 / 2): the tick rule
     # sub-steps early on the rate it projects, the run ends with the rule's own figure over the budget.
