@@ -788,8 +788,8 @@ def _warn_over_budget(step_rule: dict[str, Any]) -> None:
     if np.isfinite(error) and error > budget:
         warnings.warn(
             f"simulate: the result is NOT within the attitude-error budget: the rates flown predict "
-            f"{error:.4g} rad against {budget:.4g} rad (docs/rk4_step_rule.md); use a shorter dt or more "
-            "substeps, or propagate the plant with method='geometric' or 'adaptive'",
+            f"{error:.4g} rad against {budget:.4g} rad (docs/rk4_step_rule.md; the figure is a bound and may "
+            "overstate); pass a shorter dt or more substeps, or a larger attitude_error_budget_rad",
             StepSizeWarning,
             stacklevel=3,
         )
