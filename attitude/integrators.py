@@ -28,19 +28,24 @@ from numpy.typing import NDArray
 from attitude.backend import cross
 from attitude.quaternion import exp_rotation_vector_components
 from attitude.quaternion import multiply_components as quaternion_multiply_components
-from attitude.rigid_body import Components, RigidBody, split_components
+from attitude.rigid_body import Components, RigidBody, skew, split_components
 
 __all__ = [
     "ATTITUDE_ERROR_BUDGET_RAD",
     "MAX_RULE_SUBSTEPS",
+    "VARYING_RATE_WEIGHT",
     "StepSizeWarning",
     "casadi_rk4_step",
     "check_error_budget",
+    "fifth_derivative_excess",
     "gyroscopic_turn_rate",
     "normalize_quaternion_components",
     "predicted_attitude_error",
+    "rate_variation_excess",
     "rk4_step",
     "rkmk4_step",
+    "rule_formula",
+    "rule_rates",
     "substeps_for_budget",
 ]
 
@@ -217,6 +222,26 @@ _KINEMATIC_WEIGHT = {"rk4": 1.0, "geometric": 0.0}
 #: Weight of the gyroscopic term, twice the largest ratio (0.86) measured against DOP853 at rtol 1e-13
 #: on 60 random bodies (flat plates and near-principal spins included; docs/rk4_step_rule.md).
 _GYROSCOPIC_WEIGHT = 2.0
+#: Weight of the varying-rate term (:func:`rate_variation_excess`): twice the largest ratio (0.77) that
+#: 1170 runs needed against DOP853 at rtol 1e-13 (prolate, oblate and triaxial bodies of inertia ratio up to
+#: 20, near-principal and general tumbles, torques, 1 to 500 steps; docs/rk4_step_rule.md).
+VARYING_RATE_WEIGHT = 1.5
+
+
+def rule_formula(method: str = "rk4") -> str:
+    """The step-size rule as the warnings and errors print it (docs/rk4_step_rule.md).
+
+    Parameters
+    ----------
+    method : {"rk4", "geometric"}
+        The fixed-step method (RKMK4 has no kinematic term).
+
+    Returns
+    -------
+    str
+    """
+    kinematic = "1 + " if _KINEMATIC_WEIGHT[method] else ""
+    return f"E = [({kinematic}2 Phi) Theta theta^4 + {VARYING_RATE_WEIGHT:g} sum Xi h h_s^4] / 1920"
 
 
 class StepSizeWarning(UserWarning):
@@ -263,15 +288,126 @@ def gyroscopic_turn_rate(body: RigidBody, omega: Any, h: Any = None, torque: Any
     return turn
 
 
+def rate_variation_excess(body: RigidBody, omega: Any, h: Any = None, torque: Any = None) -> Any:
+    """How much a varying body rate adds to a fixed step's local attitude error [rad^5/s^5].
+
+    ``Xi = 32 b_5 - |omega|^5``, where ``b_5`` bounds ``|q^(5)|`` for
+    ``q' = q ⊗ omega / 2`` when the rate's derivatives grow as
+    ``|omega^(j)| <= nu |omega| mu^(j-1)``: ``nu`` is the turn rate
+    (:func:`gyroscopic_turn_rate`, so ``nu |omega|`` bounds ``|omega'|``) and
+    ``mu`` the Frobenius norm of the Jacobian of Euler's equations,
+    ``I^-1 ([I omega + h]x - [omega]x I)``, which bounds how fast each
+    further derivative of the linearised rate grows. For a constant rate
+    ``b_5 = (|omega| / 2)^5``, the constant-spin term of the rule, and
+    ``Xi = 0``. A step of length ``h_s`` then adds about
+    ``Xi h_s^5 / 1920`` rad to the kinematic term ``|omega|^5 h_s^5 / 1920``
+    (docs/rk4_step_rule.md): the nutation of a prolate body spun about its
+    minor axis, faster than the turn of its rate, is what this term sees.
+
+    Parameters
+    ----------
+    body : RigidBody
+        The (hub) body, single or batched like ``omega``.
+    omega : array_like (..., 3)
+        Body rate [rad/s].
+    h : array_like (..., 3), optional
+        Internal (wheel) angular momentum in body components [N m s].
+    torque : array_like (..., 3), optional
+        Applied torque in body components [N m]; None for torque-free.
+
+    Returns
+    -------
+    ndarray (...)
+        ``Xi`` [rad^5/s^5], 0 for a constant rate.
+    """
+    omega = np.asarray(omega, dtype=float)
+    rate = np.linalg.norm(omega, axis=-1)
+    momentum = np.matmul(body.inertia, omega[..., None])[..., 0]
+    if h is not None:
+        momentum = momentum + np.asarray(h, dtype=float)
+    jacobian = np.matmul(body.inertia_inv, skew(momentum) - np.matmul(skew(omega), body.inertia))
+    return fifth_derivative_excess(
+        rate, gyroscopic_turn_rate(body, omega, h, torque), np.linalg.norm(jacobian, axis=(-2, -1))
+    )
+
+
+def rule_rates(body: RigidBody, omega: Any, h: Any = None, torque: Any = None) -> tuple[Any, Any, Any]:
+    """The three state rates the step-size rule reads: ``|omega|``, :func:`gyroscopic_turn_rate` and
+    :func:`rate_variation_excess` (the one place they are evaluated together).
+
+    Parameters
+    ----------
+    body : RigidBody
+        The (hub) body, single or batched like ``omega``.
+    omega : array_like (..., 3)
+        Body rate [rad/s].
+    h : array_like (..., 3), optional
+        Internal (wheel) angular momentum in body components [N m s].
+    torque : array_like (..., 3), optional
+        Applied torque in body components [N m]; None for torque-free.
+
+    Returns
+    -------
+    rate, turn, excess : ndarray (...)
+        [rad/s], [rad/s], [rad^5/s^5].
+    """
+    omega = np.asarray(omega, dtype=float)
+    return (
+        np.linalg.norm(omega, axis=-1),
+        gyroscopic_turn_rate(body, omega, h, torque),
+        rate_variation_excess(body, omega, h, torque),
+    )
+
+
+def fifth_derivative_excess(rate_rad_s: Any, turn_rate_rad_s: Any, growth_rate_rad_s: Any) -> Any:
+    """``Xi = 32 b_5 - |omega|^5`` of :func:`rate_variation_excess` from its three rates [rad^5/s^5].
+
+    ``b_{n+1} = (1/2) sum_j C(n, j) b_{n-j} w_j`` with ``b_0 = 1``,
+    ``w_0 = |omega|`` and ``w_j = nu |omega| mu^(j-1)`` (Leibniz's rule on
+    ``q' = q ⊗ omega / 2`` with every product bounded by its norms). Works
+    on floats and on arrays alike (the simulate engine evaluates it every tick).
+
+    Parameters
+    ----------
+    rate_rad_s : float or array_like
+        ``|omega|`` [rad/s].
+    turn_rate_rad_s : float or array_like
+        ``nu`` [rad/s].
+    growth_rate_rad_s : float or array_like
+        ``mu`` [rad/s].
+
+    Returns
+    -------
+    float or ndarray
+        ``Xi`` [rad^5/s^5] (>= 0).
+    """
+    w0, w1, mu = rate_rad_s, turn_rate_rad_s * rate_rad_s, growth_rate_rad_s
+    w2, w3, w4 = w1 * mu, w1 * mu * mu, w1 * mu * mu * mu
+    b1 = 0.5 * w0
+    b2 = 0.5 * (b1 * w0 + w1)
+    b3 = 0.5 * (b2 * w0 + 2.0 * b1 * w1 + w2)
+    b4 = 0.5 * (b3 * w0 + 3.0 * b2 * w1 + 3.0 * b1 * w2 + w3)
+    b5 = 0.5 * (b4 * w0 + 4.0 * b3 * w1 + 6.0 * b2 * w2 + 4.0 * b1 * w3 + w4)
+    return np.maximum(32.0 * b5 - w0**5, 0.0)
+
+
 def predicted_attitude_error(
-    rate_rad_s: Any, step_s: Any, turn_rate_rad_s: Any = 0.0, *, substeps: Any = 1, method: str = "rk4"
+    rate_rad_s: Any,
+    step_s: Any,
+    turn_rate_rad_s: Any = 0.0,
+    *,
+    substeps: Any = 1,
+    method: str = "rk4",
+    excess_rad5_s5: Any = 0.0,
 ) -> Any:
     """Predicted accumulated attitude error of a fixed-step run [rad] (docs/rk4_step_rule.md).
 
-    ``E = (k + 2 Phi) Theta theta^4 / 1920`` with ``Theta = sum |omega| h``
-    the angle turned, ``Phi = sum nu h`` the angle the rate vector turns in
-    the body (:func:`gyroscopic_turn_rate`), ``theta`` the largest rotation
-    per (sub-)step and ``k = 1`` for RK4, 0 for RKMK4. For a constant rate
+    ``E = [(k + 2 Phi) Theta theta^4 + c sum_i Xi_i h_i (h_i / s_i)^4] / 1920``
+    with ``Theta = sum |omega| h`` the angle turned, ``Phi = sum nu h`` the
+    angle the rate vector turns in the body (:func:`gyroscopic_turn_rate`),
+    ``theta`` the largest rotation per (sub-)step, ``k = 1`` for RK4 and 0
+    for RKMK4, and ``Xi`` the varying-rate term (:func:`rate_variation_excess`)
+    over intervals of ``h_i`` split into ``s_i`` steps. For a constant rate
     the RK4 term is the exact leading error of the renormalised step,
     ``theta^5 / 1920`` rad per step.
 
@@ -287,6 +423,8 @@ def predicted_attitude_error(
         Equal steps per interval.
     method : {"rk4", "geometric"}
         The fixed-step method.
+    excess_rad5_s5 : float or array_like (..., n)
+        Varying-rate term ``Xi`` over each interval [rad^5/s^5].
 
     Returns
     -------
@@ -297,7 +435,9 @@ def predicted_attitude_error(
     phi = np.sum(np.broadcast_to(np.asarray(turn_rate_rad_s, dtype=float) * step_s, angle.shape), axis=-1)
     theta = np.max(angle / np.asarray(substeps, dtype=float), axis=-1, initial=0.0)
     weight = _KINEMATIC_WEIGHT[method] + _GYROSCOPIC_WEIGHT * phi
-    return weight * np.sum(angle, axis=-1) * theta**4 / 1920.0
+    step = np.broadcast_to(np.asarray(step_s, dtype=float), angle.shape[-1:])
+    local = np.broadcast_to(np.asarray(excess_rad5_s5, dtype=float), angle.shape) * step * (step / substeps) ** 4
+    return (weight * np.sum(angle, axis=-1) * theta**4 + VARYING_RATE_WEIGHT * np.sum(local, axis=-1)) / 1920.0
 
 
 def substeps_for_budget(
@@ -308,15 +448,17 @@ def substeps_for_budget(
     substeps: Any = 1,
     budget_rad: float = ATTITUDE_ERROR_BUDGET_RAD,
     method: str = "rk4",
+    excess_rad5_s5: Any = 0.0,
 ) -> NDArray[np.int64]:
     """Steps per interval that keep :func:`predicted_attitude_error` within ``budget_rad``.
 
-    Where the rule is broken every step turns the body by at most the same
-    angle ``theta_s = (1920 B / ((k + 2 Phi) Theta))^(1/4)``, which minimises
-    the total step count for the budget ``B`` (steps proportional to
-    ``|omega_k| h_k``); ``Theta`` and ``Phi`` do not depend on the step, so
-    the sub-stepped run meets the budget. Where the rule holds, ``substeps``
-    is returned unchanged.
+    Where the rule is broken the steps go by the effective rate
+    ``Omega_i = max(|omega_i|, (c Xi_i)^(1/5))``: every step turns by at most
+    ``theta_s = (1920 B / ((k + 2 Phi) sum_i Omega_i h_i + sum_(Xi_i > 0) Omega_i h_i))^(1/4)`` (steps
+    proportional to ``Omega_i h_i``, the allocation that minimises their
+    count), which bounds both terms of the rule by ``B``; ``Phi`` and the
+    ``Omega_i`` do not depend on the step. Where the rule holds,
+    ``substeps`` is returned unchanged.
 
     Parameters
     ----------
@@ -332,22 +474,30 @@ def substeps_for_budget(
         Accumulated attitude-error budget [rad].
     method : {"rk4", "geometric"}
         The fixed-step method.
+    excess_rad5_s5 : float or array_like (..., n)
+        Varying-rate term over each interval [rad^5/s^5] (:func:`rate_variation_excess`).
 
     Returns
     -------
     ndarray of int64 (n,)
         Steps per interval.
     """
-    angle = np.asarray(rate_rad_s, dtype=float) * np.asarray(step_s, dtype=float)
-    angle = angle.reshape(-1, angle.shape[-1]) if angle.ndim else angle.reshape(1, 1)
-    asked = np.broadcast_to(np.asarray(substeps, dtype=np.int64), angle.shape[-1:])
-    turn = np.broadcast_to(np.asarray(turn_rate_rad_s, dtype=float), np.shape(rate_rad_s)).reshape(angle.shape)
-    if np.max(predicted_attitude_error(angle, 1.0, turn * step_s, substeps=asked, method=method)) <= budget_rad:
+    rate = np.asarray(rate_rad_s, dtype=float)
+    rate = rate.reshape(-1, rate.shape[-1]) if rate.ndim else rate.reshape(1, 1)
+    step = np.broadcast_to(np.asarray(step_s, dtype=float), rate.shape[-1:])
+    asked = np.broadcast_to(np.asarray(substeps, dtype=np.int64), rate.shape[-1:])
+    turn = np.broadcast_to(np.asarray(turn_rate_rad_s, dtype=float), np.shape(rate_rad_s)).reshape(rate.shape)
+    excess = np.broadcast_to(np.asarray(excess_rad5_s5, dtype=float), np.shape(rate_rad_s)).reshape(rate.shape)
+    error = predicted_attitude_error(rate, step, turn, substeps=asked, method=method, excess_rad5_s5=excess)
+    if np.max(error) <= budget_rad:
         return asked.copy()
-    weight = _KINEMATIC_WEIGHT[method] + _GYROSCOPIC_WEIGHT * np.sum(turn * step_s, axis=-1)
+    effective = np.maximum(rate, (VARYING_RATE_WEIGHT * excess) ** 0.2)
+    weight = _KINEMATIC_WEIGHT[method] + _GYROSCOPIC_WEIGHT * np.sum(turn * step, axis=-1)
+    # Both terms at theta_s: (k + 2 Phi) sum Omega h plus sum Omega h over the intervals whose rate varies.
+    swept = weight * np.sum(effective * step, axis=-1) + np.sum(np.where(excess > 0.0, effective * step, 0.0), axis=-1)
     with np.errstate(divide="ignore"):
-        theta_s = np.min((1920.0 * budget_rad / (weight * np.sum(angle, axis=-1))) ** 0.25)
-    return np.maximum(asked, np.ceil(np.max(angle, axis=0) / theta_s)).astype(np.int64)
+        theta_s = np.min((1920.0 * budget_rad / swept) ** 0.25)
+    return np.maximum(asked, np.ceil(np.max(effective * step, axis=0) / theta_s)).astype(np.int64)
 
 
 def check_error_budget(value: Any, name: str = "attitude_error_budget_rad") -> float:

@@ -45,11 +45,12 @@ from attitude.integrators import (
     StepSizeWarning,
     casadi_rk4_step,
     check_error_budget,
-    gyroscopic_turn_rate,
     normalize_quaternion_components,
     predicted_attitude_error,
     rk4_step,
     rkmk4_step,
+    rule_formula,
+    rule_rates,
     substeps_for_budget,
 )
 from attitude.results import ResultIO
@@ -454,10 +455,9 @@ def _propagate_fixed(
     """
     asked = _substeps(t, max_step)
     dt = np.diff(t)
-    rate = np.linalg.norm(omega0, axis=-1)[..., None]
     tau0 = None if kind == "callable" else (tq if kind == "const" else tq[0])
-    turn = gyroscopic_turn_rate(body, omega0, torque=tau0)[..., None]
-    subs, message = _rule_substeps(rate, turn, dt, asked, asked, method, budget, max_step)
+    rates = tuple(value[..., None] for value in rule_rates(body, omega0, torque=tau0))
+    subs, message = _rule_substeps(rates, dt, asked, asked, method, budget, max_step)
     sampled_body = body if not body.batch_shape else RigidBody(body.inertia[..., None, :, :])
     met = True
     for passes in range(1, RULE_PASSES + 1):
@@ -469,8 +469,8 @@ def _propagate_fixed(
                 q, omega, info, peaks = _propagate_fixed_numpy(body, q0, omega0, t, kind, tq, batch, subs, method)
         if not (np.all(np.isfinite(omega)) and np.all(np.isfinite(q))):
             break  # _check_finite names the divergence
-        rate, turn = _flown_rates(sampled_body, omega, kind, tq, peaks)
-        needed, again = _rule_substeps(rate, turn, dt, subs, asked, method, budget, max_step)
+        rates = _flown_rates(sampled_body, omega, kind, tq, peaks)
+        needed, again = _rule_substeps(rates, dt, subs, asked, method, budget, max_step)
         if np.all(needed <= subs):
             break
         message = again
@@ -478,7 +478,12 @@ def _propagate_fixed(
             met = False  # the count the rates flown ask for was never run: say so rather than rerun forever
         else:
             subs = needed
-    error = float(np.max(predicted_attitude_error(rate, dt, turn, substeps=subs, method=method), initial=0.0))
+    rate, turn, excess = rates
+    error = float(
+        np.max(
+            predicted_attitude_error(rate, dt, turn, substeps=subs, method=method, excess_rad5_s5=excess), initial=0.0
+        )
+    )
     if message is not None:
         if met:
             note = (
@@ -506,9 +511,10 @@ def _propagate_fixed(
 
 
 def _flown_rates(
-    sampled_body: RigidBody, omega: NDArray[np.float64], kind: str, tq: Any, peaks: tuple[NDArray, NDArray]
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """``|omega|`` and the turn rate over each output interval, the largest at its ends and every step inside.
+    sampled_body: RigidBody, omega: NDArray[np.float64], kind: str, tq: Any, peaks: tuple[NDArray, ...]
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The rule's rates (:func:`attitude.integrators.rule_rates`) over each output interval, the largest at its
+    ends and every step inside.
 
     Parameters
     ----------
@@ -520,33 +526,31 @@ def _flown_rates(
         Torque kind; a callable's torque is in ``peaks`` (evaluated at the samples during the run).
     tq : ndarray or callable
         Torque [N m] of that kind.
-    peaks : (ndarray, ndarray), shape batch + (n - 1,)
-        Largest ``|omega|`` and turn rate at the step starts inside each interval [rad/s].
+    peaks : (ndarray, ndarray, ndarray), shape batch + (n - 1,)
+        Largest ``|omega|``, turn rate [rad/s] and varying-rate term [rad^5/s^5] at the step starts inside
+        each interval.
 
     Returns
     -------
-    rate, turn : ndarray, shape batch + (n - 1,)
-        [rad/s].
+    rate, turn, excess : ndarray, shape batch + (n - 1,)
+        [rad/s], [rad/s], [rad^5/s^5].
     """
-    ends = np.linalg.norm(omega, axis=-1)
-    rate = np.maximum(np.maximum(ends[..., :-1], ends[..., 1:]), peaks[0])
     if kind == "callable":
-        nu = gyroscopic_turn_rate(sampled_body, omega)
-        turn = np.maximum(nu[..., :-1], nu[..., 1:])
+        ends = rule_rates(sampled_body, omega)
+        flown = [np.maximum(value[..., :-1], value[..., 1:]) for value in ends]
     else:
         held = tq if kind == "const" else np.moveaxis(tq[:-1], 0, -2)  # interval k flies under tq[k]
         if kind == "const":
             held = np.asarray(held)[..., None, :]
-        turn = np.maximum(
-            gyroscopic_turn_rate(sampled_body, omega[..., :-1, :], torque=held),
-            gyroscopic_turn_rate(sampled_body, omega[..., 1:, :], torque=held),
-        )
-    return rate, np.maximum(turn, peaks[1])
+        starts = rule_rates(sampled_body, omega[..., :-1, :], torque=held)
+        stops = rule_rates(sampled_body, omega[..., 1:, :], torque=held)
+        flown = [np.maximum(a, b) for a, b in zip(starts, stops)]
+    rate, turn, excess = (np.maximum(value, peak) for value, peak in zip(flown, peaks))
+    return rate, turn, excess
 
 
 def _rule_substeps(
-    rate: NDArray[np.float64],
-    turn: NDArray[np.float64],
+    rates: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]],
     dt: NDArray[np.float64],
     subs: NDArray[np.int64],
     asked: NDArray[np.int64],
@@ -558,8 +562,9 @@ def _rule_substeps(
 
     Parameters
     ----------
-    rate, turn : ndarray, shape batch + (1,) or batch + (n - 1,)
-        ``|omega|`` and the gyroscopic turn rate over each interval [rad/s].
+    rates : (ndarray, ndarray, ndarray), shape batch + (1,) or batch + (n - 1,)
+        ``|omega|``, the gyroscopic turn rate [rad/s] and the varying-rate term [rad^5/s^5] over each
+        interval (:func:`attitude.integrators.rule_rates`).
     dt : ndarray, shape (n - 1,)
         Interval lengths [s].
     subs : ndarray of int, shape (n - 1,)
@@ -580,9 +585,9 @@ def _rule_substeps(
     message : str or None
         The broken rule, for the caller's one warning (None when it holds).
     """
-    rate = np.broadcast_to(rate, (*rate.shape[:-1], dt.size))
-    turn = np.broadcast_to(turn, rate.shape)
-    needed = substeps_for_budget(rate, dt, turn, substeps=subs, budget_rad=budget, method=method)
+    rate = np.broadcast_to(rates[0], (*rates[0].shape[:-1], dt.size))
+    turn, excess = (np.broadcast_to(value, rate.shape) for value in rates[1:])
+    needed = substeps_for_budget(rate, dt, turn, substeps=subs, budget_rad=budget, method=method, excess_rad5_s5=excess)
     if np.all(needed <= subs):
         return subs, None
     needed = np.maximum(needed, subs)
@@ -590,10 +595,12 @@ def _rule_substeps(
     rate_max = float(np.max(rate[..., worst]))
     h_asked = float(dt[worst] / asked[worst])
     h_new = float(np.min(dt / needed))
-    error = float(np.max(predicted_attitude_error(rate, dt, turn, substeps=asked, method=method)))
+    error = float(
+        np.max(predicted_attitude_error(rate, dt, turn, substeps=asked, method=method, excess_rad5_s5=excess))
+    )
     rule = (
-        f"method={method!r} breaks the step-size rule E = ({'1 + ' if method == 'rk4' else ''}2 Phi) Theta "
-        f"theta^4 / 1920 <= {budget:.3g} rad (docs/rk4_step_rule.md): |omega| up to {rate_max:.3g} rad/s with a "
+        f"method={method!r} breaks the step-size rule {rule_formula(method)} <= {budget:.3g} rad "
+        f"(docs/rk4_step_rule.md): |omega| up to {rate_max:.3g} rad/s with a "
         f"step of {h_asked:.3g} s (|omega| h = {rate_max * h_asked:.3g} rad per step) predicts an accumulated "
         f"attitude error of {error:.3g} rad"
     )
@@ -767,13 +774,11 @@ def _propagate_rk4_casadi(
     out = np.concatenate([np.concatenate([q0, omega0])[None, :], xs[:, ends].T], axis=0)
     info = {"steps": int(n_fine), "substeps_max": int(subs.max()), "engine": "casadi mapaccum"}
     if subs.max() == 1:
-        peaks = (np.zeros(subs.size), np.zeros(subs.size))
+        peaks = (np.zeros(subs.size), np.zeros(subs.size), np.zeros(subs.size))
     else:  # the state after every step (the ends included): the rule's rates between the samples
-        w_fine = xs[4:, :n_fine].T
         starts = ends + 1 - subs
-        rate_fine = np.linalg.norm(w_fine, axis=-1)
-        turn_fine = gyroscopic_turn_rate(body, w_fine, torque=tau_fine[:, :n_fine].T)
-        peaks = (np.maximum.reduceat(rate_fine, starts), np.maximum.reduceat(turn_fine, starts))
+        fine = rule_rates(body, xs[4:, :n_fine].T, torque=tau_fine[:, :n_fine].T)
+        peaks = tuple(np.maximum.reduceat(value, starts) for value in fine)
     return out[:, :4], out[:, 4:], info, peaks
 
 
@@ -867,8 +872,7 @@ def _propagate_fixed_numpy(
         inertia = np.broadcast_to(body.inertia, (*batch, 3, 3)).reshape(size, 3, 3) if body.batch_shape else None
     q_out = np.empty((t.size, size, 4))
     w_out = np.empty((t.size, size, 3))
-    peak_rate = np.zeros((size, t.size - 1))
-    peak_turn = np.zeros((size, t.size - 1))
+    peak_rate, peak_turn, peak_excess = (np.zeros((size, t.size - 1)) for _ in range(3))
     steps = 0
     n_chunks = -(-size // BATCH_CHUNK)
     chunk = -(-size // n_chunks)  # balanced chunks, none larger than BATCH_CHUNK
@@ -878,12 +882,12 @@ def _propagate_fixed_numpy(
         chunk_tq = tqf[sl] if kind == "const" else tqf[:, sl]
         n = sl.stop - sl.start
         frame = None if principal is None else (principal[0][sl], principal[1][sl])
-        q_out[:, sl], w_out[:, sl], steps, (peak_rate[sl], peak_turn[sl]) = _run_fixed(
+        q_out[:, sl], w_out[:, sl], steps, (peak_rate[sl], peak_turn[sl], peak_excess[sl]) = _run_fixed(
             chunk_body, q0f[sl], w0f[sl], t, subs, kind, chunk_tq, (n,), method, output_frame=frame
         )
     q = np.moveaxis(q_out.reshape(t.size, *batch, 4), 0, -2)
     w = np.moveaxis(w_out.reshape(t.size, *batch, 3), 0, -2)
-    peaks = (peak_rate.reshape(*batch, t.size - 1), peak_turn.reshape(*batch, t.size - 1))
+    peaks = tuple(peak.reshape(*batch, t.size - 1) for peak in (peak_rate, peak_turn, peak_excess))
     return q, w, _fixed_info(steps, subs), peaks
 
 
@@ -979,8 +983,7 @@ def _run_fixed(
     steps = 0
     # The rule's rates at every step start not on the output grid (and, for a callable torque, at the
     # samples too, with the torque the step used): the peaks between samples the after-run check needs.
-    peak_rate = np.zeros((n - 1, *batch))
-    peak_turn = np.zeros((n - 1, *batch))
+    peaks = np.zeros((3, n - 1, *batch))  # |omega|, turn rate, varying-rate term
     seen: list[Components | None] = []
     for k in range(n - 1):
         tau_fun = torque_components(k)
@@ -1017,13 +1020,9 @@ def _run_fixed(
                 qc, wc = xc[:4], xc[4:]
             steps += 1
             if track and (j > 0 or kind == "callable"):
-                rate_j, turn_j = _rule_rates(body, w_start, seen[0] if seen else None)
-                peak_rate[k] = np.maximum(peak_rate[k], rate_j)
-                peak_turn[k] = np.maximum(peak_turn[k], turn_j)
+                peaks[:, k] = np.maximum(peaks[:, k], _rule_rates(body, w_start, seen[0] if seen else None))
         if kind == "callable":  # the end sample, with the torque of the last step
-            rate_j, turn_j = _rule_rates(body, wc, seen[0] if seen else None)
-            peak_rate[k] = np.maximum(peak_rate[k], rate_j)
-            peak_turn[k] = np.maximum(peak_turn[k], turn_j)
+            peaks[:, k] = np.maximum(peaks[:, k], _rule_rates(body, wc, seen[0] if seen else None))
         q_store, w_store = qc, wc
         if output_frame is not None:
             q_store = quat.multiply_components(qc, conj)
@@ -1032,15 +1031,14 @@ def _run_fixed(
             q_soa[k + 1, i] = q_store[i]
         for i in range(3):
             w_soa[k + 1, i] = w_store[i]
-    peaks = (np.moveaxis(peak_rate, 0, -1), np.moveaxis(peak_turn, 0, -1))
-    return np.moveaxis(q_soa, 1, -1), np.moveaxis(w_soa, 1, -1), steps, peaks
+    return np.moveaxis(q_soa, 1, -1), np.moveaxis(w_soa, 1, -1), steps, tuple(np.moveaxis(peaks, 1, -1))
 
 
-def _rule_rates(body: RigidBody, omega: Components, tau: Components | None) -> tuple[Any, Any]:
-    """``|omega|`` and the turn rate (:func:`attitude.integrators.gyroscopic_turn_rate`) of a state on components."""
+def _rule_rates(body: RigidBody, omega: Components, tau: Components | None) -> NDArray[np.float64]:
+    """:func:`attitude.integrators.rule_rates` of a state on components, stacked (3, ...)."""
     w = np.stack(np.broadcast_arrays(*omega), axis=-1)
     torque = None if tau is None else np.stack(np.broadcast_arrays(*tau), axis=-1)
-    return np.linalg.norm(w, axis=-1), gyroscopic_turn_rate(body, w, torque=torque)
+    return np.stack(rule_rates(body, w, torque=torque))
 
 
 def _propagate_adaptive(

@@ -39,7 +39,13 @@ from numpy.typing import ArrayLike, NDArray
 from attitude import quaternion as quat
 from attitude.actuators import Magnetorquers, ReactionWheels
 from attitude.environment.orbit_environment import OrbitEnvironment
-from attitude.integrators import ATTITUDE_ERROR_BUDGET_RAD, MAX_RULE_SUBSTEPS, StepSizeWarning, check_error_budget
+from attitude.integrators import (
+    ATTITUDE_ERROR_BUDGET_RAD,
+    MAX_RULE_SUBSTEPS,
+    StepSizeWarning,
+    check_error_budget,
+    rule_formula,
+)
 from attitude.results import ResultIO
 from attitude.rigid_body import RigidBody, split_components
 from attitude.rng import as_generator
@@ -516,7 +522,7 @@ def _run_compiled_rule(args: tuple, substeps: int, every: dict, rng: Any, budget
         steps = needed
     if steps > substeps:
         warnings.warn(
-            f"simulate breaks the step-size rule E = (1 + 2 Phi) Theta theta^4 / 1920 <= {budget:.3g} rad "
+            f"simulate breaks the step-size rule {rule_formula()} <= {budget:.3g} rad "
             f"(docs/rk4_step_rule.md): {substeps} RK4 step(s) per tick of {dt:.3g} s predicts an accumulated "
             f"attitude error above the budget at the rates reached (body rate up to "
             f"{float(np.max(np.linalg.norm(result.omega, axis=1))):.3g} rad/s); the plant is sub-stepped to {steps} "
@@ -644,7 +650,20 @@ def _error_angles(controller: Any, t: NDArray, q: NDArray) -> NDArray:
 
 
 def _run_python(
-    model, flight, controller, sensors, estimator, disturbance, q0, omega0, h0, dt, n_ticks, substeps, every, rng,
+    model,
+    flight,
+    controller,
+    sensors,
+    estimator,
+    disturbance,
+    q0,
+    omega0,
+    h0,
+    dt,
+    n_ticks,
+    substeps,
+    every,
+    rng,
     rule=None,
 ):
     gen = as_generator(rng)

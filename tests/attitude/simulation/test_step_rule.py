@@ -153,10 +153,10 @@ def test_the_tick_rule_evaluates_the_one_rule_of_the_integrators():
 
 
 def test_the_tick_rule_counts_the_applied_torque_as_the_integrators_do():
-    # The Python engine's float evaluation of the turn rate against attitude.integrators.gyroscopic_turn_rate,
-    # with wheels and with a torque across the rate (which turns it: it used to be left out of the tick rule).
+    # The Python engine's float evaluation of the rule's rates against attitude.integrators.rule_rates, with
+    # wheels and with a torque across the rate (which turns it: it used to be left out of the tick rule).
     from attitude import ReactionWheels
-    from attitude.integrators import gyroscopic_turn_rate
+    from attitude.integrators import rule_rates
     from attitude.simulation.plant import PlantModel
     from attitude.simulation.step_rule import TickRule
 
@@ -165,10 +165,10 @@ def test_the_tick_rule_counts_the_applied_torque_as_the_integrators_do():
     model = PlantModel(wheels.hub_body(body), wheels)
     rule = TickRule(model, 0.1, 10, 1, 1e-6)
     omega, h, torque = np.array([0.3, -0.2, 0.5]), np.array([0.01, -0.02, 0.03, 0.0]), np.array([0.2, 0.1, -0.3])
-    expected = gyroscopic_turn_rate(model.body, omega, h @ wheels.distribution.T, torque)
-    _, turn = rule._rate_and_turn(omega, h, torque)
-    assert turn == pytest.approx(float(expected), rel=1e-12)
-    assert turn > rule._rate_and_turn(omega, h, None)[1]  # the torque across omega adds to the turn
+    expected = rule_rates(model.body, omega, h @ wheels.distribution.T, torque)
+    floats = rule._rule_rates(omega, h, torque)
+    assert floats == pytest.approx([float(v) for v in expected], rel=1e-12)
+    assert floats[1] > rule._rule_rates(omega, h, None)[1]  # the torque across omega adds to the turn
 
 
 def test_a_spin_up_that_ends_over_the_budget_says_not_within_it():
@@ -190,3 +190,74 @@ def test_a_spin_up_that_ends_over_the_budget_says_not_within_it():
     messages = [str(w.message) for w in caught if issubclass(w.category, _StepSizeWarning)]
     assert any("NOT within the attitude-error budget" in m and f"{rule['predicted_error_rad']:.4g}" in m
                for m in messages)
+
+
+#: A prolate body (I_z / I_x = 1/8) spun 25 deg off its minor axis: its rate nutates at 0.875 |omega_z| in the
+#: body, faster than the rate vector turns, and the rule before the varying-rate term predicted 3.0e-7 rad
+#: for RK4 at 0.1 s over 5 steps while the error against DOP853 was 1.37e-6 rad (1.15e-6 rad with 0.13 N m
+#: about y): over the 1e-6 rad budget with no warning.
+PROLATE = RigidBody([1.0, 1.0, 0.125])
+PROLATE_RATE = 1.5 * np.array([np.sin(np.radians(25.0)), 0.0, np.cos(np.radians(25.0))])
+
+
+@pytest.mark.parametrize("torque", [None, [0.0, 0.13, 0.0]])
+def test_a_prolate_body_spun_near_its_minor_axis_is_sub_stepped_within_the_budget(torque):
+    t = np.arange(6) * 0.1
+    ref = propagate(PROLATE, quat.identity(), PROLATE_RATE, t, torque, method="adaptive", rtol=1e-13, atol=1e-14)
+    with pytest.warns(StepSizeWarning, match="sub-stepped"):
+        traj = propagate(PROLATE, quat.identity(), PROLATE_RATE, t, torque)
+    error = float(np.max(quat.error_angle(quat.normalize(ref.q), quat.normalize(traj.q))))
+    assert error <= ATTITUDE_ERROR_BUDGET_RAD + REFERENCE_RAD
+
+
+@pytest.mark.parametrize("method", ["rk4", "geometric"])
+def test_the_rule_bounds_the_error_where_its_calibration_was_tightest(method):
+    # I = [1, 1, 0.0647] (ratio 15.4) at 4.16 rad/s near its minor axis, 0.09 rad per step, 500 steps: the
+    # calibration case that needed the largest varying-rate weight (0.75 of the 1.5 used, docs/rk4_step_rule.md).
+    # The rule's prediction on the reference's rates must bound the error of the unruled run, and the
+    # varying-rate term must be what makes it a bound.
+    from attitude.integrators import predicted_attitude_error, rule_rates
+
+    body, omega0 = RigidBody([1.0, 1.0, 0.0647]), np.array([0.05, 0.03, 4.16])
+    step = 0.09 / np.linalg.norm(omega0)
+    t = np.arange(501) * step
+    ref = propagate(body, quat.identity(), omega0, t, method="adaptive", rtol=1e-13, atol=1e-14)
+    off = propagate(body, quat.identity(), omega0, t, method=method, attitude_error_budget_rad=np.inf)
+    error = float(np.max(quat.error_angle(quat.normalize(ref.q), quat.normalize(off.q))))
+    rate, turn, excess = (np.maximum(v[:-1], v[1:]) for v in rule_rates(body, ref.omega))
+    without = float(predicted_attitude_error(rate, step, turn, method=method))
+    predicted = float(predicted_attitude_error(rate, step, turn, method=method, excess_rad5_s5=excess))
+    assert without < error <= predicted
+
+
+def test_the_varying_rate_term_is_the_unrolled_leibniz_bound():
+    # b_{n+1} = (1/2) sum_j C(n, j) b_{n-j} w_j (Leibniz's rule on q' = q omega / 2), w_0 = |omega|,
+    # w_j = nu |omega| mu^(j-1), written here as the general recursion; Xi = 32 b_5 - |omega|^5, zero at nu = 0.
+    from math import comb
+
+    from attitude.integrators import fifth_derivative_excess
+
+    for rate, turn, growth in [(1.5, 0.3, 1.2), (0.2, 3.0, 0.5), (4.0, 0.0, 2.0), (0.0, 0.0, 1.0)]:
+        w = [rate] + [turn * rate * growth ** (j - 1) for j in range(1, 5)]
+        b = [1.0]
+        for n in range(5):
+            b.append(0.5 * sum(comb(n, j) * b[n - j] * w[j] for j in range(n + 1)))
+        expected = 32.0 * b[5] - rate**5
+        assert fifth_derivative_excess(rate, turn, growth) == pytest.approx(expected, rel=1e-12, abs=1e-12)
+    assert fifth_derivative_excess(4.0, 0.0, 2.0) == pytest.approx(0.0, abs=1e-12)
+
+
+def test_the_batch_bound_covers_the_prolate_case_without_the_varying_rate_term():
+    # The vectorised batch bounds carry the Phi term only, with the worst turn rate (I_max / I_min) |omega|
+    # (docs/rk4_step_rule.md): for the prolate case above that worst case (8 |omega|) must still bound the
+    # error of the unruled RK4 run, measured here against DOP853.
+    from attitude.simulation.plant import PlantModel
+    from attitude.simulation.step_rule import batch_broken
+
+    t = np.arange(6) * 0.1
+    ref = propagate(PROLATE, quat.identity(), PROLATE_RATE, t, method="adaptive", rtol=1e-13, atol=1e-14)
+    off = propagate(PROLATE, quat.identity(), PROLATE_RATE, t, attitude_error_budget_rad=np.inf)
+    error = float(np.max(quat.error_angle(quat.normalize(ref.q), quat.normalize(off.q))))
+    broken, bound = batch_broken(PlantModel(PROLATE, None), np.array([1.5]), 0.1, 5, 1, ATTITUDE_ERROR_BUDGET_RAD)
+    assert error > ATTITUDE_ERROR_BUDGET_RAD  # the case the rule must catch
+    assert bound[0] >= error and broken[0]
