@@ -841,6 +841,33 @@ def mekf(
     )
 
 
+def tracker_misalignment_covariance(config: SpacecraftConfig) -> NDArray[np.float64]:
+    """Covariance of the star tracker's mounting error [rad^2], body axes (3, 3): zero when it is not dispersed.
+
+    The per-axis variance of ``[montecarlo] star_tracker_misalignment``. With
+    one attitude sensor the mounting rotation cannot be told from the
+    attitude (every measurement carries it alike), so the MEKF converges to
+    the tracker's frame and the true attitude error is the filter's error
+    plus the misalignment, independent of it: the Schmidt 'consider'
+    covariance of an unestimated bias (Markley & Crassidis, *Fundamentals of
+    Spacecraft Attitude Determination and Control*, 2014, ch. 6, on
+    calibrating sensor alignments). The campaign's NEES adds it to the
+    filter's attitude covariance.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file.
+
+    Returns
+    -------
+    ndarray (3, 3)
+        [rad^2]
+    """
+    mc = config.montecarlo
+    return _variance(None if mc is None else mc.star_tracker_misalignment) * np.eye(3)
+
+
 def mekf_tracker_covariance(
     config: SpacecraftConfig, tracker: StarTracker, consider_misalignment: bool = False
 ) -> NDArray[np.float64]:
@@ -864,9 +891,8 @@ def mekf_tracker_covariance(
         [rad^2]
     """
     cov = np.array(tracker.covariance_B, dtype=float)
-    mc = config.montecarlo
-    if consider_misalignment and mc is not None:
-        cov += _variance(mc.star_tracker_misalignment) * np.eye(3)
+    if consider_misalignment:
+        cov += tracker_misalignment_covariance(config)
     return cov
 
 

@@ -188,6 +188,8 @@ def estimation_study(
         "rate_sigma0_deg_per_s": RATE_SIGMA0_DEG_PER_S,
         "confidence": CONFIDENCE,
         "confidence_percent": 100.0 * CONFIDENCE,
+        # The mount error the campaign disperses and judges as a consider covariance (sections._estimation).
+        "tracker_mount_sigma_arcsec": float(np.sqrt(assembly.tracker_misalignment_covariance(config)[0, 0]) / ARCSEC),
         "mekf": mekf_out,
         "rate_ekf": rate_out,
     }
