@@ -9,6 +9,7 @@ from attitude.simulation.batch import (
 from attitude.simulation.batch_estimated import (
     simulate_batch_estimated,
 )
+from attitude.simulation.direction_sensors import MagnetometerDirection, SunDirection
 from attitude.simulation.engine import SimulationDivergedError, SimulationResult, settling_time_after, simulate
 from attitude.simulation.protocols import (
     BatchEstimator,
@@ -29,9 +30,11 @@ __all__ = [
     "Controller",
     "Estimate",
     "Estimator",
+    "MagnetometerDirection",
     "Sensor",
     "SimulationDivergedError",
     "SimulationResult",
+    "SunDirection",
     "Truth",
     "VectorMeasurement",
     "closed_loop_metrics",

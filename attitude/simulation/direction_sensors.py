@@ -1,0 +1,197 @@
+"""Direction sensors as an attitude estimator reads them: samples turned into :class:`VectorMeasurement`.
+
+A magnetometer samples the field in body axes [T] and a Sun sensor a
+direction (or cell currents); an estimator such as
+:class:`estimation.mekf.MEKF` (``vector_names=``) needs the measured unit
+vector, the same direction in the inertial frame N at the sample time and
+the noise of the unit vector (the convention of
+:class:`attitude.simulation.protocols.Estimator`). The adapters here wrap a
+sensor, keep its name and period, and hand the estimator that
+:class:`VectorMeasurement`, so ``simulate(..., sensors=[gyro,
+MagnetometerDirection(magnetometer), SunDirection(fine_sun_sensor)],
+estimator=MEKF(..., vector_names=[...]))`` flies a star-tracker-free
+determination loop.
+
+The reference in N is the truth's (``truth.magnetic_field_B`` and
+``truth.sun_B`` rotated to N with the true attitude): the on-board field
+and Sun models are taken as perfect, so the errors the estimator sees are
+the sensors' own. The default noise of the unit vector is the sensor's
+white noise and its constant bias added in quadrature per axis (the
+estimators do not estimate those biases; treating a bias as extra noise
+keeps the covariance honest on average, see docs/sensors.md).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from attitude import quaternion as quat
+from attitude.sensors import Magnetometer
+from attitude.simulation.protocols import VectorMeasurement
+from attitude.sun_sensors import CoarseSunSensors, FineSunSensor
+from attitude.validation import positive_scalar
+
+__all__ = ["MagnetometerDirection", "SunDirection"]
+
+
+def _name(name: str | None, default: str) -> str:
+    if name is None:
+        return default
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"name must be a non-empty string or None (the sensor's own), got {name!r}")
+    return name
+
+
+def _sigma(sigma_rad: float | None) -> float | None:
+    return None if sigma_rad is None else positive_scalar(sigma_rad, "sigma_rad")
+
+
+class MagnetometerDirection:
+    """A magnetometer as a direction sensor: the field's direction in body axes and in N.
+
+    Parameters
+    ----------
+    magnetometer : Magnetometer
+        The sensor (its samples [T], period and name).
+    sigma_rad : float, optional
+        Angular noise of the measured direction per axis [rad] (> 0). Default:
+        ``sqrt(sigma_T^2 + |bias_T|^2 / 3) / |B|`` at each sample, the white
+        noise and the bias (spread over three axes) in quadrature over the
+        field's magnitude.
+    name : str, optional
+        Name the estimator reads it under (default: the magnetometer's).
+    """
+
+    def __init__(self, magnetometer: Magnetometer, sigma_rad: float | None = None, name: str | None = None) -> None:
+        if not isinstance(magnetometer, Magnetometer):
+            raise TypeError(f"magnetometer must be an attitude.sensors.Magnetometer, got {type(magnetometer).__name__}")
+        self.magnetometer = magnetometer
+        self.sigma_rad = _sigma(sigma_rad)
+        self.name = _name(name, magnetometer.name)
+        self.period = magnetometer.period
+        bias = np.asarray(magnetometer.bias, dtype=float)
+        #: The per-axis noise the default sigma divides by |B| [T].
+        self.equivalent_noise_T = math.sqrt(magnetometer.sigma**2 + float(bias @ bias) / 3.0)
+
+    def __repr__(self) -> str:
+        return f"MagnetometerDirection({self.magnetometer!r}, sigma_rad={self.sigma_rad!r}, name={self.name!r})"
+
+    def measure(self, t: float, truth: Any, rng: Any = None) -> VectorMeasurement:
+        """The sample at ``t`` as a :class:`VectorMeasurement`.
+
+        Parameters
+        ----------
+        t : float
+            Sample time [s].
+        truth : Truth
+            The true state (``q``, ``magnetic_field_B``).
+        rng : numpy.random.Generator or int, optional
+            Noise source.
+
+        Returns
+        -------
+        VectorMeasurement
+
+        Raises
+        ------
+        ValueError
+            Without an orbit environment (no field), or when the default noise
+            is zero (a noise-free magnetometer: pass ``sigma_rad``).
+        """
+        sample_T = self.magnetometer.measure(t, truth, rng)
+        field_B = np.asarray(truth.magnetic_field_B, dtype=float)
+        sigma = self.sigma_rad
+        if sigma is None:
+            if self.equivalent_noise_T == 0.0:
+                raise ValueError(
+                    f"sigma_rad is needed for magnetometer {self.magnetometer.name!r}: it has no noise and no bias, "
+                    "so its direction would be taken as exact; pass the angular noise the estimator should assume"
+                )
+            sigma = self.equivalent_noise_T / float(np.linalg.norm(field_B))
+        return VectorMeasurement(sample_T, quat.rotate(truth.q, field_B), sigma=sigma)
+
+
+class SunDirection:
+    """A Sun sensor as a direction sensor: the Sun's direction in body axes and in N.
+
+    Parameters
+    ----------
+    sensor : FineSunSensor or CoarseSunSensors
+        The sensor. A fine sensor's sample is its direction (None out of view
+        or in eclipse); coarse cells give theirs through
+        :meth:`CoarseSunSensors.sun_vector` (None when not valid).
+    sigma_rad : float, optional
+        Angular noise of the direction per axis [rad] (> 0). Default: for the
+        fine sensor ``sqrt(sigma^2 + |bias|^2 / 2)`` (its two-axis noise and
+        bias in quadrature); for the coarse cells the first-order covariance of
+        each estimate (:attr:`SunVectorEstimate.covariance_B`).
+    name : str, optional
+        Name the estimator reads it under (default: the sensor's).
+    """
+
+    def __init__(
+        self, sensor: FineSunSensor | CoarseSunSensors, sigma_rad: float | None = None, name: str | None = None
+    ) -> None:
+        if not isinstance(sensor, (FineSunSensor, CoarseSunSensors)):
+            raise TypeError(
+                f"sensor must be an attitude.sun_sensors.FineSunSensor or CoarseSunSensors, got {type(sensor).__name__}"
+            )
+        self.sensor = sensor
+        self.sigma_rad = _sigma(sigma_rad)
+        self.name = _name(name, sensor.name)
+        self.period = sensor.period
+        if isinstance(sensor, FineSunSensor):
+            bias = np.asarray(sensor.bias, dtype=float)
+            #: The per-axis angular noise the default assumes for a fine sensor [rad].
+            self.equivalent_noise_rad = math.sqrt(sensor.sigma**2 + float(bias @ bias) / 2.0)
+
+    def __repr__(self) -> str:
+        return f"SunDirection({self.sensor!r}, sigma_rad={self.sigma_rad!r}, name={self.name!r})"
+
+    def measure(self, t: float, truth: Any, rng: Any = None) -> VectorMeasurement | None:
+        """The sample at ``t`` as a :class:`VectorMeasurement`, or None when the Sun gives no direction.
+
+        Parameters
+        ----------
+        t : float
+            Sample time [s].
+        truth : Truth
+            The true state (``q``, ``sun_B``, ``illumination``).
+        rng : numpy.random.Generator or int, optional
+            Noise source.
+
+        Returns
+        -------
+        VectorMeasurement or None
+            None out of the field of view, in eclipse, or (coarse cells) with
+            fewer than three independent lit cells.
+
+        Raises
+        ------
+        ValueError
+            Without an orbit environment (no Sun), or a noise-free fine sensor
+            with no ``sigma_rad``.
+        """
+        out = self.sensor.measure(t, truth, rng)
+        if out is None:
+            return None
+        reference_N = quat.rotate(truth.q, np.asarray(truth.sun_B, dtype=float))
+        if isinstance(self.sensor, CoarseSunSensors):
+            estimate = self.sensor.sun_vector(out)
+            if not estimate.valid:
+                return None
+            if self.sigma_rad is not None:
+                return VectorMeasurement(estimate.sun_B, reference_N, sigma=self.sigma_rad)
+            return VectorMeasurement(estimate.sun_B, reference_N, covariance=estimate.covariance_B)
+        sigma = self.sigma_rad
+        if sigma is None:
+            if self.equivalent_noise_rad == 0.0:
+                raise ValueError(
+                    f"sigma_rad is needed for Sun sensor {self.sensor.name!r}: it has no noise and no bias, so its "
+                    "direction would be taken as exact; pass the angular noise the estimator should assume"
+                )
+            sigma = self.equivalent_noise_rad
+        return VectorMeasurement(out, reference_N, sigma=sigma)
