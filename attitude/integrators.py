@@ -293,9 +293,9 @@ def rate_variation_excess(body: RigidBody, omega: Any, h: Any = None, torque: An
 
     ``Xi = 32 b_5 - |omega|^5``, where ``b_5`` bounds ``|q^(5)|`` for
     ``q' = q ⊗ omega / 2`` when the rate's derivatives grow as
-    ``|omega^(j)| <= nu |omega| mu^(j-1)``: ``nu`` is the turn rate
-    (:func:`gyroscopic_turn_rate`, so ``nu |omega|`` bounds ``|omega'|``) and
-    ``mu`` the Frobenius norm of the Jacobian of Euler's equations,
+    ``|omega^(j)| <= |omega'| mu^(j-1)``: ``|omega'|`` is the body's angular
+    acceleration from Euler's equations (gyroscopic terms and the applied
+    torque) and ``mu`` the Frobenius norm of the Jacobian of Euler's equations,
     ``I^-1 ([I omega + h]x - [omega]x I)``, which bounds how fast each
     further derivative of the linearised rate grows. For a constant rate
     ``b_5 = (|omega| / 2)^5``, the constant-spin term of the rule, and
@@ -326,13 +326,13 @@ def rate_variation_excess(body: RigidBody, omega: Any, h: Any = None, torque: An
     if h is not None:
         momentum = momentum + np.asarray(h, dtype=float)
     jacobian = np.matmul(body.inertia_inv, skew(momentum) - np.matmul(skew(omega), body.inertia))
-    return fifth_derivative_excess(
-        rate, gyroscopic_turn_rate(body, omega, h, torque), np.linalg.norm(jacobian, axis=(-2, -1))
-    )
+    acceleration = np.linalg.norm(body.omega_dot(omega, torque, h), axis=-1)
+    return fifth_derivative_excess(rate, acceleration, np.linalg.norm(jacobian, axis=(-2, -1)))
 
 
 def rule_rates(body: RigidBody, omega: Any, h: Any = None, torque: Any = None) -> tuple[Any, Any, Any]:
-    """The three state rates the step-size rule reads: ``|omega|``, :func:`gyroscopic_turn_rate` and
+    """The three state rates the step-size rule reads: ``|omega|``, :func:`gyroscopic_turn_rate` (torque-free:
+    ``Phi`` measures the gyroscopic turn, the applied torque enters through the acceleration) and
     :func:`rate_variation_excess` (the one place they are evaluated together).
 
     Parameters
@@ -354,16 +354,16 @@ def rule_rates(body: RigidBody, omega: Any, h: Any = None, torque: Any = None) -
     omega = np.asarray(omega, dtype=float)
     return (
         np.linalg.norm(omega, axis=-1),
-        gyroscopic_turn_rate(body, omega, h, torque),
+        gyroscopic_turn_rate(body, omega, h),
         rate_variation_excess(body, omega, h, torque),
     )
 
 
-def fifth_derivative_excess(rate_rad_s: Any, turn_rate_rad_s: Any, growth_rate_rad_s: Any) -> Any:
-    """``Xi = 32 b_5 - |omega|^5`` of :func:`rate_variation_excess` from its three rates [rad^5/s^5].
+def fifth_derivative_excess(rate_rad_s: Any, acceleration_rad_s2: Any, growth_rate_rad_s: Any) -> Any:
+    """``Xi = 32 b_5 - |omega|^5`` of :func:`rate_variation_excess` [rad^5/s^5].
 
     ``b_{n+1} = (1/2) sum_j C(n, j) b_{n-j} w_j`` with ``b_0 = 1``,
-    ``w_0 = |omega|`` and ``w_j = nu |omega| mu^(j-1)`` (Leibniz's rule on
+    ``w_0 = |omega|`` and ``w_j = |omega'| mu^(j-1)`` (Leibniz's rule on
     ``q' = q ⊗ omega / 2`` with every product bounded by its norms). Works
     on floats and on arrays alike (the simulate engine evaluates it every tick).
 
@@ -371,8 +371,8 @@ def fifth_derivative_excess(rate_rad_s: Any, turn_rate_rad_s: Any, growth_rate_r
     ----------
     rate_rad_s : float or array_like
         ``|omega|`` [rad/s].
-    turn_rate_rad_s : float or array_like
-        ``nu`` [rad/s].
+    acceleration_rad_s2 : float or array_like
+        ``|omega'|`` [rad/s^2].
     growth_rate_rad_s : float or array_like
         ``mu`` [rad/s].
 
@@ -381,7 +381,7 @@ def fifth_derivative_excess(rate_rad_s: Any, turn_rate_rad_s: Any, growth_rate_r
     float or ndarray
         ``Xi`` [rad^5/s^5] (>= 0).
     """
-    w0, w1, mu = rate_rad_s, turn_rate_rad_s * rate_rad_s, growth_rate_rad_s
+    w0, w1, mu = rate_rad_s, acceleration_rad_s2, growth_rate_rad_s
     w2, w3, w4 = w1 * mu, w1 * mu * mu, w1 * mu * mu * mu
     b1 = 0.5 * w0
     b2 = 0.5 * (b1 * w0 + w1)

@@ -53,6 +53,7 @@ __all__ = [
     "SimulationData",
     "TrajectoryData",
     "plot_flip",
+    "plot_mode_timeline",
     "plot_polhodes",
     "plot_rates_comparison",
     "plot_simulation",
@@ -666,4 +667,64 @@ def plot_simulation(result: SimulationData) -> Figure:
     fig.suptitle(
         f"Closed-loop simulation ({result.info.get('engine', '?')} engine, dt = {result.info.get('dt', '?')} s)"
     )
+    return fig
+
+
+def plot_mode_timeline(
+    t: ArrayLike,
+    mode_index: ArrayLike,
+    mode_names: Sequence[str],
+    omega: ArrayLike,
+    error_angle: ArrayLike,
+    switch_times: Sequence[float] = (),
+) -> Figure:
+    """A mode sequence flown: the active mode over time, the body rate and the pointing error.
+
+    Parameters
+    ----------
+    t : array_like (n,)
+        Times [s].
+    mode_index : array_like of int (n,)
+        Index into ``mode_names`` of the mode active at each time.
+    mode_names : sequence of str
+        The modes, in the order flown.
+    omega : array_like (n, 3)
+        Body rate [rad/s].
+    error_angle : array_like (n,)
+        Attitude error to the active mode's reference [rad] (NaN where it has none).
+    switch_times : sequence of float
+        Times of the switches [s], drawn on every panel.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    t = np.asarray(t, dtype=float)
+    index = np.asarray(mode_index, dtype=int)
+    fig = Figure(figsize=(10, 7.5), layout="constrained")
+    axes = fig.subplots(3, 1, sharex=True, height_ratios=[1.0, 2.0, 2.0])
+    colors = [f"C{i}" for i in range(len(mode_names))]
+    for i, name in enumerate(mode_names):
+        active = index == i
+        if np.any(active):
+            axes[0].fill_between(t, 0, 1, where=active, step="post", color=colors[i], alpha=0.85, label=name)
+    axes[0].set_yticks([])
+    axes[0].set_ylim(0, 1)
+    axes[0].set_ylabel("mode")
+    axes[0].legend(loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize="small")
+    rate_deg = np.degrees(np.linalg.norm(np.asarray(omega, dtype=float), axis=-1))
+    axes[1].semilogy(t, np.maximum(rate_deg, 1e-6), color="k", lw=1)
+    axes[1].set_ylabel("body rate |omega| [deg/s]")
+    err_deg = np.degrees(np.asarray(error_angle, dtype=float))
+    for i in range(len(mode_names)):
+        seg = index == i
+        if np.any(seg & np.isfinite(err_deg)):
+            axes[2].semilogy(t[seg], np.maximum(err_deg[seg], 1e-6), color=colors[i], lw=1)
+    axes[2].set_ylabel("error to the mode's reference [deg]")
+    axes[2].set_xlabel("time [s]")
+    for ax in axes:
+        for ts in switch_times:
+            ax.axvline(ts, color="0.4", ls="--", lw=0.8)
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].set_title("Mode sequence: modes, body rate and pointing error (dashed: switches)")
     return fig

@@ -26,12 +26,14 @@ from controllers.guidance import (
 )
 from controllers.lqr import LQRController, LQRDesign, bryson_weights, design_lqr
 from controllers.magnetic import BDotController, CrossProductUnloading, bdot_gain
+from controllers.modes import After, Mode, ModeSequence, PointingWithin, RateBelow
 from controllers.pd import QuaternionPD, RateLimitedPD
 from controllers.pointing import NadirPointing
 from controllers.slew import EigenaxisSlew, KeepOutCone, SlewPlan, eigenaxis_slew, plan_slew
 from controllers.tracking import ReferenceTrajectory, TrackingController
 
 __all__ = [
+    "After",
     "BDotController",
     "CrossProductUnloading",
     "EigenaxisSlew",
@@ -43,10 +45,14 @@ __all__ = [
     "LQRController",
     "LQRDesign",
     "Margins",
+    "Mode",
+    "ModeSequence",
     "NadirPointing",
     "NadirReference",
     "PointingReference",
+    "PointingWithin",
     "QuaternionPD",
+    "RateBelow",
     "RateLimitedPD",
     "ReferenceTrajectory",
     "SlewPlan",

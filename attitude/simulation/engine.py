@@ -646,7 +646,12 @@ def _error_angles(controller: Any, t: NDArray, q: NDArray) -> NDArray:
         q_ref = np.asarray(controller.reference_samples(t)[0], dtype=float)
     else:
         q_ref = np.stack([np.asarray(controller.reference(tk)[0], dtype=float) for tk in t])
-    return quat.error_angle(q_ref, quat.normalize(q))
+    # A NaN row: no reference at that time (a mode sequence's detumbling), and no error to log.
+    has = np.all(np.isfinite(q_ref), axis=-1)
+    angles = np.full(t.size, np.nan)
+    if np.any(has):
+        angles[has] = quat.error_angle(q_ref[has], quat.normalize(q[has]))
+    return angles
 
 
 def _run_python(

@@ -235,7 +235,8 @@ class Controller(Protocol):
     Optional members the engine uses when present: ``prepare(t0, q0, omega0)``
     (called once before the run, e.g. to latch limits from the initial error),
     ``reference(t) -> (q_ref, omega_ref)`` (the engine then logs the attitude
-    error; ``reference_samples(t_array)`` does it in one call) and
+    error; ``reference_samples(t_array)`` does it in one call; a NaN ``q_ref``
+    says there is no reference at that time, and the error is NaN there) and
     ``log() -> dict`` of floats or arrays logged at each sample.
     """
 

@@ -108,17 +108,20 @@ class TickRule:
         # The varying-rate term of the ticks left at `calls` hold steps per tick (its h_s^4 falls with calls).
         per_call = VARYING_RATE_WEIGHT * excess * self.dt * (self.dt / self.substeps) ** 4 * left
 
-        def error_at(calls: int) -> float:
+        def error_at(calls: int, past: float) -> float:
             varied = self.varied + per_call / calls**4
-            return _error(turned, swept, max(self.largest, angle / (calls * self.substeps)), varied)
+            return _error(turned, swept, max(past, angle / (calls * self.substeps)), varied)
 
         calls = 1
         theta = angle / self.substeps
-        if error_at(1) > self.budget:
+        if error_at(1, self.largest) > self.budget:
             theta_s = (1920.0 * self.budget / ((1.0 + 2.0 * swept) * turned)) ** 0.25
             calls = max(1, math.ceil(theta / theta_s))
-            while error_at(calls) > self.budget and calls <= MAX_RULE_SUBSTEPS:
-                calls += max(1, calls // 8)  # the varying-rate term asks for more: the smallest count, in 12 % rises
+            # The smallest count (in 12 % rises) that meets the budget on the steps still to come: where the
+            # steps already taken, projected, exceed it alone, more sub-steps now cannot help, and the end of
+            # the run says the result is NOT within the budget.
+            while error_at(calls, 0.0) > self.budget and calls <= MAX_RULE_SUBSTEPS:
+                calls += max(1, calls // 8)
             if calls > MAX_RULE_SUBSTEPS:
                 message = (
                     f"{self._rule(rate, k, turned, swept)}; meeting it needs {calls * self.substeps} RK4 steps per "
@@ -164,14 +167,12 @@ class TickRule:
         c = [w[1] * m[2] - w[2] * m[1], w[2] * m[0] - w[0] * m[2], w[0] * m[1] - w[1] * m[0]]
         accel = math.sqrt(sum(sum(a * b for a, b in zip(row, c)) ** 2 for row in self._inverse))
         rate = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
-        if rate == 0.0:
-            return rate, 0.0, 0.0
-        turn = accel / rate
+        turn = accel / rate if rate > 0.0 else 0.0
+        # The applied torque enters the varying-rate term through |omega'| = |I^-1 (tau - w x m)|, not Phi.
+        acceleration = accel
         if torque is not None:
-            tau = [float(v) for v in torque]
-            a = [sum(p * q for p, q in zip(row, tau)) for row in self._inverse]
-            across = [w[1] * a[2] - w[2] * a[1], w[2] * a[0] - w[0] * a[2], w[0] * a[1] - w[1] * a[0]]
-            turn += math.sqrt(sum(v * v for v in across)) / (rate * rate)
+            net = [float(v) - ci for v, ci in zip(torque, c)]
+            acceleration = math.sqrt(sum(sum(a * b for a, b in zip(row, net)) ** 2 for row in self._inverse))
         # Jacobian of Euler's equations, I^-1 ([m]x - [w]x I), for its Frobenius norm.
         skew_m = [[0.0, -m[2], m[1]], [m[2], 0.0, -m[0]], [-m[1], m[0], 0.0]]
         skew_w = [[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]]
@@ -182,7 +183,7 @@ class TickRule:
         growth = math.sqrt(
             sum(sum(self._inverse[i][n] * inner[n][j] for n in range(3)) ** 2 for i in range(3) for j in range(3))
         )
-        return rate, turn, float(fifth_derivative_excess(rate, turn, growth))
+        return rate, turn, float(fifth_derivative_excess(rate, acceleration, growth))
 
     def _rule(self, rate: float, k: int, turned: float, swept: float) -> str:
         error = _error(turned, swept, max(self.largest, rate * self.dt / self.substeps), self.varied)

@@ -154,7 +154,7 @@ def test_the_tick_rule_evaluates_the_one_rule_of_the_integrators():
 
 def test_the_tick_rule_counts_the_applied_torque_as_the_integrators_do():
     # The Python engine's float evaluation of the rule's rates against attitude.integrators.rule_rates, with
-    # wheels and with a torque across the rate (which turns it: it used to be left out of the tick rule).
+    # wheels and with a torque (its acceleration enters the varying-rate term), at a rate and at rest.
     from attitude import ReactionWheels
     from attitude.integrators import rule_rates
     from attitude.simulation.plant import PlantModel
@@ -168,7 +168,11 @@ def test_the_tick_rule_counts_the_applied_torque_as_the_integrators_do():
     expected = rule_rates(model.body, omega, h @ wheels.distribution.T, torque)
     floats = rule._rule_rates(omega, h, torque)
     assert floats == pytest.approx([float(v) for v in expected], rel=1e-12)
-    assert floats[1] > rule._rule_rates(omega, h, None)[1]  # the torque across omega adds to the turn
+    assert floats[2] != pytest.approx(rule._rule_rates(omega, h, None)[2], rel=1e-3)  # the torque is counted
+    assert floats[1] == rule._rule_rates(omega, h, None)[1]  # and not to Phi's turn rate (rule_rates)
+    at_rest = rule._rule_rates(np.zeros(3), h, torque)
+    expected = rule_rates(model.body, np.zeros(3), h @ wheels.distribution.T, torque)
+    assert at_rest == pytest.approx([float(v) for v in expected], rel=1e-12)
 
 
 def test_a_spin_up_that_ends_over_the_budget_says_not_within_it():
@@ -232,13 +236,13 @@ def test_the_rule_bounds_the_error_where_its_calibration_was_tightest(method):
 
 def test_the_varying_rate_term_is_the_unrolled_leibniz_bound():
     # b_{n+1} = (1/2) sum_j C(n, j) b_{n-j} w_j (Leibniz's rule on q' = q omega / 2), w_0 = |omega|,
-    # w_j = nu |omega| mu^(j-1), written here as the general recursion; Xi = 32 b_5 - |omega|^5, zero at nu = 0.
+    # w_j = |omega'| mu^(j-1), written here as the general recursion; Xi = 32 b_5 - |omega|^5, zero at omega' = 0.
     from math import comb
 
     from attitude.integrators import fifth_derivative_excess
 
     for rate, turn, growth in [(1.5, 0.3, 1.2), (0.2, 3.0, 0.5), (4.0, 0.0, 2.0), (0.0, 0.0, 1.0)]:
-        w = [rate] + [turn * rate * growth ** (j - 1) for j in range(1, 5)]
+        w = [rate] + [turn * growth ** (j - 1) for j in range(1, 5)]  # turn: here the acceleration |omega'|
         b = [1.0]
         for n in range(5):
             b.append(0.5 * sum(comb(n, j) * b[n - j] * w[j] for j in range(n + 1)))
