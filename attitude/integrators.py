@@ -18,6 +18,7 @@ Three integrators serve three purposes:
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from typing import Any
 
@@ -33,6 +34,7 @@ from attitude.rigid_body import Components, RigidBody, skew, split_components
 __all__ = [
     "ATTITUDE_ERROR_BUDGET_RAD",
     "MAX_RULE_SUBSTEPS",
+    "RULE_INERTIA_RATIO_MAX",
     "VARYING_RATE_WEIGHT",
     "StepSizeWarning",
     "casadi_rk4_step",
@@ -47,6 +49,7 @@ __all__ = [
     "rule_formula",
     "rule_rates",
     "substeps_for_budget",
+    "warn_outside_calibration",
 ]
 
 Derivative = Callable[[Any, Components], Components]
@@ -214,6 +217,10 @@ def casadi_rk4_step(body: RigidBody, substeps: int = 1) -> ca.Function:
 #: Default accumulated attitude-error budget of a fixed-step run [rad] (0.2 arcsec): a tenth of
 #: the finest star tracker's noise, so the truth model's integration error never shows in an estimate.
 ATTITUDE_ERROR_BUDGET_RAD = 1e-6
+#: Largest ratio of principal moments the rule is calibrated for (docs/rk4_step_rule.md); beyond it the
+#: fixed-step paths warn that the predicted error is not a checked bound (a review measured the geometric
+#: method up to 1.075 times its prediction at ratio 30).
+RULE_INERTIA_RATIO_MAX = 20.0
 #: Most sub-steps the rule may put in one step before it refuses (a step that long is a mistyped max_step or dt).
 MAX_RULE_SUBSTEPS = 1000
 #: Per-method weight of the kinematic term: RK4's 4th-order truncation of ``exp(i theta / 2)``
@@ -452,13 +459,15 @@ def substeps_for_budget(
 ) -> NDArray[np.int64]:
     """Steps per interval that keep :func:`predicted_attitude_error` within ``budget_rad``.
 
-    Where the rule is broken the steps go by the effective rate
-    ``Omega_i = max(|omega_i|, (c Xi_i)^(1/5))``: every step turns by at most
-    ``theta_s = (1920 B / ((k + 2 Phi) sum_i Omega_i h_i + sum_(Xi_i > 0) Omega_i h_i))^(1/4)`` (steps
-    proportional to ``Omega_i h_i``, the allocation that minimises their
-    count), which bounds both terms of the rule by ``B``; ``Phi`` and the
-    ``Omega_i`` do not depend on the step. Where the rule holds,
-    ``substeps`` is returned unchanged.
+    Where the rule is broken the budget is split between its two terms in
+    proportion to their size at the steps asked, ``B_1 + B_2 = B``, and each
+    term gets a uniform angle per step (the allocation that minimises the
+    step count of one term): ``|omega_i| h_s <= theta_1 = (1920 B_1 / ((k +
+    2 Phi) Theta))^(1/4)`` and ``(c Xi_i)^(1/5) h_s <= theta_2 = (1920 B_2 /
+    sum_i (c Xi_i)^(1/5) h_i)^(1/4)``; each interval takes the steps the
+    stricter asks for, which bounds the terms by ``B_1`` and ``B_2``
+    (``Phi``, ``Theta`` and ``Xi`` do not depend on the step). Where the rule
+    holds, ``substeps`` is returned unchanged.
 
     Parameters
     ----------
@@ -491,13 +500,53 @@ def substeps_for_budget(
     error = predicted_attitude_error(rate, step, turn, substeps=asked, method=method, excess_rad5_s5=excess)
     if np.max(error) <= budget_rad:
         return asked.copy()
-    effective = np.maximum(rate, (VARYING_RATE_WEIGHT * excess) ** 0.2)
-    weight = _KINEMATIC_WEIGHT[method] + _GYROSCOPIC_WEIGHT * np.sum(turn * step, axis=-1)
-    # Both terms at theta_s: (k + 2 Phi) sum Omega h plus sum Omega h over the intervals whose rate varies.
-    swept = weight * np.sum(effective * step, axis=-1) + np.sum(np.where(excess > 0.0, effective * step, 0.0), axis=-1)
-    with np.errstate(divide="ignore"):
-        theta_s = np.min((1920.0 * budget_rad / swept) ** 0.25)
-    return np.maximum(asked, np.ceil(np.max(effective * step, axis=0) / theta_s)).astype(np.int64)
+    # The budget split between the two terms in proportion to their size at the steps asked; each term then
+    # gets its own uniform angle per step: theta_1 for |omega| h_s, theta_2 for (c Xi)^(1/5) h_s.
+    kinematic = predicted_attitude_error(rate, step, turn, substeps=asked, method=method)
+    share = np.where(error > 0.0, kinematic / np.where(error > 0.0, error, 1.0), 1.0)
+    varying = (VARYING_RATE_WEIGHT * excess) ** 0.2  # [rad/s]
+    weight = (_KINEMATIC_WEIGHT[method] + _GYROSCOPIC_WEIGHT * np.sum(turn * step, axis=-1)) * np.sum(
+        rate * step, axis=-1
+    )
+    swept_varying = np.sum(varying * step, axis=-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # A term that is zero for every run constrains nothing (its angle is infinite).
+        theta_1 = np.min(np.where(weight > 0.0, (1920.0 * share * budget_rad / weight) ** 0.25, np.inf))
+        theta_2 = np.min(
+            np.where(swept_varying > 0.0, (1920.0 * (1.0 - share) * budget_rad / swept_varying) ** 0.25, np.inf)
+        )
+        angle_1, angle_2 = np.max(rate * step, axis=0), np.max(varying * step, axis=0)
+        needed = np.maximum(
+            np.where(angle_1 > 0.0, angle_1 / theta_1, 0.0), np.where(angle_2 > 0.0, angle_2 / theta_2, 0.0)
+        )
+    return np.maximum(asked, np.ceil(needed)).astype(np.int64)
+
+
+def warn_outside_calibration(body: RigidBody, budget_rad: float, who: str) -> None:
+    """A :class:`StepSizeWarning` when ``body``'s principal moments span more than :data:`RULE_INERTIA_RATIO_MAX`.
+
+    Parameters
+    ----------
+    body : RigidBody
+        The (hub) body, single or batched (the most elongated body counts).
+    budget_rad : float
+        The run's budget [rad]; ``inf`` (the rule off) warns nothing.
+    who : str
+        The caller, named in the warning.
+    """
+    if not np.isfinite(budget_rad):
+        return
+    moments = np.linalg.eigvalsh(body.inertia)
+    ratio = float(np.max(moments[..., -1] / moments[..., 0]))
+    if ratio > RULE_INERTIA_RATIO_MAX:
+        warnings.warn(
+            f"{who}: the body's principal moments span a ratio of {ratio:.3g}, beyond the {RULE_INERTIA_RATIO_MAX:g} "
+            "the step-size rule is calibrated for (docs/rk4_step_rule.md): its predicted attitude error is an "
+            "estimate, not a checked bound (measured up to 1.075 times it at ratio 30); pass a smaller "
+            "attitude_error_budget_rad for margin or use method='adaptive'",
+            StepSizeWarning,
+            stacklevel=3,
+        )
 
 
 def check_error_budget(value: Any, name: str = "attitude_error_budget_rad") -> float:

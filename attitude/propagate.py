@@ -52,6 +52,7 @@ from attitude.integrators import (
     rule_formula,
     rule_rates,
     substeps_for_budget,
+    warn_outside_calibration,
 )
 from attitude.results import ResultIO
 from attitude.rigid_body import Components, RigidBody
@@ -336,7 +337,10 @@ def propagate(
         than the step), because RK4 samples it at the step's start, middle
         and end. Put a discontinuity on the output grid and pass the torque
         as an array on that grid (held over each interval), or shorten
-        ``max_step`` below its time scale.
+        ``max_step`` below its time scale. A smooth callable with a time
+        scale ``T`` under about 20 steps is not covered either (its rate of
+        change is not counted; docs/rk4_step_rule.md): pass
+        ``max_step <= T / 20`` or ``method="adaptive"``.
 
     Returns
     -------
@@ -388,6 +392,7 @@ def propagate(
     if method == "adaptive":
         q, omega, info = _propagate_adaptive(body, q0, omega0, t, kind, tq, batch, rtol, atol)
     else:
+        warn_outside_calibration(body, budget, f"propagate(method={method!r})")
         q, omega, info = _propagate_fixed(body, q0, omega0, t, kind, tq, batch, max_step, method, budget)
     info["wall_time_s"] = time.perf_counter() - start
     _check_finite(q, omega, t, method, max_step)

@@ -45,6 +45,7 @@ from attitude.integrators import (
     StepSizeWarning,
     check_error_budget,
     rule_formula,
+    warn_outside_calibration,
 )
 from attitude.results import ResultIO
 from attitude.rigid_body import RigidBody, split_components
@@ -384,6 +385,7 @@ def simulate(
             f"the wheels' spin-axis inertia) must be a valid inertia: {exc}"
         ) from exc
     model = PlantModel(plant, wheels)
+    warn_outside_calibration(plant, budget, "simulate")
     # The gravity gradient acts on the whole mass distribution: the rotors are axisymmetric about
     # their spin axes, so their full inertia (spin part included) takes the gradient; the hub
     # body (I - sum J a a^T) is only the plant's dynamic inertia.

@@ -108,19 +108,22 @@ class TickRule:
         # The varying-rate term of the ticks left at `calls` hold steps per tick (its h_s^4 falls with calls).
         per_call = VARYING_RATE_WEIGHT * excess * self.dt * (self.dt / self.substeps) ** 4 * left
 
-        def error_at(calls: int, past: float) -> float:
-            varied = self.varied + per_call / calls**4
-            return _error(turned, swept, max(past, angle / (calls * self.substeps)), varied)
+        def error_at(calls: int, past_theta: float, past_varied: float) -> float:
+            theta_k = max(past_theta, angle / (calls * self.substeps))
+            return _error(turned, swept, theta_k, past_varied + per_call / calls**4)
 
         calls = 1
         theta = angle / self.substeps
-        if error_at(1, self.largest) > self.budget:
+        if error_at(1, self.largest, self.varied) > self.budget:
             theta_s = (1920.0 * self.budget / ((1.0 + 2.0 * swept) * turned)) ** 0.25
             calls = max(1, math.ceil(theta / theta_s))
-            # The smallest count (in 12 % rises) that meets the budget on the steps still to come: where the
-            # steps already taken, projected, exceed it alone, more sub-steps now cannot help, and the end of
-            # the run says the result is NOT within the budget.
-            while error_at(calls, 0.0) > self.budget and calls <= MAX_RULE_SUBSTEPS:
+            # The smallest count (in 12 % rises) that meets the budget. Where the steps already taken, projected
+            # over the ticks left, exceed it on their own, no count can: then the smallest that meets it on the
+            # steps still to come, and the end of the run says the result is NOT within the budget.
+            past = (self.largest, self.varied)
+            if _error(turned, swept, self.largest, self.varied) > self.budget:
+                past = (0.0, 0.0)
+            while error_at(calls, *past) > self.budget and calls <= MAX_RULE_SUBSTEPS:
                 calls += max(1, calls // 8)
             if calls > MAX_RULE_SUBSTEPS:
                 message = (
