@@ -502,3 +502,46 @@ class TestStepSizeRule:
         with pytest.warns(StepSizeWarning, match="NOT within the budget"):
             traj = propagate(self.SPIN_BODY, [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0], t, [0.0, 0.0, 5.0])
         assert traj.info["step_rule"]["predicted_error_rad"] > traj.info["step_rule"]["budget_rad"]
+
+
+class TestCallableTorqueTimeScale:
+    """A callable torque changing over a few steps is outside the step-size rule: propagate says so.
+
+    docs/rk4_step_rule.md: a review measured 3e-6 to 1.1e-5 rad (10-100 times the prediction) for torques
+    with time scales of 3-5 steps; at 20 steps per time scale the error was 1e-8 to 3e-8 rad.
+    """
+
+    BODY = RigidBody([1.0, 1.0, 1.0])
+    T = np.arange(101) * 0.1
+
+    @staticmethod
+    def damping(t, q, w):
+        return -2.0 * np.asarray(w)  # time constant 0.5 s: 5 steps of 0.1 s
+
+    def _run(self, torque, **kw):
+        import warnings
+
+        from attitude.integrators import StepSizeWarning
+
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            traj = propagate(self.BODY, [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0], self.T, torque, **kw)
+        said = [str(w.message) for w in caught if issubclass(w.category, StepSizeWarning)]
+        said = [m for m in said if "callable torque" in m]
+        return traj, said
+
+    def test_a_torque_faster_than_twenty_steps_is_named_with_the_max_step_that_covers_it(self):
+        _, said = self._run(self.damping)
+        assert len(said) == 1 and "time scale of 0.5 s" in said[0] and "max_step <= 0.025 s" in said[0]
+
+    def test_the_remedy_it_names_is_within_the_budget_and_silent(self):
+        traj, said = self._run(self.damping, max_step=0.025)
+        assert not said
+        ref = propagate(self.BODY, [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0], self.T, self.damping, method="adaptive",
+                        rtol=1e-13, atol=1e-14)  # fmt: skip
+        assert float(np.max(quat.error_angle(ref.q, traj.q))) <= 1e-6
+
+    def test_a_slow_torque_through_zero_is_not_taken_for_a_fast_one(self):
+        # 0.01 sin(0.01 t) N m: zero at t = 0, time scale 100 s. A local |tau| / |tau'| would be 0 there.
+        _, said = self._run(lambda t, q, w: np.array([0.0, 0.0, 0.01 * np.sin(0.01 * t)]))
+        assert not said
