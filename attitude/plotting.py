@@ -704,10 +704,15 @@ def plot_mode_timeline(
     fig = Figure(figsize=(10, 7.5), layout="constrained")
     axes = fig.subplots(3, 1, sharex=True, height_ratios=[1.0, 2.0, 2.0])
     colors = [f"C{i}" for i in range(len(mode_names))]
-    for i, name in enumerate(mode_names):
-        active = index == i
-        if np.any(active):
-            axes[0].fill_between(t, 0, 1, where=active, step="post", color=colors[i], alpha=0.85, label=name)
+    # One band per stretch of a mode, from its first sample to the next mode's first (no gap at a switch).
+    edges = np.flatnonzero(np.diff(index)) + 1
+    starts, stops = np.concatenate([[0], edges]), np.concatenate([edges, [t.size - 1]])
+    labelled: set[int] = set()
+    for a, b in zip(starts, stops):
+        i = int(index[a])
+        label = None if i in labelled else mode_names[i]
+        labelled.add(i)
+        axes[0].axvspan(t[a], t[b], color=colors[i], alpha=0.85, label=label, lw=0)
     axes[0].set_yticks([])
     axes[0].set_ylim(0, 1)
     axes[0].set_ylabel("mode")

@@ -21,13 +21,18 @@ left for the next one and the switch is logged as a timeout (a flight
 software would enter a safe mode there; a design study wants to see that it
 happened). The engine logs the active mode's index every sample
 (``logs["controller.mode"]``); :meth:`ModeSequence.timeline` gives the
-switches and :meth:`ModeSequence.plot_timeline` the figure. See
-docs/guidance.md ("Mode sequences").
+switches and :meth:`ModeSequence.plot_timeline` the figure. A sequence runs
+on ``simulate``'s Python engine (``engine="auto"`` picks it; the compiled
+engine takes only laws that compile). A sequence whose magnetic laws are
+not flown (``dipole_controller=sequence.dipole_law`` forgotten), or whose
+dipole side is flown without the sequence as the controller, warns once.
+See docs/guidance.md ("Mode sequences").
 """
 
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -207,6 +212,12 @@ class Mode:
             raise ValueError(
                 f"mode {self.name!r}: until must be RateBelow, PointingWithin, After or None, got {self.until!r}"
             )
+        for law, method, what in ((self.controller, "torque", "controller"), (self.dipole_controller, "dipole",
+                                                                               "dipole_controller")):  # fmt: skip
+            if law is not None and not (callable(getattr(law, method, None)) and hasattr(law, "period")):
+                raise ValueError(
+                    f"mode {self.name!r}: {what} must have period and {method}(t, ...), got {type(law).__name__}"
+                )
         if isinstance(self.until, PointingWithin) and not callable(getattr(self.controller, "reference", None)):
             raise ValueError(
                 f"mode {self.name!r}: PointingWithin needs a controller with reference(t) (the attitude it points "
@@ -214,6 +225,12 @@ class Mode:
             )
         if self.timeout_s is not None:
             object.__setattr__(self, "timeout_s", positive_scalar(self.timeout_s, "timeout_s"))
+            hold = 0.0 if self.until is None else self.until.hold_s
+            if self.timeout_s <= hold:
+                raise ValueError(
+                    f"mode {self.name!r}: timeout_s must exceed the condition's hold_s ({hold:g} s), got "
+                    f"{self.timeout_s:g} s: the condition could never be met before the timeout"
+                )
 
 
 @dataclass(frozen=True)
@@ -306,6 +323,9 @@ class ModeSequence:
         self._held_since: float | None = None
         self._starts = [float(t0)]
         self.switches: list[ModeSwitch] = []
+        self._torque_calls = 0
+        self._wiring_checked = False
+        self.dipole_law.calls = 0
         self._enter(t0, q0, omega0)
 
     def _enter(self, t: float, q: ArrayLike, omega: ArrayLike) -> None:
@@ -341,6 +361,29 @@ class ModeSequence:
             self._starts.append(float(t))
             self._enter(t, estimate.q, estimate.omega)
 
+    def _check_wiring(self, t: float) -> None:
+        """Warn once when one side of the sequence is not flown (its laws would silently do nothing)."""
+        if self._wiring_checked:
+            return
+        late = t - self._starts[0]
+        mode = self.mode
+        if mode.dipole_controller is not None and self.dipole_law.calls == 0 and late > 2.0 * self.dipole_period:
+            self._wiring_checked = True
+            warnings.warn(
+                f"mode {mode.name!r} has a magnetic law but the sequence's dipole_law is not flown: pass "
+                "dipole_controller=sequence.dipole_law to simulate (with magnetorquers=)",
+                UserWarning,
+                stacklevel=4,
+            )
+        if self._torque_calls == 0 and self.dipole_law.calls > 0 and late > 2.0 * self.period:
+            self._wiring_checked = True
+            warnings.warn(
+                "the sequence's dipole_law is flown but the sequence itself is not the controller, so its modes "
+                "never advance: pass controller=sequence to simulate",
+                UserWarning,
+                stacklevel=4,
+            )
+
     def torque(self, t: float, estimate: Any) -> NDArray[np.float64]:
         """The active mode's torque command, after judging its exit condition.
 
@@ -356,6 +399,8 @@ class ModeSequence:
         ndarray (3,)
             Commanded body torque [N m] (zero in a mode without a torque law).
         """
+        self._torque_calls += 1
+        self._check_wiring(t)
         self._advance(t, estimate)
         law = self.mode.controller
         return np.zeros(3) if law is None else np.asarray(law.torque(t, estimate), dtype=float)
@@ -478,8 +523,11 @@ class _DipoleLaw:
     def __init__(self, sequence: ModeSequence) -> None:
         self._sequence = sequence
         self.period = sequence.dipole_period
+        self.calls = 0  # samples flown in this run (the sequence's wiring check reads it)
 
     def dipole(self, t: float, measurements: Mapping[str, Any]) -> NDArray[np.float64]:
+        self.calls += 1
+        self._sequence._check_wiring(t)
         law = self._sequence.mode.dipole_controller
         return np.zeros(3) if law is None else np.asarray(law.dipole(t, measurements), dtype=float)
 

@@ -150,3 +150,28 @@ def test_a_flown_sequence_switches_when_the_truth_says_it_should():
     assert np.all(np.isnan(run.error_angle[run.t < t_switch]))
     assert np.all(np.isfinite(run.error_angle[run.t >= t_switch]))
     assert np.degrees(run.error_angle[-1]) < 0.05  # the hold settles (wn = 0.05 rad/s: ~ 100 s)
+
+
+def test_a_sequence_flown_without_its_magnetic_side_says_so():
+    # A new user's trial: forgetting dipole_controller=sequence.dipole_law left B-dot unflown, silently.
+    seq = ModeSequence([Mode("detumble", dipole_controller=_Law([0.1, 0.0, 0.0]), until=After(10.0)), Mode("b")],
+                       period=1.0)  # fmt: skip
+    with pytest.warns(UserWarning, match="dipole_controller=sequence.dipole_law"):
+        for t in range(5):
+            seq.torque(float(t), _estimate(float(t), 1.0))
+    seq.prepare(0.0, [1.0, 0.0, 0.0, 0.0], np.zeros(3))
+    with pytest.warns(UserWarning, match="pass controller=sequence"):
+        for t in range(5):
+            seq.dipole_law.dipole(float(t), {})
+
+
+def test_a_mode_law_without_its_method_and_a_timeout_inside_the_hold_are_refused():
+    class NoTorque:
+        period = 1.0
+
+    with pytest.raises(ValueError, match="mode 'x': controller must have period and torque"):
+        Mode("x", controller=NoTorque(), until=After(1.0))
+    with pytest.raises(ValueError, match="mode 'x': dipole_controller must have period and dipole"):
+        Mode("x", dipole_controller=NoTorque(), until=After(1.0))
+    with pytest.raises(ValueError, match="timeout_s must exceed the condition's hold_s"):
+        Mode("x", until=RateBelow(0.1, hold_s=100.0), timeout_s=10.0)
