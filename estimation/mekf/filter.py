@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import copy
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -749,6 +750,17 @@ class MEKF:
         attitude.simulation.engine.Estimate
             ``q_hat``, ``omega_hat = omega_meas - b_hat`` and ``covariance = P``.
         """
+        if not getattr(self, "_names_checked", False):
+            self._names_checked = True
+            missing = [name for name in self.vector_names if name not in measurements]
+            if missing:
+                warnings.warn(
+                    f"vector_names {missing} name no sensor of this run (its sensors: "
+                    f"{sorted(k for k in measurements if k not in ('torque_command', 'wheel_momentum'))}): those "
+                    "directions are never used; check the names",
+                    UserWarning,
+                    stacklevel=2,
+                )
         vectors = {name: measurements.get(name) for name in self.vector_names} if self.vector_names else None
         return self.step(t, measurements.get(self.gyro_name), measurements.get(self.tracker_name), vectors)
 

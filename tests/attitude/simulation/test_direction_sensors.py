@@ -151,3 +151,19 @@ def test_a_mekf_on_a_magnetometer_and_a_fine_sun_sensor_alone_converges_inside_i
     # Inside the filter's own 3-sigma bound per axis at 99 % of the ticks (a consistent Gaussian filter: 99.7 %).
     inside = np.abs(error[run.t >= 60.0]) <= 3.0 * sigma[run.t >= 60.0]
     assert np.all(np.mean(inside, axis=0) >= 0.99)
+
+
+def test_a_vector_name_no_sensor_provides_is_warned_about():
+    # A new user's trial: vector_names=["magnetometer", "fine_sun_senor"] (a typo) flew without the Sun sensor.
+    from estimation.mekf import MEKF
+
+    orbit = CircularOrbit.from_altitude(500e3, inclination=np.radians(97.4))
+    gyro = Gyro.preset("tactical", period=0.5, sampling="mean")
+    mag = Magnetometer.from_datasheet(noise_nT=100.0, period=0.5)
+    mekf = MEKF(sigma_v=gyro.sigma_v, sigma_u=gyro.filter_sigma_u, tracker_covariance=np.eye(3), period=0.5,
+                q0=quat.identity(), P0=np.eye(6) * 1e-4, gyro_name=gyro.name,
+                vector_names=[mag.name, "fine_sun_senor"])  # fmt: skip
+    with pytest.warns(UserWarning, match=r"vector_names \['fine_sun_senor'\] name no sensor of this run"):
+        simulate(RigidBody(np.diag([0.3, 0.35, 0.2])), quat.identity(), np.zeros(3), 5.0,
+                 sensors=[gyro, MagnetometerDirection(mag)], estimator=mekf,
+                 environment=OrbitEnvironment(orbit, sources=()), rng=1)  # fmt: skip
