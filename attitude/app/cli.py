@@ -390,7 +390,7 @@ def _cmd_momentum(args: argparse.Namespace) -> int:
 
 
 def _cmd_montecarlo(args: argparse.Namespace) -> int:
-    from attitude.app.scenarios import ScenarioError, run_campaign_from_config
+    from attitude.app.scenarios import ScenarioError, nees_consistency, run_campaign_from_config
     from controllers.slew.problem import SlewPlanningError
 
     config = _load(args.file)
@@ -448,6 +448,9 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
         sys.stdout.write(dumps_json(result.statistics()))
     else:
         print(result.summary())
+        line = nees_consistency(result)
+        if line is not None:
+            print(line)
     if result.info.get("interrupted"):
         # Ctrl-C in the run loop: the completed runs are in the checkpoint; exit as for any Ctrl-C (130).
         raise KeyboardInterrupt
