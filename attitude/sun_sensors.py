@@ -364,7 +364,8 @@ class CoarseSunSensors:
 
         Draws ``n`` standard normals from ``rng`` per sample (also when the
         noise is 0). Albedo is added only when ``truth`` carries a
-        ``nadir_B`` (the engine's :class:`Truth` does not).
+        ``nadir_B`` (the engine's :class:`Truth` does when it flies an orbit
+        environment).
 
         Parameters
         ----------

@@ -715,7 +715,10 @@ def _run_python(
         if flight.active:
             torques_k, field_B, sun_B = flight.at_tick(k, q_unit)
             env_torques[k], field_all[k] = torques_k, field_B
-            truth = Truth(tk, q_unit, x[4:7].copy(), x[7:].copy(), field_B, sun_B, float(flight.track.illumination[k]))
+            down_N = -flight.track.position_N[k] / np.linalg.norm(flight.track.position_N[k])
+            nadir_B = quat.rotate(quat.conjugate(q_unit), down_N)
+            illumination = float(flight.track.illumination[k])
+            truth = Truth(tk, q_unit, x[4:7].copy(), x[7:].copy(), field_B, sun_B, illumination, nadir_B)
         else:
             truth = Truth(tk, q_unit, x[4:7].copy(), x[7:].copy())
         measurements: dict[str, Any] = {"torque_command": tau_cmd.copy(), "wheel_momentum": truth.h_wheels}

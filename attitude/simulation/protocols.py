@@ -56,6 +56,10 @@ class Truth:
     illumination : float or None
         Fraction of the solar disk seen (1 full sun, 0 umbra); None without
         an orbit environment.
+    nadir_B : ndarray (3,) or None
+        Unit vector from the spacecraft to the Earth's centre in body axes
+        (the coarse Sun sensors' albedo source); None without an orbit
+        environment.
     """
 
     t: float
@@ -65,6 +69,7 @@ class Truth:
     magnetic_field_B: NDArray[np.float64] | None = None
     sun_B: NDArray[np.float64] | None = None
     illumination: float | None = None
+    nadir_B: NDArray[np.float64] | None = None
 
 
 @dataclass(frozen=True)

@@ -351,3 +351,33 @@ def test_an_orbit_flight_records_both_sensors_and_flags_the_eclipse():
     # 1e-3 of full scale gives about 1e-3 rad per axis: 6 sigma.
     assert max(errs) < 6e-3
     assert not any(css.sun_vector(row).valid for row in coarse[dark])
+
+
+def test_the_engine_hands_the_cells_the_nadir_so_albedo_reaches_a_flight():
+    # A new user's trial: albedo_fraction changed nothing in simulate, because the engine's Truth carried no
+    # nadir. It now carries the spacecraft-to-Earth-centre direction in body axes: -r/|r| rotated by q_BN*
+    # (checked here against scipy's Rotation), and a flown cube of cells with albedo reads the ideal currents
+    # of ideal_currents(sun_B, illumination, nadir_B) plus its noise.
+    orbit = CircularOrbit.from_altitude(500e3, inclination=np.radians(97.4))
+    environment = OrbitEnvironment(orbit, sources=())
+    seen = []
+
+    class Recorder:
+        name, period = "recorder", 10.0
+
+        def measure(self, t, truth, rng=None):
+            seen.append((t, truth.q, truth.nadir_B, truth.sun_B, truth.illumination))
+            return np.zeros(1)
+
+    q0 = np.array([0.8, 0.2, -0.4, 0.4]) / np.linalg.norm([0.8, 0.2, -0.4, 0.4])
+    cells = CoarseSunSensors.cube(period=10.0, albedo_fraction=0.3, full_scale_A=1.0, name="css")
+    run = simulate(RigidBody([1.0, 1.2, 0.9]), q0, np.zeros(3), 60.0, sensors=[Recorder(), cells],
+                   environment=environment)  # fmt: skip
+    track = environment.track(np.array([s[0] for s in seen]))
+    for (_t, q, nadir_B, _sun, _illumination), r_N in zip(seen, track.position_N):
+        expected = Rotation.from_quat([q[1], q[2], q[3], q[0]]).inv().apply(-r_N / np.linalg.norm(r_N))
+        np.testing.assert_allclose(nadir_B, expected, atol=1e-12)
+    flown = run.logs["sensor.css"][np.isfinite(run.logs["sensor.css"][:, 0])]
+    ideal = np.array([cells.ideal_currents(s[3], s[4], s[2]) for s in seen])
+    np.testing.assert_allclose(flown, ideal, atol=1e-15)  # no noise: the currents are the ideal ones, albedo in
+    assert np.any(ideal != np.array([cells.ideal_currents(s[3], s[4]) for s in seen]))  # the Earth is in view
