@@ -405,9 +405,16 @@ class ModeSequence:
         law = self.mode.controller
         return np.zeros(3) if law is None else np.asarray(law.torque(t, estimate), dtype=float)
 
-    def log(self) -> dict[str, float]:
-        """``{"mode": index of the active mode}``, logged by the engine at every sample."""
-        return {"mode": float(self._index)}
+    def log(self) -> dict[str, Any]:
+        """``{"mode": index of the active mode}`` and the active torque law's own log under ``"<mode>.<key>"``.
+
+        Returns
+        -------
+        dict
+            Logged by the engine at every sample (``logs["controller.mode"]``,
+            ``logs["controller.<mode>.<key>"]``, NaN while that mode is not active).
+        """
+        return {"mode": float(self._index), **_mode_log(self.mode, self.mode.controller)}
 
     def mode_at(self, t: ArrayLike) -> NDArray[np.int64]:
         """Index of the mode active at each time of the last run.
@@ -517,6 +524,13 @@ class ModeSequence:
         return fig
 
 
+def _mode_log(mode: Mode, law: Any) -> dict[str, Any]:
+    """A law's ``log()`` under its mode's name (one series per mode: their keys and shapes may differ)."""
+    if law is None or not callable(getattr(law, "log", None)):
+        return {}
+    return {f"{mode.name}.{key}": value for key, value in law.log().items()}
+
+
 class _DipoleLaw:
     """The sequence's magnetic side: the active mode's dipole law (zero dipole in a mode without one)."""
 
@@ -530,6 +544,11 @@ class _DipoleLaw:
         self._sequence._check_wiring(t)
         law = self._sequence.mode.dipole_controller
         return np.zeros(3) if law is None else np.asarray(law.dipole(t, measurements), dtype=float)
+
+    def log(self) -> dict[str, Any]:
+        """The active magnetic law's own log under ``"<mode>.<key>"`` (``logs["dipole_controller.<mode>.<key>"]``)."""
+        mode = self._sequence.mode
+        return _mode_log(mode, mode.dipole_controller)
 
     @property
     def use_truth_field(self) -> bool:

@@ -175,3 +175,20 @@ def test_a_mode_law_without_its_method_and_a_timeout_inside_the_hold_are_refused
         Mode("x", dipole_controller=NoTorque(), until=After(1.0))
     with pytest.raises(ValueError, match="timeout_s must exceed the condition's hold_s"):
         Mode("x", until=RateBelow(0.1, hold_s=100.0), timeout_s=10.0)
+
+
+def test_the_active_laws_logs_are_kept_under_their_mode():
+    # A new user's trial: B-dot's own logs (dipole, field rate) vanished inside a sequence.
+    body = RigidBody(np.diag([0.30, 0.35, 0.21]))
+    orbit = CircularOrbit.from_altitude(500e3, inclination=np.radians(97.4))
+    rods = Magnetorquers.orthogonal(dipole_max_Am2=0.2)
+    bdot = BDotController(bdot_gain(orbit, body), period=1.0, magnetorquers=rods, use_truth_field=True)
+    seq = ModeSequence([Mode("detumble", dipole_controller=bdot, until=After(20.0)), Mode("idle")], period=1.0)
+    run = simulate(body, [1.0, 0.0, 0.0, 0.0], np.radians([1.0, -1.0, 0.5]), 40.0, controller=seq,
+                   dipole_controller=seq.dipole_law, magnetorquers=rods,
+                   environment=OrbitEnvironment(orbit, sources=()), dt=1.0)  # fmt: skip
+    dipole = run.logs["dipole_controller.detumble.dipole_B"]
+    assert dipole.shape == (run.t.size, 3)
+    during, after = run.t < 20.0, run.t > 20.0
+    assert np.all(np.isfinite(dipole[during][1:])) and np.any(dipole[during] != 0.0)
+    assert np.all(np.isnan(dipole[after]))  # the law is not active after the switch
