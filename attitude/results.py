@@ -10,13 +10,62 @@ No pickle is involved, so a file cannot execute code when loaded.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
+import platform
+from datetime import UTC, datetime
+from importlib import metadata
 from pathlib import Path
 from typing import Any, TypeVar
 
 import numpy as np
 
-__all__ = ["ResultIO"]
+__all__ = ["PROVENANCE_PACKAGES", "ResultIO", "provenance"]
+
+#: The distributions whose versions a report or a campaign records (those installed).
+PROVENANCE_PACKAGES = (
+    "attitude-toolkit", "numpy", "scipy", "control", "slycot", "casadi", "filterpy", "matplotlib", "sgp4",
+    "ppigrf", "pymap3d", "allantools", "dask", "distributed",
+)  # fmt: skip
+
+
+def provenance(input_path: str | Path | None = None) -> dict[str, Any]:
+    """What a result was made with: the toolkit and package versions, the date, and the input file's hash.
+
+    Parameters
+    ----------
+    input_path : str or Path, optional
+        The input file (e.g. the spacecraft TOML); its SHA-256 is recorded
+        (None when it cannot be read: the reason is recorded instead).
+
+    Returns
+    -------
+    dict
+        ``toolkit_version``, ``created_utc`` (ISO 8601, seconds), ``python``,
+        ``platform``, ``packages`` (name -> version, the installed ones of
+        :data:`PROVENANCE_PACKAGES`) and, with ``input_path``, ``input``
+        (``path``, ``sha256`` or ``error``).
+    """
+    packages = {}
+    for name in PROVENANCE_PACKAGES:
+        try:
+            packages[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            continue
+    out: dict[str, Any] = {
+        "toolkit_version": packages.get("attitude-toolkit", "unknown"),
+        "created_utc": datetime.now(UTC).isoformat(timespec="seconds"),
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+        "packages": packages,
+    }
+    if input_path is not None:
+        path = Path(input_path)
+        try:
+            out["input"] = {"path": str(path), "sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
+        except OSError as exc:
+            out["input"] = {"path": str(path), "sha256": None, "error": f"{type(exc).__name__}: {exc}"}
+    return out
 
 T = TypeVar("T", bound="ResultIO")
 

@@ -71,7 +71,7 @@ import numpy as np
 from attitude import quaternion as quat
 from attitude.app import assembly
 from attitude.app.design.slew import SlewStudy, plan_slews
-from attitude.config import SpacecraftConfig, load_config
+from attitude.config import SpacecraftConfig, load_config, source_path
 from attitude.config.schema import SURFACE_DISPERSIONS
 from attitude.environment.orbit_environment import OrbitEnvironment
 from attitude.montecarlo.campaign import Campaign, run_campaign, usable_cpus
@@ -1062,6 +1062,7 @@ def run_campaign_from_config(
         runs=n,
         seed=seed if seed is not None else (mc.seed if mc is not None else None),
         requirements=requirements_from_config(config, keep_out=keep_out),
+        input_path=source_path(config),
     )
     runs_per_task = None
     if vectorized:

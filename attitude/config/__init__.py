@@ -86,6 +86,7 @@ from attitude.config.reader import (
     default_config_text,
     load_config,
     parse_config,
+    source_path,
 )
 from attitude.config.schema import CONFIG_KEYS, ConfigError
 from attitude.config.writer import config_to_toml
@@ -123,4 +124,5 @@ __all__ = [
     "default_config_text",
     "load_config",
     "parse_config",
+    "source_path",
 ]

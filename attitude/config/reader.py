@@ -1278,6 +1278,26 @@ def default_config_text() -> str:
     return resources.files("attitude").joinpath("data", DEFAULT_CONFIG_FILE).read_text(encoding="utf-8")
 
 
+def source_path(config: SpacecraftConfig) -> Path | None:
+    """The file a configuration was read from (the built-in one inside the package), or None.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        A configuration (its ``source`` label).
+
+    Returns
+    -------
+    Path or None
+        None for a configuration made in code (no ``source``).
+    """
+    if not config.source:
+        return None
+    if config.source == _DEFAULT_LABEL:
+        return Path(str(resources.files("attitude").joinpath("data", DEFAULT_CONFIG_FILE)))
+    return Path(config.source)
+
+
 def default_config() -> SpacecraftConfig:
     """The built-in default spacecraft (a 12U CubeSat; see the comments of its file)."""
     return parse_config(default_config_text(), _DEFAULT_LABEL)

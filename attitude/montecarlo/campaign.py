@@ -99,6 +99,7 @@ from attitude.montecarlo.executors import (
 )
 from attitude.montecarlo.identity import UnidentifiableScenario, scenario_identity
 from attitude.montecarlo.results import CampaignResult, Requirement, check_metric_name
+from attitude.results import provenance
 
 #: Most runs a campaign may have. What a run costs the parent process until the table is written: its
 #: RunRecord with a dict of metrics (about 1 kB of Python objects for ten metrics) and its row of the table
@@ -133,6 +134,10 @@ class Campaign:
         (``campaign.seed``), so the campaign can still be reproduced.
     requirements : sequence of Requirement
         Pass/fail rules on the metrics.
+    input_path : str or Path, optional
+        The input file the campaign was built from (e.g. the spacecraft
+        TOML): its SHA-256 goes into the result's provenance
+        (``info["provenance"]``). Not part of the campaign's identity.
     """
 
     scenario: Any
@@ -140,6 +145,7 @@ class Campaign:
     runs: int = 100
     seed: int | None = None
     requirements: Sequence[Requirement] = ()
+    input_path: str | Path | None = None
 
     def __post_init__(self) -> None:
         if not callable(self.scenario):
@@ -382,6 +388,7 @@ def run_campaign(
         "resumed_runs": resumed,
         "wall_time_s": time.perf_counter() - wall0,
         "parent_cpu_time_s": time.process_time() - cpu0,
+        "provenance": provenance(campaign.input_path),  # versions, date, the input file's hash
     }
     result = _assemble(campaign, rows, collector.records, info)
     if out_dir is not None:

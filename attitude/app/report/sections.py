@@ -776,4 +776,17 @@ def build_blocks(results: dict[str, Any]) -> list[Block]:
     )
     if results["warnings"]:
         out.append(Paragraph("Warnings raised during the design: " + " | ".join(results["warnings"])))
+    if "provenance" in results:
+        out.append(Paragraph(_provenance_text(results["provenance"])))
     return out
+
+
+def _provenance_text(p: dict[str, Any]) -> str:
+    """What the report was made with (attitude.results.provenance)."""
+    source = p.get("input") or {}
+    digest = source.get("sha256") or f"not read ({source.get('error', 'no file')})"
+    packages = ", ".join(f"{k} {v}" for k, v in p["packages"].items() if k != "attitude-toolkit")
+    return (
+        f"Made with attitude-toolkit {p['toolkit_version']} on {p['created_utc']} (Python {p['python']}, "
+        f"{p['platform']}). Spacecraft file SHA-256: {digest}. Packages: {packages}."
+    )

@@ -240,3 +240,18 @@ def test_html_report_shows_every_figure_in_chromium(report, tmp_path):
     assert shot.is_file(), f"no screenshot (exit {proc.returncode}):\n{proc.stderr[-3000:]}"
     assert png_size(shot.read_bytes()) == (1280, 2400) and shot.stat().st_size > 50_000
     print(f"screenshot of the report: {shot}")
+
+
+def test_the_report_records_what_it_was_made_with(report):
+    # Issue 12: the toolkit version, the date, the spacecraft file's hash and the package versions.
+    import hashlib
+
+    from attitude.config import default_config_text
+
+    out, results = report
+    p = results["provenance"]
+    digest = hashlib.sha256(default_config_text().encode("utf-8")).hexdigest()
+    assert p["input"]["sha256"] == digest
+    text = (out / "report.md").read_text(encoding="utf-8")
+    assert f"Spacecraft file SHA-256: {digest}" in text and f"attitude-toolkit {p['toolkit_version']}" in text
+    assert f"numpy {p['packages']['numpy']}" in text
