@@ -255,16 +255,13 @@ class StepSizeWarning(UserWarning):
     """A fixed-step run broke the step-size rule and was sub-stepped (or could not be): see docs/rk4_step_rule.md."""
 
 
-def gyroscopic_turn_rate(body: RigidBody, omega: Any, h: Any = None, torque: Any = None) -> Any:
-    """Bound on the rate at which the body rate vector turns in the body [rad/s].
+def gyroscopic_turn_rate(body: RigidBody, omega: Any, h: Any = None) -> Any:
+    """Bound on the rate at which the gyroscopic term turns the body rate vector in the body [rad/s].
 
-    ``|I^-1 (omega x (I omega + h))| / |omega| + |omega x I^-1 tau| / |omega|^2``:
-    the gyroscopic term's magnitude (the calibrated torque-free term, which
-    also bounds its part along ``omega``) plus the rotation rate of the
-    direction of ``omega`` that an applied torque ``tau`` causes. Zero for a
-    constant rate (a principal-axis spin, a sphere, rest); the torque term is
-    zero for a torque along ``I omega``'s image (a pure spin-up), whose change
-    of ``|omega|`` the rule sees through ``|omega| h``.
+    ``|I^-1 (omega x (I omega + h))| / |omega|``, torque-free on purpose: an
+    applied torque enters the rule through :func:`rate_variation_excess`
+    (docs/rk4_step_rule.md). Zero for a constant rate (a principal-axis
+    spin, a sphere, rest).
 
     Parameters
     ----------
@@ -274,8 +271,6 @@ def gyroscopic_turn_rate(body: RigidBody, omega: Any, h: Any = None, torque: Any
         Body rate [rad/s].
     h : array_like (..., 3), optional
         Internal (wheel) angular momentum in body components [N m s].
-    torque : array_like (..., 3), optional
-        Applied torque in body components [N m]; None for torque-free.
 
     Returns
     -------
@@ -287,12 +282,7 @@ def gyroscopic_turn_rate(body: RigidBody, omega: Any, h: Any = None, torque: Any
     rate = np.linalg.norm(omega, axis=-1)
     accel = np.linalg.norm(body.omega_dot(omega, None, h), axis=-1)
     safe = np.where(rate > 0.0, rate, 1.0)
-    turn = np.where(rate > 0.0, accel / safe, 0.0)
-    if torque is not None and np.any(torque):
-        applied = np.matmul(body.inertia_inv, np.asarray(torque, dtype=float)[..., None])[..., 0]
-        across = np.linalg.norm(np.cross(omega, applied), axis=-1)
-        turn = turn + np.where(rate > 0.0, across / safe**2, 0.0)
-    return turn
+    return np.where(rate > 0.0, accel / safe, 0.0)
 
 
 def rate_variation_excess(body: RigidBody, omega: Any, h: Any = None, torque: Any = None) -> Any:

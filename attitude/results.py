@@ -10,7 +10,6 @@ No pickle is involved, so a file cannot execute code when loaded.
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import json
 import platform
 from datetime import UTC, datetime
@@ -29,22 +28,25 @@ PROVENANCE_PACKAGES = (
 )  # fmt: skip
 
 
-def provenance(input_path: str | Path | None = None) -> dict[str, Any]:
-    """What a result was made with: the toolkit and package versions, the date, and the input file's hash.
+def provenance(source: str | None = None, sha256: str | None = None) -> dict[str, Any]:
+    """What a result was made with: the toolkit and package versions, the date, and the input's hash.
 
     Parameters
     ----------
-    input_path : str or Path, optional
-        The input file (e.g. the spacecraft TOML); its SHA-256 is recorded
-        (None when it cannot be read: the reason is recorded instead).
+    source : str, optional
+        The input the result was made from (e.g. the spacecraft file's name).
+    sha256 : str, optional
+        SHA-256 of that input as it was read (``SpacecraftConfig.source_sha256``,
+        taken when the file was parsed, so a file edited since is not mistaken
+        for the one used).
 
     Returns
     -------
     dict
         ``toolkit_version``, ``created_utc`` (ISO 8601, seconds), ``python``,
         ``platform``, ``packages`` (name -> version, the installed ones of
-        :data:`PROVENANCE_PACKAGES`) and, with ``input_path``, ``input``
-        (``path``, ``sha256`` or ``error``).
+        :data:`PROVENANCE_PACKAGES`) and, with ``source``, ``input``
+        (``source``, ``sha256``).
     """
     packages = {}
     for name in PROVENANCE_PACKAGES:
@@ -59,12 +61,8 @@ def provenance(input_path: str | Path | None = None) -> dict[str, Any]:
         "platform": platform.platform(),
         "packages": packages,
     }
-    if input_path is not None:
-        path = Path(input_path)
-        try:
-            out["input"] = {"path": str(path), "sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
-        except OSError as exc:
-            out["input"] = {"path": str(path), "sha256": None, "error": f"{type(exc).__name__}: {exc}"}
+    if source is not None:
+        out["input"] = {"source": source, "sha256": sha256}
     return out
 
 T = TypeVar("T", bound="ResultIO")

@@ -71,7 +71,7 @@ import numpy as np
 from attitude import quaternion as quat
 from attitude.app import assembly
 from attitude.app.design.slew import SlewStudy, plan_slews
-from attitude.config import SpacecraftConfig, load_config, source_path
+from attitude.config import SpacecraftConfig, load_config
 from attitude.config.schema import SURFACE_DISPERSIONS
 from attitude.environment.orbit_environment import OrbitEnvironment
 from attitude.montecarlo.campaign import Campaign, run_campaign, usable_cpus
@@ -523,6 +523,10 @@ class ClosedLoopScenario:
             tracker_covariance=self._tracker_covariance,
         )
 
+    def _mount_for(self, params: Mapping[str, Any]) -> np.ndarray:
+        """The mount covariance a run's NEES adds [rad^2] (3, 3): the dispersion's where the run disperses it."""
+        return self._mount_covariance if "star_tracker_misalignment" in params else np.zeros((3, 3))
+
     def __call__(self, params: Mapping[str, Any], rng: np.random.Generator) -> RunOutput:
         body = RigidBody(params["inertia"]) if "inertia" in params else self._nominal
         q0 = params.get("initial_attitude", self._q_start)
@@ -558,8 +562,7 @@ class ClosedLoopScenario:
         q_hat = np.array(estimator.q)
         k = np.searchsorted(result.t, np.array(estimator.t))
         errors = quat.to_rotation_vector(quat.multiply(quat.conjugate(q_hat), quat.normalize(result.q[k])))
-        mount = self._mount_covariance if "star_tracker_misalignment" in params else 0.0
-        metrics["nees"] = float(np.mean(nees(errors, np.array(estimator.P) + mount)))
+        metrics["nees"] = float(np.mean(nees(errors, np.array(estimator.P) + self._mount_for(params))))
         for cone in self.config.requirements.keep_out:
             separation = cone.separation(result.q)
             metrics[f"keep_out_margin.{cone.name}"] = float(np.min(separation) - cone.half_angle_rad)
@@ -597,8 +600,7 @@ class ClosedLoopScenario:
         theta = _stacked(params_list, "star_tracker_misalignment", np.zeros(3))
         mekf = MEKFBatch(self.estimator(gyros[0]), n)
         recorder = _BatchRecorder(self, n, mekf)
-        dispersed = np.array(["star_tracker_misalignment" in p for p in params_list])
-        recorder.mount_covariance = np.where(dispersed[:, None, None], self._mount_covariance, 0.0)
+        recorder.mount_covariance = np.stack([self._mount_for(p) for p in params_list])
         surface = None
         if self._environment is not None:
             surface = np.stack([surface_parameters(self._environment, p) for p in params_list])
@@ -1062,7 +1064,7 @@ def run_campaign_from_config(
         runs=n,
         seed=seed if seed is not None else (mc.seed if mc is not None else None),
         requirements=requirements_from_config(config, keep_out=keep_out),
-        input_path=source_path(config),
+        input_file=(config.source, config.source_sha256) if config.source else None,
     )
     runs_per_task = None
     if vectorized:

@@ -86,7 +86,6 @@ from attitude.config.reader import (
     default_config_text,
     load_config,
     parse_config,
-    source_path,
 )
 from attitude.config.schema import CONFIG_KEYS, ConfigError
 from attitude.config.writer import config_to_toml
@@ -124,5 +123,4 @@ __all__ = [
     "default_config_text",
     "load_config",
     "parse_config",
-    "source_path",
 ]

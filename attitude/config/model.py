@@ -952,6 +952,8 @@ class SpacecraftConfig:
         Monte Carlo campaign (optional) (key ``montecarlo``).
     source : str, optional
         The file the configuration was read from (messages only; not compared).
+    source_sha256 : str, optional
+        SHA-256 of the text parsed (provenance of reports and campaigns; not compared).
     """
 
     name: str
@@ -971,6 +973,7 @@ class SpacecraftConfig:
     detumble: DetumbleConfig | None = None
     momentum: MomentumConfig | None = None
     source: str = field(default="", compare=False)
+    source_sha256: str = field(default="", compare=False)
 
 
 # ---------------------------------------------------------------------------

@@ -12,8 +12,10 @@ always builds.
 
 from __future__ import annotations
 
+import dataclasses
 import datetime
 import difflib
+import hashlib
 import math
 import re
 import tomllib
@@ -1233,7 +1235,8 @@ def parse_config(text: str, file: str = "<config>") -> SpacecraftConfig:
             message = message.replace("(at end of document)", "").rstrip()
             where = "at the end of the file: "
         raise ConfigError(f"{where}TOML syntax error: {message}", None, file, line, column) from exc
-    return config_from_dict(data, file)
+    digest = hashlib.sha256(text.encode("utf-8")).hexdigest()  # of the text parsed, for provenance
+    return dataclasses.replace(config_from_dict(data, file), source_sha256=digest)
 
 
 #: Largest spacecraft file read [bytes]: a thousand times the built-in one. Reading stops there, so a
@@ -1276,26 +1279,6 @@ def load_config(path: str | Path) -> SpacecraftConfig:
 def default_config_text() -> str:
     """The built-in spacecraft file, with its comments (what ``attitude init`` writes)."""
     return resources.files("attitude").joinpath("data", DEFAULT_CONFIG_FILE).read_text(encoding="utf-8")
-
-
-def source_path(config: SpacecraftConfig) -> Path | None:
-    """The file a configuration was read from (the built-in one inside the package), or None.
-
-    Parameters
-    ----------
-    config : SpacecraftConfig
-        A configuration (its ``source`` label).
-
-    Returns
-    -------
-    Path or None
-        None for a configuration made in code (no ``source``).
-    """
-    if not config.source:
-        return None
-    if config.source == _DEFAULT_LABEL:
-        return Path(str(resources.files("attitude").joinpath("data", DEFAULT_CONFIG_FILE)))
-    return Path(config.source)
 
 
 def default_config() -> SpacecraftConfig:

@@ -134,10 +134,11 @@ class Campaign:
         (``campaign.seed``), so the campaign can still be reproduced.
     requirements : sequence of Requirement
         Pass/fail rules on the metrics.
-    input_path : str or Path, optional
-        The input file the campaign was built from (e.g. the spacecraft
-        TOML): its SHA-256 goes into the result's provenance
-        (``info["provenance"]``). Not part of the campaign's identity.
+    input_file : (str, str), optional
+        The input the campaign was built from, ``(source, SHA-256)`` (e.g. the
+        spacecraft file's name and ``SpacecraftConfig.source_sha256``), for the
+        result's provenance (``info["provenance"]``). Not part of the
+        campaign's identity.
     """
 
     scenario: Any
@@ -145,7 +146,7 @@ class Campaign:
     runs: int = 100
     seed: int | None = None
     requirements: Sequence[Requirement] = ()
-    input_path: str | Path | None = None
+    input_file: tuple[str, str] | None = None
 
     def __post_init__(self) -> None:
         if not callable(self.scenario):
@@ -388,7 +389,7 @@ def run_campaign(
         "resumed_runs": resumed,
         "wall_time_s": time.perf_counter() - wall0,
         "parent_cpu_time_s": time.process_time() - cpu0,
-        "provenance": provenance(campaign.input_path),  # versions, date, the input file's hash
+        "provenance": provenance(*(campaign.input_file or ())),  # versions, date, the input's hash
     }
     result = _assemble(campaign, rows, collector.records, info)
     if out_dir is not None:

@@ -44,6 +44,15 @@ class UnmodelledErrorWarning(UserWarning):
     """A direction sensor has systematic errors the estimators do not model: their covariance will not cover them."""
 
 
+def _require_noise(who: str, noise: float, sigma_rad: float | None) -> None:
+    """Refuse a sensor whose directions would be taken as exact: no white noise and no ``sigma_rad``."""
+    if sigma_rad is None and noise == 0.0:
+        raise ValueError(
+            f"sigma_rad is needed for {who}: it has no white noise, so its directions would be taken as exact; "
+            "pass the angular noise the estimator should assume"
+        )
+
+
 def _warn_systematic(who: str, what: list[str]) -> None:
     if what:
         warnings.warn(
@@ -92,6 +101,7 @@ class MagnetometerDirection:
         self.period = magnetometer.period
         #: The per-axis noise the default sigma divides by |B| [T].
         self.equivalent_noise_T = float(magnetometer.sigma)
+        _require_noise(f"magnetometer {magnetometer.name!r}", self.equivalent_noise_T, self.sigma_rad)
         systematic = []
         if np.any(magnetometer.bias):
             systematic.append(f"a bias of {np.round(np.asarray(magnetometer.bias) * 1e9, 3).tolist()} nT")
@@ -124,18 +134,13 @@ class MagnetometerDirection:
         Raises
         ------
         ValueError
-            Without an orbit environment (no field), or when the default noise
-            is zero (a noise-free magnetometer: pass ``sigma_rad``).
+            Without an orbit environment (no field). (A noise-free magnetometer
+            without ``sigma_rad`` is refused when the adapter is made.)
         """
         sample_T = self.magnetometer.measure(t, truth, rng)
         field_B = np.asarray(truth.magnetic_field_B, dtype=float)
         sigma = self.sigma_rad
         if sigma is None:
-            if self.equivalent_noise_T == 0.0:
-                raise ValueError(
-                    f"sigma_rad is needed for magnetometer {self.magnetometer.name!r}: it has no white noise, so its "
-                    "direction would be taken as exact; pass the angular noise the estimator should assume"
-                )
             sigma = self.equivalent_noise_T / float(np.linalg.norm(field_B))
         return VectorMeasurement(sample_T, quat.rotate(truth.q, field_B), sigma=sigma)
 
@@ -172,14 +177,11 @@ class SunDirection:
         if isinstance(sensor, FineSunSensor):
             #: The per-axis angular noise the default assumes for a fine sensor [rad].
             self.equivalent_noise_rad = float(sensor.sigma)
+            _require_noise(f"Sun sensor {sensor.name!r}", self.equivalent_noise_rad, self.sigma_rad)
             bias = [f"a bias of {np.round(np.degrees(sensor.bias), 4).tolist()} deg"] if np.any(sensor.bias) else []
             _warn_systematic(f"Sun sensor {sensor.name!r}", bias)
         else:
-            if self.sigma_rad is None and sensor.noise == 0.0:
-                raise ValueError(
-                    f"sigma_rad is needed for coarse Sun sensors {sensor.name!r}: their noise_fraction is 0, so "
-                    "each direction would be taken as exact; pass the angular noise the estimator should assume"
-                )
+            _require_noise(f"coarse Sun sensors {sensor.name!r}", sensor.noise, self.sigma_rad)
             _warn_systematic(
                 f"coarse Sun sensors {sensor.name!r}",
                 ["scale-factor errors"] if np.any(sensor.scale_factor) else [],
@@ -209,8 +211,8 @@ class SunDirection:
         Raises
         ------
         ValueError
-            Without an orbit environment (no Sun), or a noise-free fine sensor
-            with no ``sigma_rad``.
+            Without an orbit environment (no Sun). (A noise-free sensor without
+            ``sigma_rad`` is refused when the adapter is made.)
         """
         out = self.sensor.measure(t, truth, rng)
         if out is None:
@@ -225,10 +227,5 @@ class SunDirection:
             return VectorMeasurement(estimate.sun_B, reference_N, covariance=estimate.covariance_B)
         sigma = self.sigma_rad
         if sigma is None:
-            if self.equivalent_noise_rad == 0.0:
-                raise ValueError(
-                    f"sigma_rad is needed for Sun sensor {self.sensor.name!r}: it has no white noise, so its "
-                    "direction would be taken as exact; pass the angular noise the estimator should assume"
-                )
             sigma = self.equivalent_noise_rad
         return VectorMeasurement(out, reference_N, sigma=sigma)

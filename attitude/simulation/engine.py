@@ -648,8 +648,16 @@ def _error_angles(controller: Any, t: NDArray, q: NDArray) -> NDArray:
         q_ref = np.asarray(controller.reference_samples(t)[0], dtype=float)
     else:
         q_ref = np.stack([np.asarray(controller.reference(tk)[0], dtype=float) for tk in t])
-    # A NaN row: no reference at that time (a mode sequence's detumbling), and no error to log.
+    # An all-NaN row: no reference at that time (a mode sequence's detumbling), and no error to log. Any other
+    # non-finite row is a broken reference, refused as before.
     has = np.all(np.isfinite(q_ref), axis=-1)
+    broken = ~has & ~np.all(np.isnan(q_ref), axis=-1)
+    if np.any(broken):
+        k = int(np.argmax(broken))
+        raise ValueError(
+            f"controller reference q_ref must be finite, or all NaN where there is none; got {q_ref[k]} at "
+            f"t = {float(t[k]):.6g} s"
+        )
     angles = np.full(t.size, np.nan)
     if np.any(has):
         angles[has] = quat.error_angle(q_ref[has], quat.normalize(q[has]))

@@ -515,6 +515,7 @@ class MEKF:
         self.tracker_name = _check_name(tracker_name, "tracker_name")
         if isinstance(vector_names, str):
             raise ValueError(f"vector_names must be a sequence of names, not one string, got {vector_names!r}")
+        self._names_checked = False  # update() warns once about vector names no sensor provides
         self.vector_names = tuple(_check_name(v, "vector_names[]") for v in vector_names)
         taken = {self.gyro_name, self.tracker_name}
         if len(set(self.vector_names)) != len(self.vector_names) or taken & set(self.vector_names):
@@ -750,7 +751,7 @@ class MEKF:
         attitude.simulation.engine.Estimate
             ``q_hat``, ``omega_hat = omega_meas - b_hat`` and ``covariance = P``.
         """
-        if not getattr(self, "_names_checked", False):
+        if not self._names_checked:
             self._names_checked = True
             missing = [name for name in self.vector_names if name not in measurements]
             if missing:

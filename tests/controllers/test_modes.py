@@ -192,3 +192,19 @@ def test_the_active_laws_logs_are_kept_under_their_mode():
     during, after = run.t < 20.0, run.t > 20.0
     assert np.all(np.isfinite(dipole[during][1:])) and np.any(dipole[during] != 0.0)
     assert np.all(np.isnan(dipole[after]))  # the law is not active after the switch
+
+
+def test_only_an_all_nan_reference_means_none_a_broken_one_is_refused():
+    # The engine logs NaN error where a controller has no reference (an all-NaN q_ref row, as a sequence's
+    # detumbling mode); a partly non-finite reference is a bug, refused as before the convention.
+    class Broken:
+        period = 1.0
+
+        def torque(self, t, estimate):
+            return np.zeros(3)
+
+        def reference(self, t):
+            return np.array([np.nan, 0.0, 0.0, 0.0]), np.zeros(3)
+
+    with pytest.raises(ValueError, match="q_ref must be finite, or all NaN"):
+        simulate(RigidBody([1.0, 1.2, 0.9]), [1.0, 0.0, 0.0, 0.0], np.zeros(3), 3.0, controller=Broken(), dt=1.0)

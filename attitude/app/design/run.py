@@ -51,7 +51,7 @@ from attitude.app.design.orbit import (
     nadir_hold,
 )
 from attitude.app.design.slew import check_periods, fly_slew, plan_slews, slew_figures
-from attitude.config import SpacecraftConfig, source_path
+from attitude.config import SpacecraftConfig
 from attitude.results import provenance
 
 __all__ = [
@@ -509,7 +509,7 @@ def run_design(
     results: dict[str, Any] = {
         "schema": "attitude-design-results/1",
         "spacecraft": {"name": config.name, "description": config.description, "source": config.source},
-        "provenance": provenance(source_path(config)),  # versions, date, the file's SHA-256
+        "provenance": provenance(config.source or None, config.source_sha256 or None),  # versions, date, hash
         "settings": {
             "quick": options.quick,
             "seed": int(seed),

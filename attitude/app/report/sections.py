@@ -783,8 +783,7 @@ def build_blocks(results: dict[str, Any]) -> list[Block]:
 
 def _provenance_text(p: dict[str, Any]) -> str:
     """What the report was made with (attitude.results.provenance)."""
-    source = p.get("input") or {}
-    digest = source.get("sha256") or f"not read ({source.get('error', 'no file')})"
+    digest = (p.get("input") or {}).get("sha256") or "none (not made from a file)"
     packages = ", ".join(f"{k} {v}" for k, v in p["packages"].items() if k != "attitude-toolkit")
     return (
         f"Made with attitude-toolkit {p['toolkit_version']} on {p['created_utc']} (Python {p['python']}, "
