@@ -13,6 +13,9 @@ hand-stepped :class:`MEKFBatch` agree bit for bit.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Any, NamedTuple
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -29,12 +32,52 @@ from estimation.mekf.filter import (
     error_transition,
 )
 
-__all__ = ["MEKFBatch", "initial_states", "non_unit_rows"]
+__all__ = ["MEKFBatch", "VectorSamples", "check_vector_samples", "initial_states", "non_unit_rows"]
 
 _EYE6 = np.eye(6)
 #: Accepted deviation of a tracker quaternion's norm from 1 (that of attitude.quaternion).
 _UNIT_TOL = quat.UNIT_NORM_TOLERANCE
-_BATCH_COUNT_KEYS = ("steps", "updates", "tracker_nan", "tracker_gated", "gyro_nan", "gyro_rejected")
+_BATCH_COUNT_KEYS = (
+    "steps",
+    "updates",
+    "tracker_nan",
+    "tracker_gated",
+    "gyro_nan",
+    "gyro_rejected",
+    "vector_updates",
+    "vector_nan",
+    "vector_gated",
+)
+
+
+class VectorSamples(NamedTuple):
+    """One direction sensor's samples for a batch of runs: the batch form of ``VectorMeasurement``.
+
+    At one step (:meth:`MEKFBatch.step`) the arrays have a leading runs axis
+    ``N``; as histories (:func:`estimation.mekf.run_mekf`) they also have a
+    time axis (``(n, ...)`` shared by all runs or ``(n_runs, n, ...)``). The
+    noise model is that of :class:`attitude.simulation.protocols.VectorMeasurement`
+    (``sigma``: the QUEST model ``sigma^2 (I - b b^T)``; ``covariance``: of the
+    unit vector's error). Give exactly one of ``sigma`` and ``covariance``.
+
+    Attributes
+    ----------
+    vector_B : array_like (N, 3)
+        Measured directions in body axes (any non-zero length). An all-NaN
+        row means no sample; a row with some NaN is a failed sample, skipped
+        and counted as ``vector_nan``.
+    reference_N : array_like (3,) or (N, 3)
+        The same direction in N at the sample time (any non-zero length).
+    sigma : float or array_like (N,), optional
+        Angular noise perpendicular to the vector [rad] (> 0).
+    covariance : array_like (3, 3) or (N, 3, 3), optional
+        Covariance of the unit vector's error [rad^2].
+    """
+
+    vector_B: Any
+    reference_N: Any
+    sigma: Any = None
+    covariance: Any = None
 
 
 def initial_states(
@@ -187,6 +230,7 @@ class MEKFBatch:
         self._sv2 = mekf.sigma_v**2
         self._su2 = mekf.sigma_u**2
         self._gate = mekf.gate_threshold
+        self._vector_gate = mekf.vector_gate_threshold
         self._second = mekf.covariance_reset == "second_order"
         #: Settings copied from the filter.
         self.covariance_reset = mekf.covariance_reset
@@ -240,11 +284,12 @@ class MEKFBatch:
         gyro: ArrayLike | None,
         tracker: ArrayLike | None = None,
         mask: ArrayLike | None = None,
+        vectors: Mapping[str, VectorSamples] | None = None,
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Propagate every run to ``t`` with its gyro sample, then update with its tracker sample.
+        """Propagate every run to ``t`` with its gyro sample, then update with its tracker and vector samples.
 
         Run ``r`` follows :meth:`MEKF.step` of ``(t, gyro[r], tracker[r]
-        if mask[r] else None)``.
+        if mask[r] else None, {name: sample r of each vector sensor})``.
 
         Parameters
         ----------
@@ -266,6 +311,10 @@ class MEKFBatch:
         mask : array_like (N,) of bool, optional
             Runs whose tracker sampled (default: the rows of ``tracker``
             that are not all NaN).
+        vectors : mapping of str to VectorSamples, optional
+            Each direction sensor's samples (:class:`VectorSamples`, rows
+            ``(N, ...)``), applied in order after the tracker, each with its
+            own 2-degree-of-freedom gate (:attr:`MEKF.vector_gate_threshold`).
 
         Returns
         -------
@@ -279,7 +328,8 @@ class MEKFBatch:
         ValueError
             If ``t`` is not a finite scalar or goes backwards, an array has
             the wrong shape (or dtype for ``mask``), ``mask`` comes without
-            ``tracker``, or a sampled finite tracker row is not unit norm.
+            ``tracker``, a sampled finite tracker row is not unit norm, or a
+            vector sensor's samples are malformed (:func:`check_vector_samples`).
             Every check runs before the state changes.
         """
         n = self.n_runs
@@ -314,7 +364,12 @@ class MEKFBatch:
                 )
         elif mask is not None:
             raise ValueError("mask was given without tracker samples (pass tracker (N, 4) with it)")
-        self.step_unchecked(tk, g, y, m)
+        checked = None
+        if vectors is not None:
+            if not isinstance(vectors, Mapping):
+                raise ValueError(f"vectors must be a mapping name -> VectorSamples, got {type(vectors).__name__}")
+            checked = {name: check_vector_samples(v, name, (n,)) for name, v in vectors.items()}
+        self.step_unchecked(tk, g, y, m, checked)
         return self._q.copy(), self._last - self._b
 
     def _clear_step_outputs(self) -> None:
@@ -327,6 +382,8 @@ class MEKFBatch:
         self.tracker_nan = np.zeros(n, dtype=bool)
         self.gyro_nan = np.zeros(n, dtype=bool)
         self.gyro_rejected = np.zeros(n, dtype=bool)
+        self.vector_nis: dict[str, NDArray[np.float64]] = {}
+        self.vector_updated: dict[str, NDArray[np.bool_]] = {}
 
     def step_unchecked(
         self,
@@ -334,6 +391,7 @@ class MEKFBatch:
         g: NDArray[np.float64] | None,
         y: NDArray[np.float64] | None,
         mask: NDArray[np.bool_] | None,
+        vectors: Mapping[str, VectorSamples] | None = None,
     ) -> None:
         """The batch equations for one step, without the checks of :meth:`step` (:func:`run_mekf` validates).
 
@@ -347,6 +405,9 @@ class MEKFBatch:
             Tracker quaternions (rows used where ``mask``).
         mask : ndarray of bool (N,) or None
             True where the tracker sampled.
+        vectors : mapping of str to VectorSamples, optional
+            Checked samples (:func:`check_vector_samples`: unit rows, ``sigma``
+            (N,) or ``covariance`` (N, 3, 3)).
         """
         self._clear_step_outputs()
         q, b, P, R = self._q, self._b, self._P, self._R
@@ -407,6 +468,8 @@ class MEKFBatch:
             P[sel] = 0.5 * (Pn + np.swapaxes(Pn, -1, -2))
             self.updated[sel] = True
         self._q, self._b, self._P = q, b, P
+        for name, samples in (vectors or {}).items():
+            self._correct_vectors(name, samples)
         c = self._counts
         c["steps"] += 1
         c["updates"] += self.updated
@@ -414,3 +477,140 @@ class MEKFBatch:
         c["tracker_gated"] += self.gated
         c["gyro_nan"] += self.gyro_nan
         c["gyro_rejected"] += self.gyro_rejected
+
+    def _correct_vectors(self, name: str, samples: VectorSamples) -> None:
+        """The update of :meth:`MEKF._correct_vector` for every run with a sample of sensor ``name``.
+
+        Residual ``z = T b`` with ``T`` the basis perpendicular to the predicted
+        ``b_hat = A(q_hat) r`` (``t1 = b_hat x e / |.|`` with ``e`` the axis least
+        aligned with ``b_hat``, ``t2 = b_hat x t1``), ``H = [-t2; t1]``, the gain
+        and covariance ``P - (P H^T) S^-1 (P H^T)^T`` of the single-run filter.
+        """
+        n = self.n_runs
+        vb, ref = samples.vector_B, samples.reference_N
+        present = ~np.all(np.isnan(vb), axis=-1)
+        finite = np.all(np.isfinite(vb), axis=-1)
+        self._counts["vector_nan"] += present & ~finite
+        nis_out = np.full(n, np.nan)
+        updated = np.zeros(n, dtype=bool)
+        sel = np.nonzero(finite)[0]
+        if sel.size:
+            q = self._q[sel]
+            p = quat.rotate_inverse(q, ref[sel])  # b_hat = A(q_hat) r_N
+            axis = np.argmin(np.abs(p), axis=-1)
+            u = np.cross(p, np.eye(3)[axis])
+            u /= np.linalg.norm(u, axis=-1, keepdims=True)
+            v = np.cross(p, u)
+            b = vb[sel]
+            z = np.stack([np.sum(u * b, axis=-1), np.sum(v * b, axis=-1)], axis=-1)
+            h = np.stack([-v, u], axis=1)  # (m, 2, 3)
+            if samples.covariance is None:
+                r = samples.sigma[sel, None, None] ** 2 * np.eye(2)
+            else:
+                tt = np.stack([u, v], axis=1)
+                r = tt @ samples.covariance[sel] @ np.swapaxes(tt, -1, -2)
+            P = self._P[sel]
+            pht = P[:, :, :3] @ np.swapaxes(h, -1, -2)  # (m, 6, 2)
+            S = h @ pht[:, :3] + r
+            SI = np.linalg.inv(S)
+            nis = np.einsum("ri,rij,rj->r", z, SI, z)
+            reversed_ = np.sum(p * b, axis=-1) <= 0.0  # more than 90 deg off: rejected (MEKF._correct_vector)
+            nis[reversed_] = NIS_CAP
+            nis_out[sel] = np.where(nis <= NIS_CAP, nis, NIS_CAP)
+            accept = (nis <= self._vector_gate) & ~reversed_
+            self._counts["vector_gated"][sel[~accept]] += 1
+            ok = sel[accept]
+            if ok.size:
+                pht, SI, z, P = pht[accept], SI[accept], z[accept], P[accept]
+                dx = (pht @ (SI @ z[..., None]))[..., 0]
+                Pn = P - pht @ SI @ np.swapaxes(pht, -1, -2)
+                dtheta = dx[:, :3]
+                self._q[ok] = compose_rotation_vector(self._q[ok], dtheta)
+                self._b[ok] = self._b[ok] + dx[:, 3:]
+                if self._second:
+                    gm = np.broadcast_to(_EYE6, Pn.shape).copy()
+                    gm[:, :3, :3] -= 0.5 * skew(dtheta)
+                    Pn = gm @ Pn @ np.swapaxes(gm, -1, -2)
+                self._P[ok] = 0.5 * (Pn + np.swapaxes(Pn, -1, -2))
+                updated[ok] = True
+                self._counts["vector_updates"][ok] += 1
+        self.vector_nis[name] = nis_out
+        self.vector_updated[name] = updated
+
+
+def check_vector_samples(samples: Any, name: str, lead: tuple[int, ...]) -> VectorSamples:
+    """Checked :class:`VectorSamples` with unit rows, broadcast to the leading shape ``lead``.
+
+    Parameters
+    ----------
+    samples : VectorSamples
+        One sensor's samples.
+    name : str
+        The sensor's name (named in errors).
+    lead : tuple of int
+        Leading shape of the rows: ``(N,)`` at one step, ``(n_runs, n)`` for histories.
+
+    Returns
+    -------
+    VectorSamples
+        ``vector_B`` (lead, 3) normalised (NaN rows kept), ``reference_N``
+        (lead, 3) normalised, and ``sigma`` (lead) or ``covariance`` (lead, 3, 3).
+
+    Raises
+    ------
+    ValueError
+        Not a :class:`VectorSamples`, shapes that do not broadcast to ``lead``,
+        a zero or infinite ``vector_B`` row, a zero or non-finite reference,
+        a non-positive ``sigma``, neither or both noise descriptions, or a
+        covariance that is not symmetric positive semi-definite.
+    """
+    if not isinstance(samples, VectorSamples):
+        raise ValueError(f"vectors[{name!r}] must be a VectorSamples, got {type(samples).__name__}")
+    where = f"vectors[{name!r}]"
+
+    def rows(value: Any, field: str, tail: tuple[int, ...], allow_nan: bool) -> NDArray[np.float64]:
+        arr = as_float_array(value, f"{where}.{field}", allow_nonfinite=allow_nan)
+        try:
+            return np.broadcast_to(arr, (*lead, *tail)) if arr.shape != (*lead, *tail) else arr
+        except ValueError:
+            raise ValueError(
+                f"{where}.{field} must broadcast to shape {(*lead, *tail)}, got shape {arr.shape}"
+            ) from None
+
+    vb = rows(samples.vector_B, "vector_B", (3,), True)
+    if np.any(np.isinf(vb)):
+        raise ValueError(f"{where}.vector_B must not hold inf (an all-NaN row means no sample)")
+    lengths = np.linalg.norm(vb, axis=-1)
+    if np.any(lengths == 0.0):
+        raise ValueError(
+            f"{where}.vector_B must have non-zero rows, found a zero row at {np.argwhere(lengths == 0.0)[0].tolist()}"
+        )
+    ref = rows(samples.reference_N, "reference_N", (3,), False)
+    ref_len = np.linalg.norm(ref, axis=-1)
+    if np.any(ref_len == 0.0):
+        raise ValueError(f"{where}.reference_N must have non-zero rows, found a zero row")
+    if (samples.sigma is None) == (samples.covariance is None):
+        raise ValueError(f"{where} must give exactly one of sigma and covariance")
+    sigma = cov = None
+    if samples.sigma is not None:
+        sigma = rows(samples.sigma, "sigma", (), False)
+        if np.any(sigma <= 0.0):
+            raise ValueError(f"{where}.sigma must be > 0 [rad], got a smallest value of {float(np.min(sigma))!r}")
+    else:
+        cov = rows(samples.covariance, "covariance", (3, 3), False)
+        if not np.allclose(cov, np.swapaxes(cov, -1, -2), rtol=1e-12, atol=0.0):
+            raise ValueError(f"{where}.covariance must be symmetric")
+        if np.any(np.linalg.eigvalsh(cov)[..., 0] < -1e-12 * np.max(np.abs(cov))):
+            raise ValueError(f"{where}.covariance must be positive semi-definite")
+        # Positive definite on the plane perpendicular to each sample (that of VectorMeasurement): the
+        # projected covariance has one zero eigenvalue (along the vector) and two positive ones.
+        sampled = np.all(np.isfinite(vb), axis=-1)
+        unit = np.where(sampled[..., None], vb, 0.0) / np.where(sampled, lengths, 1.0)[..., None]
+        proj = np.eye(3) - unit[..., :, None] * unit[..., None, :]
+        perp = np.linalg.eigvalsh(proj @ cov @ proj)[..., 1]
+        if np.any(sampled & (perp <= 1e-15 * np.max(np.abs(cov)))):
+            raise ValueError(f"{where}.covariance must be positive definite perpendicular to vector_B")
+    # Finite rows normalised; a failed row keeps its NaN pattern (partly NaN: counted; all NaN: no sample).
+    sampled = np.all(np.isfinite(vb), axis=-1)
+    unit_B = np.where(sampled[..., None], vb / np.where(sampled, lengths, 1.0)[..., None], vb)
+    return VectorSamples(unit_B, ref / ref_len[..., None], sigma, cov)

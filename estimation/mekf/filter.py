@@ -282,7 +282,7 @@ def initial_covariance(*, attitude_sigma: float, bias_sigma: float) -> NDArray[n
 def _vector_model(
     q_hat: NDArray[np.float64], m: VectorMeasurement
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Residual (2,), attitude Jacobian (2, 3) and noise (2, 2) of one vector sample (Python scalars: hot path)."""
+    """Residual (2,), attitude Jacobian (2, 3), noise (2, 2) and ``b . b_hat`` of one vector sample (hot path)."""
     w, x, y, z = q_hat.tolist()
     r0, r1, r2 = m.reference_N.tolist()
     # b_hat = C_BN(q_hat) r_N, the rows of C_BN written out.
@@ -311,7 +311,7 @@ def _vector_model(
     else:
         tt = np.array([[u0, u1, u2], [v0, v1, v2]])
         r = tt @ m.covariance @ tt.T
-    return res, h, r
+    return res, h, r, p0 * b0 + p1 * b1 + p2 * b2
 
 
 def vector_update_model(
@@ -349,7 +349,7 @@ def vector_update_model(
     m = _as_vector_measurement(measurement, "measurement")
     if not m.valid:
         raise ValueError(f"measurement.vector_B must be finite, got {m.vector_B.tolist()!r}")
-    z, h, r = _vector_model(q, m)
+    z, h, r, _ = _vector_model(q, m)
     return z, np.hstack([h, np.zeros((2, 3))]), r
 
 
@@ -415,7 +415,9 @@ class MEKF:
       or a mapping of its fields, read under ``vector_names``): each applied
       in turn after the tracker, with its own reset and gate (2 degrees of
       freedom); None: absent; a non-finite ``vector_B``: skipped, counted as
-      ``vector_nan``; above the gate: rejected, counted as ``vector_gated``.
+      ``vector_nan``; above the gate, or more than 90 deg from its prediction
+      (where the projected residual cannot tell a reversed vector from a good
+      one): rejected, counted as ``vector_gated``.
       Any subset of tracker and vectors may be present at a step (a tracker
       blinded or in eclipse, a Sun sensor in eclipse);
     - a time that goes backwards raises ValueError (a repeated time
@@ -553,6 +555,7 @@ class MEKF:
         self._t: float | None = t0
         self._last_gyro: NDArray[np.float64] | None = None
         self._last_nis = np.nan
+        self._last_vector_nis: dict[str, float] = {}
         self._last_gated = False
         self._last_innovation = np.full(3, np.nan)
         self._last_S = np.full((3, 3), np.nan)
@@ -722,6 +725,11 @@ class MEKF:
         """Times [s], sensor names and NIS values (2 dof) of every vector sample tested (applied or gated)."""
         return np.array(self._vnis_t), tuple(self._vnis_name), np.array(self._vnis)
 
+    @property
+    def last_vector_nis(self) -> dict[str, float]:
+        """NIS (2 dof, capped) of each vector sample the last step tested, applied or gated, by sensor name."""
+        return dict(self._last_vector_nis)
+
     def copy(self) -> MEKF:
         """An independent copy (state, covariance, counters and history)."""
         return copy.deepcopy(self)
@@ -815,6 +823,7 @@ class MEKF:
             self._last_gyro = rate
         self._last_nis = np.nan
         self._last_gated = False
+        self._last_vector_nis = {}
         if q_meas is not None:
             self._correct(q_meas, t)
         for name, m in vector_samples:
@@ -921,7 +930,7 @@ class MEKF:
         kf.x = np.zeros(6)
 
     def _correct_vector(self, m: VectorMeasurement, name: str, t: float) -> None:
-        z, h, r = _vector_model(self._q, m)
+        z, h, r, cosine = _vector_model(self._q, m)
         p = self._kf.P
         pht = p[:, :3] @ h.T  # P H^T (6, 2); H = [h 0]
         (s00, s01), (s10, s11) = (h @ pht[:3] + r).tolist()
@@ -931,9 +940,14 @@ class MEKF:
         si = np.array([[s11 / det, -s01 / det], [-s10 / det, s00 / det]])
         c0, c1 = (si @ z).tolist()
         nis_value = z0 * c0 + z1 * c1
+        if cosine <= 0.0:
+            # More than 90 deg from the prediction: the projected residual of a reversed vector is as small
+            # as that of a good one (T b = -T b_hat = 0), so the linear model cannot judge it; rejected.
+            nis_value = NIS_CAP
         self._vnis_t.append(t)
         self._vnis_name.append(name)
-        if not nis_value <= self.vector_gate_threshold:
+        self._last_vector_nis[name] = nis_value if nis_value <= NIS_CAP else NIS_CAP
+        if cosine <= 0.0 or not nis_value <= self.vector_gate_threshold:
             self._vnis.append(nis_value if nis_value <= NIS_CAP else NIS_CAP)
             self._counts["vector_gated"] += 1
             return

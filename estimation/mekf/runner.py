@@ -19,9 +19,10 @@ from numpy.typing import ArrayLike, NDArray
 from attitude import quaternion as quat
 from attitude.results import ResultIO
 from attitude.sensors import ARCSEC
+from attitude.simulation.protocols import VectorMeasurement
 from attitude.validation import as_float_array
 from estimation.consistency import NisHealth, nees, nis_health, plot_errors_with_bounds
-from estimation.mekf.batch import MEKFBatch, initial_states, non_unit_rows
+from estimation.mekf.batch import MEKFBatch, VectorSamples, check_vector_samples, initial_states, non_unit_rows
 from estimation.mekf.filter import MEKF, attitude_residual
 
 __all__ = ["MEKFResult", "run_mekf"]
@@ -65,6 +66,9 @@ class MEKFResult(ResultIO):
         A NaN tracker (gyro) sample was skipped at the step.
     info : dict
         Counts (per run for a batch), settings and wall time [s].
+    vector_nis : dict of str to ndarray (n,)
+        Per direction sensor: the NIS (2 degrees of freedom) of each sample,
+        applied or gated (NaN without one); empty without vector sensors.
     """
 
     t: NDArray[np.float64]
@@ -79,6 +83,7 @@ class MEKFResult(ResultIO):
     tracker_nan: NDArray[np.bool_]
     gyro_nan: NDArray[np.bool_]
     info: dict[str, Any] = field(default_factory=dict)
+    vector_nis: dict[str, NDArray[np.float64]] = field(default_factory=dict)
 
     @property
     def n_runs(self) -> int | None:
@@ -199,6 +204,7 @@ def run_mekf(
     tracker_mask: ArrayLike | None = None,
     q0: ArrayLike | None = None,
     bias0: ArrayLike | None = None,
+    vectors: dict[str, VectorSamples] | None = None,
     vectorized: bool | None = None,
 ) -> MEKFResult:
     """Run the MEKF over recorded samples: one run, or many runs at once.
@@ -228,6 +234,12 @@ def run_mekf(
         Initial attitude estimate(s) replacing the filter's.
     bias0 : float or array_like (3,) or (n_runs, 3), optional
         Initial bias estimate(s) [rad/s] replacing the filter's.
+    vectors : dict of str to VectorSamples, optional
+        Direction sensors' histories, applied in order after the tracker
+        (:class:`estimation.mekf.batch.VectorSamples`: ``vector_B`` (n, 3) or
+        (n_runs, n, 3), all-NaN rows meaning no sample; ``reference_N``,
+        ``sigma`` or ``covariance`` per step, shared or per run). Any subset
+        of tracker and vectors may be present at a step.
     vectorized : bool, optional
         True: the numpy path over a runs axis; False: :class:`MEKF` steps
         (filterpy) run by run. Default: vectorised for a batch, steps for one run.
@@ -282,6 +294,9 @@ def run_mekf(
         )
 
     runs = g.shape[0] if batch else 1
+    if vectors is not None and not isinstance(vectors, dict):
+        raise ValueError(f"vectors must be a dict name -> VectorSamples, got {type(vectors).__name__}")
+    v3 = {name: _vector_histories(v, name, runs, n, batch) for name, v in (vectors or {}).items()}
     qs, bs = initial_states(mekf, runs, q0, bias0)
     g3 = g if batch else g[None]
     y3 = y if batch else y[None]
@@ -289,12 +304,15 @@ def run_mekf(
     vec = batch if vectorized is None else bool(vectorized)
     start = time.perf_counter()
     if vec:
-        out = _run_vectorized(mekf, tt, g3, y3, m3, qs, bs)
+        out = _run_vectorized(mekf, tt, g3, y3, m3, qs, bs, v3)
     else:
-        out = _run_steps(mekf, tt, g3, y3, m3, qs, bs)
+        out = _run_steps(mekf, tt, g3, y3, m3, qs, bs, v3)
     wall = time.perf_counter() - start
+    vector_nis = out.pop("vector_nis")
+    vector_counts = out.pop("vector_counts")
     if not batch:
         out = {k: v[0] for k, v in out.items()}
+        vector_nis = {k: v[0] for k, v in vector_nis.items()}
     gyro_rejected = out.pop("gyro_rejected")
     counts = {
         "updates": np.sum(out["updated"], axis=-1),
@@ -303,6 +321,8 @@ def run_mekf(
         "gated": np.sum(~np.isnan(out["nis"]) & ~out["updated"], axis=-1),
         "gyro_rejected": np.sum(gyro_rejected, axis=-1),
     }
+    for key, per_run in vector_counts.items():
+        counts[key] = per_run if batch else per_run[0]
     info: dict[str, Any] = {k: v.tolist() for k, v in counts.items()}
     info.update(
         {
@@ -315,11 +335,37 @@ def run_mekf(
             "gate_probability": mekf.gate_probability,
             "gate_threshold": None if mekf.gate_probability is None else mekf.gate_threshold,
             "gyro_rate_max": mekf.gyro_rate_max,
+            "vector_names": list(v3),
             "wall_time_s": wall,
             "filter_steps_per_s": runs * n / wall if wall > 0 else float("inf"),
         }
     )
-    return MEKFResult(t=tt.copy(), info=info, **out)
+    return MEKFResult(t=tt.copy(), info=info, vector_nis=vector_nis, **out)
+
+
+def _vector_histories(samples: Any, name: str, runs: int, n: int, batch: bool) -> VectorSamples:
+    """A sensor's histories checked and broadcast to (runs, n, ...): a shared (n, ...) history is every run's."""
+    if not isinstance(samples, VectorSamples):
+        raise ValueError(f"vectors[{name!r}] must be a VectorSamples, got {type(samples).__name__}")
+
+    def lift(value: Any, tail: int) -> Any:
+        # A single run's (n, ...) history gains the runs axis; a batch's shared (n, ...) one broadcasts.
+        if value is None:
+            return None
+        arr = np.asarray(value, dtype=np.float64)
+        return arr[None] if arr.ndim == tail + 1 else arr
+
+    lifted = VectorSamples(
+        lift(samples.vector_B, 1),
+        lift(samples.reference_N, 1),
+        lift(samples.sigma, 0),
+        lift(samples.covariance, 2),
+    )
+    if not batch and np.ndim(samples.vector_B) != 2:
+        raise ValueError(
+            f"vectors[{name!r}].vector_B must have shape ({n}, 3) for one run, got {np.shape(samples.vector_B)}"
+        )
+    return check_vector_samples(lifted, name, (runs, n))
 
 
 def _empty_histories(runs: int, n: int) -> dict[str, NDArray]:
@@ -338,10 +384,28 @@ def _empty_histories(runs: int, n: int) -> dict[str, NDArray]:
     }
 
 
-def _run_steps(mekf, t, g, y, mask, qs, bs) -> dict[str, NDArray]:
+def _vector_outputs(out: dict[str, Any], vectors: dict[str, VectorSamples], runs: int, n: int) -> None:
+    out["vector_nis"] = {name: np.full((runs, n), np.nan) for name in vectors}
+    out["vector_counts"] = {
+        key: np.zeros(runs, dtype=np.int64) for key in ("vector_updates", "vector_nan", "vector_gated")
+    }
+
+
+def _measurement(v: VectorSamples, r: int, k: int) -> VectorMeasurement | None:
+    """Sample ``k`` of run ``r`` as the single filter's input (None: no sample)."""
+    vb = v.vector_B[r, k]
+    if np.all(np.isnan(vb)):
+        return None
+    if v.sigma is not None:
+        return VectorMeasurement(vb, v.reference_N[r, k], sigma=float(v.sigma[r, k]))
+    return VectorMeasurement(vb, v.reference_N[r, k], covariance=v.covariance[r, k])
+
+
+def _run_steps(mekf, t, g, y, mask, qs, bs, vectors) -> dict[str, NDArray]:
     """One :class:`MEKF` (filterpy) per run, stepped in Python."""
     runs, n = g.shape[:2]
     out = _empty_histories(runs, n)
+    _vector_outputs(out, vectors, runs, n)
     for r in range(runs):
         f = mekf.with_state(qs[r], bs[r])
         for k in range(n):
@@ -351,8 +415,11 @@ def _run_steps(mekf, t, g, y, mask, qs, bs) -> dict[str, NDArray]:
             if tracker is not None and not np.all(np.isfinite(tracker)):
                 out["tracker_nan"][r, k] = True
             before = f.counts
-            est = f.step(float(t[k]), gk, tracker)
+            samples = {name: _measurement(v, r, k) for name, v in vectors.items()} or None
+            est = f.step(float(t[k]), gk, tracker, samples)
             after = f.counts
+            for name, value in f.last_vector_nis.items():
+                out["vector_nis"][name][r, k] = value
             out["q"][r, k] = est.q
             out["bias"][r, k] = f.bias
             out["omega"][r, k] = est.omega
@@ -364,16 +431,30 @@ def _run_steps(mekf, t, g, y, mask, qs, bs) -> dict[str, NDArray]:
                 out["innovation"][r, k] = f.last_innovation
                 out["innovation_covariance"][r, k] = f.last_innovation_covariance
                 out["nis"][r, k] = f.last_nis
+        for key in out["vector_counts"]:
+            out["vector_counts"][key][r] = f.counts[key]
     return out
 
 
-def _run_vectorized(mekf, t, g, y, mask, qs, bs) -> dict[str, NDArray]:
+def _run_vectorized(mekf, t, g, y, mask, qs, bs, vectors) -> dict[str, NDArray]:
     """:meth:`MEKFBatch.step` over the recorded histories (the one definition of the batch equations)."""
     runs, n = g.shape[:2]
     out = _empty_histories(runs, n)
+    _vector_outputs(out, vectors, runs, n)
     batch = MEKFBatch.from_states(mekf, qs, bs)
     for k in range(n):
-        batch.step_unchecked(float(t[k]), g[:, k], y[:, k], mask[:, k])
+        step_vectors = {
+            name: VectorSamples(
+                v.vector_B[:, k],
+                v.reference_N[:, k],
+                None if v.sigma is None else v.sigma[:, k],
+                None if v.covariance is None else v.covariance[:, k],
+            )
+            for name, v in vectors.items()
+        }
+        batch.step_unchecked(float(t[k]), g[:, k], y[:, k], mask[:, k], step_vectors)
+        for name, nis in batch.vector_nis.items():
+            out["vector_nis"][name][:, k] = nis
         out["q"][:, k] = batch.q
         out["bias"][:, k] = batch.bias
         out["omega"][:, k] = batch.omega
@@ -385,4 +466,6 @@ def _run_vectorized(mekf, t, g, y, mask, qs, bs) -> dict[str, NDArray]:
         out["tracker_nan"][:, k] = batch.tracker_nan
         out["gyro_nan"][:, k] = batch.gyro_nan
         out["gyro_rejected"][:, k] = batch.gyro_rejected
+    for key in out["vector_counts"]:
+        out["vector_counts"][key] = batch.counts[key]
     return out

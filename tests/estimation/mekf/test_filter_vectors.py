@@ -444,3 +444,25 @@ def test_engine_hands_vector_samples_to_the_filter_without_a_tracker():
     logged = res.logs["sensor.sun_sensor"]
     np.testing.assert_allclose(np.linalg.norm(logged[::5], axis=-1), 1.0, rtol=1e-15)
     np.testing.assert_allclose(res.logs["sensor.sun_sensor.reference_N"][::5], np.tile(SUN_N, (121, 1)), rtol=1e-15)
+
+
+@pytest.mark.parametrize("gate_probability", [1 - 1e-9, None])
+def test_a_reversed_vector_is_rejected_even_without_a_gate(gate_probability):
+    # A sign error (a magnetometer axis wired backwards) reverses the vector: its projection on the plane
+    # perpendicular to the prediction is as small as a good sample's, so the NIS alone would pass it.
+    f = MEKF(
+        sigma_v=1e-5,
+        sigma_u=1e-7,
+        tracker_covariance=np.eye(3) * 1e-8,
+        period=DT,
+        q0=quat.identity(),
+        P0=initial_covariance(attitude_sigma=1e-3, bias_sigma=1e-5),
+        t0=0.0,
+        vector_names=NAMES,
+        gate_probability=gate_probability,
+    )
+    p_before = f.P
+    f.step(0.0, np.zeros(3), None, {"sun_sensor": VectorMeasurement([-1.0, 1e-4, 0.0], [1.0, 0.0, 0.0], sigma=1e-3)})
+    assert f.counts["vector_gated"] == 1 and f.counts["vector_updates"] == 0
+    np.testing.assert_array_equal(f.P, p_before)
+    assert f.last_vector_nis["sun_sensor"] >= 1e300
