@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 from attitude.rng import as_generator
 from attitude.validation import as_float_array, check_direction, check_vector, describe, positive_scalar, scalar_time
 
-__all__ = ["CoarseSunSensors", "FineSunSample", "FineSunSensor", "SunVectorEstimate"]
+__all__ = ["CUBE_NORMALS_B", "CoarseSunSensors", "FineSunSample", "FineSunSensor", "SunVectorEstimate"]
 
 _DEG = np.pi / 180.0
 _MILLIAMPERE = 1e-3  # [A]
@@ -35,7 +35,6 @@ def _name(name: str) -> str:
     if not isinstance(name, str) or not name:
         raise ValueError(f"name must be a non-empty string, got {name!r}")
     return name
-
 
 
 def _fov(value: ArrayLike, name: str, *, to_rad: float, unit: str, closed_at_90: bool) -> float:
@@ -93,6 +92,32 @@ class SunVectorEstimate(NamedTuple):
     valid: bool
     n_lit: int
     covariance_B: NDArray[np.float64]
+
+
+def _opposite_pairs(
+    normals: NDArray[np.float64], hemispheres: bool
+) -> tuple[NDArray[np.intp], NDArray[np.intp], NDArray[np.bool_]]:
+    """Cells in opposite pairs (``n_j = -n_i`` to 1e-9) when each sees its hemisphere; the other cells.
+
+    Returns ``(first, second, single)``: the pairs' cell indices and a mask of the cells in no pair.
+    """
+    n = normals.shape[0]
+    single = np.ones(n, dtype=bool)
+    first: list[int] = []
+    second: list[int] = []
+    if hemispheres:
+        for i in range(n):
+            for j in range(i + 1, n):
+                if single[i] and single[j] and normals[i] @ normals[j] < -1.0 + 1e-9:
+                    first.append(i)
+                    second.append(j)
+                    single[i] = single[j] = False
+    return np.array(first, dtype=np.intp), np.array(second, dtype=np.intp), single
+
+
+#: Normals of six cells on the faces of a cube, body axes: ``+x, -x, +y, -y, +z, -z``.
+CUBE_NORMALS_B = np.vstack([np.eye(3), -np.eye(3)])[[0, 3, 1, 4, 2, 5]]
+CUBE_NORMALS_B.flags.writeable = False
 
 
 class CoarseSunSensors:
@@ -193,6 +218,7 @@ class CoarseSunSensors:
             raise ValueError(f"lit_threshold must be below 1 (a fraction of full scale), got {self.lit_threshold!r}")
         self.name = _name(name)
         self._cos_fov = float(np.cos(self.fov_half_angle))
+        self._pairs = _opposite_pairs(self.normals_B, self.fov_half_angle >= np.pi / 2)
 
     def __repr__(self) -> str:
         return (
@@ -220,8 +246,7 @@ class CoarseSunSensors:
         -------
         CoarseSunSensors
         """
-        normals = np.vstack([np.eye(3), -np.eye(3)])[[0, 3, 1, 4, 2, 5]]
-        return cls(normals, period=period, fov_half_angle_rad=fov_half_angle_rad, **options)
+        return cls(CUBE_NORMALS_B, period=period, fov_half_angle_rad=fov_half_angle_rad, **options)
 
     @classmethod
     def pyramid(
@@ -393,15 +418,27 @@ class CoarseSunSensors:
         return ideal + self.noise * self.full_scale * as_generator(rng).standard_normal(self.n_cells)
 
     def sun_vector(self, currents_A: ArrayLike) -> SunVectorEstimate:
-        """Least-squares Sun direction from the currents of the lit cells.
+        """Least-squares Sun direction from the cells' currents.
 
-        With ``N`` the normals of the cells above ``lit_threshold`` and
-        ``y`` their currents over full scale, ``x = pinv(N) y`` estimates
-        ``illumination * s`` and ``s = x / |x|`` (Markley and Crassidis 2014,
-        sec. 4.4). Exact without noise when the lit cells see the Sun inside
-        their field of view and their normals span three dimensions; not
-        ``valid`` otherwise (eclipse, fewer than three independent lit cells).
-        The covariance is ``(I - s s^T) sigma^2 (N^T N)^{-1} (I - s s^T) / |x|^2``
+        Two kinds of rows, with ``y`` the currents over full scale:
+
+        - **opposite pairs** (cells ``i``, ``j`` with ``n_j = -n_i``, when the
+          cells see their whole hemisphere, ``fov_half_angle = pi/2``): the
+          difference ``y_i - y_j = lambda n_i . s`` exactly, lit or dark, since
+          ``max(0, c) - max(0, -c) = c``; noise variance ``2 sigma^2``. A cube
+          of six cells thus measures every component of the Sun vector
+          wherever the Sun is;
+        - **other cells**, when lit (above ``lit_threshold``):
+          ``y_k = lambda n_k . s``, variance ``sigma^2`` (a dark cell only
+          says ``n_k . s <= 0``, which is not a linear measurement).
+
+        The weighted least squares ``x = M^{-1} sum_rows w n y`` with
+        ``M = sum_rows w n n^T`` (``w`` = 1/2 for a pair, 1 for a cell)
+        estimates ``lambda s``, and ``s = x / |x|`` (Markley and Crassidis
+        2014, sec. 4.4). Exact without noise inside the cells' field of view.
+        Not ``valid`` in eclipse (no cell lit), or when the rows do not span
+        three dimensions (a smallest eigenvalue of ``M`` below 1e-12). The
+        covariance is ``(I - s s^T) sigma^2 M^{-1} (I - s s^T) / |x|^2``
         (first order in the noise ``sigma``, full-scale units).
 
         Parameters
@@ -417,21 +454,56 @@ class CoarseSunSensors:
         y = check_vector(currents_A, "currents_A", self.n_cells)
         if y.shape != (self.n_cells,):
             raise ValueError(f"currents_A must have shape ({self.n_cells},), got shape {y.shape}")
+        sun_B, valid, n_lit, cov = self.sun_vectors(y[None])
+        return SunVectorEstimate(sun_B[0], bool(valid[0]), int(n_lit[0]), cov[0])
+
+    def sun_vectors(
+        self, currents_A: ArrayLike
+    ) -> tuple[NDArray[np.float64], NDArray[np.bool_], NDArray[np.int64], NDArray[np.float64]]:
+        """:meth:`sun_vector` for many samples at once: currents (..., n) in, the estimates' arrays out.
+
+        Parameters
+        ----------
+        currents_A : array_like (..., n)
+            One current per cell [A] for each sample.
+
+        Returns
+        -------
+        sun_B : ndarray (..., 3)
+            Unit Sun vectors in body axes (zeros where not valid).
+        valid : ndarray (...) of bool
+            A cell lit and rows spanning three dimensions.
+        n_lit : ndarray (...) of int
+            Cells above the lit threshold.
+        covariance_B : ndarray (..., 3, 3)
+            First-order covariances [rad^2] (zeros where not valid).
+        """
+        y = as_float_array(currents_A, "currents_A")
+        if y.shape[-1:] != (self.n_cells,):
+            raise ValueError(f"currents_A must have shape (..., {self.n_cells}), got shape {y.shape}")
         y = y / self.full_scale
         lit = y > self.lit_threshold
-        n_lit = int(np.count_nonzero(lit))
-        nothing = SunVectorEstimate(np.zeros(3), False, n_lit, np.zeros((3, 3)))
-        if n_lit < 3:
-            return nothing
-        normals = self.normals_B[lit]
-        if np.linalg.svd(normals, compute_uv=False)[-1] < _RANK_TOLERANCE:
-            return nothing
-        x, *_ = np.linalg.lstsq(normals, y[lit], rcond=None)
-        size = float(np.linalg.norm(x))
-        s = x / size
-        perp = np.eye(3) - np.outer(s, s)
-        cov = self.noise**2 * perp @ np.linalg.inv(normals.T @ normals) @ perp / size**2
-        return SunVectorEstimate(s, True, n_lit, cov)
+        n_lit = np.count_nonzero(lit, axis=-1)
+        first, second, single = self._pairs
+        # Pair rows: n_i with value y_i - y_j, weight 1/2; single rows: lit cells with weight 1.
+        w = np.where(single, lit, False).astype(np.float64)
+        pair_normals = self.normals_B[first]
+        normal_matrix = np.einsum("...c,ci,cj->...ij", w, self.normals_B, self.normals_B) + 0.5 * (
+            pair_normals.T @ pair_normals
+        )
+        rhs = (w * y) @ self.normals_B + 0.5 * (y[..., first] - y[..., second]) @ pair_normals
+        smallest = np.linalg.eigvalsh(normal_matrix)[..., 0]
+        valid = (n_lit >= 1) & (smallest >= _RANK_TOLERANCE**2)
+        safe = np.where(valid[..., None, None], normal_matrix, np.eye(3))
+        x = np.linalg.solve(safe, rhs[..., None])[..., 0]
+        size = np.linalg.norm(x, axis=-1)
+        valid &= size > 0.0
+        size = np.where(valid, size, 1.0)
+        sun = np.where(valid[..., None], x / size[..., None], 0.0)
+        perp = np.eye(3) - sun[..., :, None] * sun[..., None, :]
+        cov = self.noise**2 * perp @ np.linalg.inv(safe) @ perp / size[..., None, None] ** 2
+        cov = np.where(valid[..., None, None], cov, 0.0)
+        return sun, valid, n_lit, cov
 
 
 # ---------------------------------------------------------------------------
@@ -674,10 +746,47 @@ class FineSunSensor:
         w = as_generator(rng).standard_normal(2)
         if illum < self.illumination_min or not self.in_view(sun_B):
             return None
-        s = self.C_BS.T @ sun_B
-        alpha = float(np.arctan2(s[0], s[2]) + self.bias[0] + self.sigma * w[0])
-        beta = float(np.arctan2(s[1], s[2]) + self.bias[1] + self.sigma * w[1])
-        return FineSunSample(alpha, beta, self.C_BS @ self.angles_to_vector(alpha, beta))
+        angles, vector_B = self._measured(sun_B, w)
+        return FineSunSample(float(angles[0]), float(angles[1]), vector_B)
+
+    def _measured(
+        self, sun_B: NDArray[np.float64], normals: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """The angles (..., 2) [rad] and unit vectors (..., 3) (body axes) for unit Sun vectors and normals (..., 2)."""
+        s = sun_B @ self.C_BS  # sensor axes: C_BS^T s_B
+        angles = np.arctan2(s[..., :2], s[..., 2:3]) + self.bias + self.sigma * normals
+        v = np.concatenate([np.tan(angles), np.ones((*angles.shape[:-1], 1))], axis=-1)
+        return angles, (v / np.linalg.norm(v, axis=-1, keepdims=True)) @ self.C_BS.T
+
+    def sample_batch(self, sun_B: ArrayLike, illumination: ArrayLike, normals: ArrayLike) -> NDArray[np.float64]:
+        """Many samples at once: run ``i`` is :meth:`sample`'s vector with standard normals ``normals[i]``.
+
+        Parameters
+        ----------
+        sun_B : array_like (..., 3)
+            Sun directions in body axes (normalised here).
+        illumination : array_like (...)
+            Fractions of the solar disk seen, in [0, 1].
+        normals : array_like (..., 2)
+            Standard normals, in the order of ``gen.standard_normal(2)``.
+
+        Returns
+        -------
+        ndarray (..., 3)
+            Measured unit Sun vectors in body axes; NaN rows outside the field
+            of view or below ``illumination_min``.
+        """
+        s = as_float_array(sun_B, "sun_B")
+        if s.shape[-1:] != (3,) or np.any(np.linalg.norm(s, axis=-1) == 0.0):
+            raise ValueError(f"sun_B must be non-zero vectors of shape (..., 3), got shape {s.shape}")
+        s = s / np.linalg.norm(s, axis=-1, keepdims=True)
+        lam = np.broadcast_to(as_float_array(illumination, "illumination"), s.shape[:-1])
+        w = as_float_array(normals, "normals")
+        if w.shape != (*s.shape[:-1], 2):
+            raise ValueError(f"normals must have shape {(*s.shape[:-1], 2)}, got shape {w.shape}")
+        seen = (lam >= self.illumination_min) & (s @ self.C_BS[:, 2] >= np.cos(self.fov_half_angle))
+        _, vector_B = self._measured(s, w)
+        return np.where(seen[..., None], vector_B, np.nan)
 
     def measure(self, t: float, truth: Any, rng: Any = None) -> NDArray[np.float64] | None:
         """The measured unit Sun vector (3,) in body axes, or None (outside the field of view, eclipse).

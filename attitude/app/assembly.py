@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -44,6 +45,7 @@ from attitude.linearize import linearize
 from attitude.montecarlo.results import Requirement
 from attitude.rigid_body import RigidBody
 from attitude.sensors import GYRO_PRESETS, Gyro, Magnetometer, StarTracker
+from attitude.sun_sensors import CoarseSunSensors, FineSunSensor
 from controllers.lqr import LQRDesign, bryson_weights, design_lqr
 from controllers.magnetic import BDotController, CrossProductUnloading, bdot_gain
 from controllers.pd import QuaternionPD, RateLimitedPD
@@ -62,8 +64,11 @@ __all__ = [
     "MomentumSettings",
     "attitude_sigma0",
     "bdot_controller",
+    "coarse_sun_sensors",
     "detumble_settings",
+    "direction_sensors",
     "eigenaxis_controller",
+    "fine_sun_sensor",
     "gyro",
     "gyro_bias_sigma0",
     "hub_body",
@@ -90,6 +95,7 @@ __all__ = [
     "surface",
     "tracking_controller",
     "unloading_controller",
+    "vector_mekf",
 ]
 
 #: Initial attitude knowledge error of the MEKF, 1 sigma per axis [deg]: the one value of the design and
@@ -181,6 +187,7 @@ def gyro(
     *,
     misalignment_rad: ArrayLike | None = None,
     bias_rad_per_s: ArrayLike | None = None,
+    period: float | None = None,
 ) -> Gyro:
     """A fresh gyro of ``[gyro]`` (stateful: build one per run), optionally with dispersed errors.
 
@@ -195,20 +202,24 @@ def gyro(
         Extra misalignment rotation vector [rad], added to the file's.
     bias_rad_per_s : array_like (3,), optional
         Extra turn-on bias [rad/s], added to the file's constant bias.
+    period : float, optional
+        Sample period [s] instead of the file's (the same noise densities;
+        the determination study reads angle increments over its step).
 
     Returns
     -------
     Gyro
     """
+    table = config.gyro_config if period is None else dataclasses.replace(config.gyro_config, period_s=float(period))
     if misalignment_rad is None and bias_rad_per_s is None:
-        return build.gyro(config.gyro_config, sampling)
-    figures = build.gyro_figures(config.gyro_config)
+        return build.gyro(table, sampling)
+    figures = build.gyro_figures(table)
     if misalignment_rad is not None:
         figures["misalignment_rad"] = np.asarray(figures.get("misalignment_rad", np.zeros(3))) + misalignment_rad
     if bias_rad_per_s is not None:
         base = np.broadcast_to(np.asarray(figures.get("bias_deg_per_h", 0.0), dtype=float), (3,))
         figures["bias_deg_per_h"] = base + np.degrees(np.asarray(bias_rad_per_s, dtype=float)) * 3600.0
-    return build.gyro(config.gyro_config, sampling, figures)
+    return build.gyro(table, sampling, figures)
 
 
 def star_tracker(config: SpacecraftConfig) -> StarTracker:
@@ -323,6 +334,75 @@ def magnetometer(config: SpacecraftConfig, *, period: float | None = None) -> Ma
     if period is not None:
         c = dataclasses.replace(c, period_s=float(period))
     return build.magnetometer(c)
+
+
+def coarse_sun_sensors(config: SpacecraftConfig) -> CoarseSunSensors | None:
+    """The cells of ``[coarse_sun_sensors]`` (percent of full scale and deg in the file), or None.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file.
+
+    Returns
+    -------
+    CoarseSunSensors or None
+        None without a ``[coarse_sun_sensors]`` table.
+    """
+    c = config.coarse_sun_sensors_config
+    return None if c is None else build.coarse_sun_sensors(c)
+
+
+def direction_sensors(config: SpacecraftConfig, *, white_noise_only: bool = False) -> dict[str, Any]:
+    """The file's direction sensors by table name (None where the file has none).
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file.
+    white_noise_only : bool
+        Build them with their white noise alone: no magnetometer bias, scale
+        factor, misalignment or quantisation, no fine-sensor bias, no albedo
+        on the coarse cells (the errors the estimators model).
+
+    Returns
+    -------
+    dict
+        ``{"magnetometer": Magnetometer, "coarse_sun_sensors": CoarseSunSensors,
+        "fine_sun_sensor": FineSunSensor}``, each None without its table.
+    """
+    mag, coarse, fine = config.magnetometer_config, config.coarse_sun_sensors_config, config.fine_sun_sensor_config
+    if white_noise_only:
+        if mag is not None:
+            mag = dataclasses.replace(
+                mag, bias_nT=0.0, scale_factor_ppm=0.0, misalignment_deg=(0.0, 0.0, 0.0), quantization_nT=0.0
+            )
+        if coarse is not None:
+            coarse = dataclasses.replace(coarse, albedo_percent=0.0)
+        if fine is not None:
+            fine = dataclasses.replace(fine, bias_deg=0.0)
+    return {
+        "magnetometer": None if mag is None else build.magnetometer(mag),
+        "coarse_sun_sensors": None if coarse is None else build.coarse_sun_sensors(coarse),
+        "fine_sun_sensor": None if fine is None else build.fine_sun_sensor(fine),
+    }
+
+
+def fine_sun_sensor(config: SpacecraftConfig) -> FineSunSensor | None:
+    """The sensor of ``[fine_sun_sensor]`` (deg in the file), or None.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file.
+
+    Returns
+    -------
+    FineSunSensor or None
+        None without a ``[fine_sun_sensor]`` table.
+    """
+    c = config.fine_sun_sensor_config
+    return None if c is None else build.fine_sun_sensor(c)
 
 
 @dataclass(frozen=True)
@@ -838,6 +918,36 @@ def mekf(
         P0=P0,
         gyro_name=gyro.name,
         tracker_name=tracker.name,
+    )
+
+
+def vector_mekf(gyro: Gyro, q0: ArrayLike, P0: ArrayLike, vector_names: Sequence[str]) -> MEKF:
+    """An MEKF on a gyro and direction sensors alone (no star tracker).
+
+    Parameters
+    ----------
+    gyro : Gyro
+        An integrating (``sampling="mean"``) gyro: ARW, RRW and period.
+    q0 : array_like (4,)
+        Initial attitude estimate ``q_BN``.
+    P0 : array_like (6, 6)
+        Initial covariance (:func:`mekf_initial_covariance`).
+    vector_names : sequence of str
+        The direction sensors' names, in the order the filter applies them.
+
+    Returns
+    -------
+    MEKF
+    """
+    return MEKF(
+        sigma_v=gyro.sigma_v,
+        sigma_u=gyro.filter_sigma_u,
+        tracker_covariance=np.eye(3),  # no tracker flies: never used
+        period=gyro.period,
+        q0=q0,
+        P0=P0,
+        gyro_name=gyro.name,
+        vector_names=tuple(vector_names),
     )
 
 

@@ -497,9 +497,12 @@ def build_parser() -> argparse.ArgumentParser:
             "stability, gravity gradient), 2 linear design (PD and LQR gains, poles, margins, Bode and step),\n"
             "3 slews (the required slew time-optimal and eigenaxis), 4 closed loop (the slew flown with tracking\n"
             "control, wheels, gyro, star tracker and MEKF), 5 estimation (rate EKF and MEKF errors, NEES over a\n"
-            "Monte Carlo set), 6 requirements (pass/fail). Writes report.md, report.html (self-contained),\n"
-            "figures/*.png, results.json (every number of the report) and spacecraft.toml (the resolved file)\n"
-            "into --out, and prints the requirements table. About 30 s for the default spacecraft."
+            "Monte Carlo set), 6 orbit (disturbance torques, momentum budget and unloading, nadir hold,\n"
+            "detumbling; with an [orbit]), 7 attitude determination from the Sun and the field (QUEST, TRIAD\n"
+            "and a star-tracker-free MEKF over an orbit; with direction sensors), 8 requirements (pass/fail).\n"
+            "Writes report.md, report.html (self-contained), figures/*.png, results.json (every number of the\n"
+            "report) and spacecraft.toml (the resolved file) into --out, and prints the requirements table.\n"
+            "About 50 s for the default spacecraft (--quick: about 30 s)."
         ),
         epilog=_EPILOG,
     )

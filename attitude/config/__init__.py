@@ -3,7 +3,7 @@
 A spacecraft file (read with the standard library's :mod:`tomllib`) holds
 the inertia, the reaction wheels, the gyro, the star tracker, the control
 design parameters, an optional orbit (circular, Keplerian or TLE) with its
-environment models, surface model, magnetorquers, magnetometer, detumbling
+environment models, surface model, magnetorquers, magnetometer, sun sensors, detumbling
 and momentum settings, the Sun direction, the requirements the design must
 meet, and an optional Monte Carlo campaign. :func:`load_config`
 reads and validates it into a :class:`SpacecraftConfig` (frozen dataclasses
@@ -57,10 +57,12 @@ filled in) that loads back to an equal configuration.
 from attitude.config.model import (
     PYRAMID_ELEVATION_DEG,
     WHEEL_LAYOUTS,
+    CoarseSunSensorsConfig,
     ControlConfig,
     DetumbleConfig,
     Dispersion,
     EnvironmentConfig,
+    FineSunSensorConfig,
     GyroConfig,
     InertiaConfig,
     KeepOutConfig,
@@ -95,11 +97,13 @@ __all__ = [
     "DEFAULT_CONFIG_FILE",
     "PYRAMID_ELEVATION_DEG",
     "WHEEL_LAYOUTS",
+    "CoarseSunSensorsConfig",
     "ConfigError",
     "ControlConfig",
     "DetumbleConfig",
     "Dispersion",
     "EnvironmentConfig",
+    "FineSunSensorConfig",
     "GyroConfig",
     "InertiaConfig",
     "KeepOutConfig",

@@ -24,7 +24,9 @@ from attitude.actuators import Magnetorquers, ReactionWheels
 from attitude.config.model import (
     GYRO_FIGURES,
     NRLMSIS_DEFAULTS,
+    CoarseSunSensorsConfig,
     EnvironmentConfig,
+    FineSunSensorConfig,
     GyroConfig,
     InertiaConfig,
     MagnetometerConfig,
@@ -42,12 +44,15 @@ from attitude.environment.orbit_environment import DISTURBANCE_SOURCES, OrbitEnv
 from attitude.environment.surface import SurfaceModel
 from attitude.rigid_body import RigidBody
 from attitude.sensors import ARCSEC, Gyro, Magnetometer, StarTracker
+from attitude.sun_sensors import CUBE_NORMALS_B, CoarseSunSensors, FineSunSensor
 
 __all__ = [
     "atmosphere",
     "circular_orbit",
+    "coarse_sun_sensors",
     "default_sources",
     "epoch",
+    "fine_sun_sensor",
     "gyro",
     "gyro_figures",
     "kepler_orbit",
@@ -537,4 +542,50 @@ def magnetometer(sensor: MagnetometerConfig) -> Magnetometer:
         scale_factor_ppm=np.array(sensor.scale_factor_ppm, dtype=np.float64),
         misalignment_rad=np.radians(np.array(sensor.misalignment_deg, dtype=np.float64)),
         quantization_nT=sensor.quantization_nT,
+    )
+
+
+def coarse_sun_sensors(sensor: CoarseSunSensorsConfig) -> CoarseSunSensors:
+    """The :class:`CoarseSunSensors` of ``[coarse_sun_sensors]`` (by :meth:`CoarseSunSensors.from_datasheet`).
+
+    Parameters
+    ----------
+    sensor : CoarseSunSensorsConfig
+        Period [s], noise and albedo [% of full scale], normals, field of view [deg].
+
+    Returns
+    -------
+    CoarseSunSensors
+        The cells (full scale 1 mA: the estimate uses ratios of currents, so its value is immaterial).
+    """
+    normals = CUBE_NORMALS_B if sensor.normals_B is None else np.array(sensor.normals_B, dtype=np.float64)
+    return CoarseSunSensors.from_datasheet(
+        normals,
+        period=sensor.period_s,
+        fov_half_angle_deg=sensor.fov_half_angle_deg,
+        full_scale_mA=1.0,
+        noise_percent=sensor.noise_percent,
+        albedo_percent=sensor.albedo_percent,
+    )
+
+
+def fine_sun_sensor(sensor: FineSunSensorConfig) -> FineSunSensor:
+    """The :class:`FineSunSensor` of ``[fine_sun_sensor]`` (by :meth:`FineSunSensor.from_datasheet`).
+
+    Parameters
+    ----------
+    sensor : FineSunSensorConfig
+        Period [s], accuracy [deg] at its sigma level, field of view [deg], boresight, bias [deg].
+
+    Returns
+    -------
+    FineSunSensor
+    """
+    return FineSunSensor.from_datasheet(
+        accuracy_deg=sensor.accuracy_deg,
+        accuracy_sigma_level=sensor.accuracy_sigma_level,
+        period=sensor.period_s,
+        fov_half_angle_deg=sensor.fov_half_angle_deg,
+        boresight_B=np.array(sensor.boresight_B, dtype=np.float64),
+        bias_deg=np.array(sensor.bias_deg, dtype=np.float64),
     )

@@ -41,10 +41,12 @@ __all__ = [
     "PYRAMID_ELEVATION_DEG",
     "SATURATION_MODES",
     "WHEEL_LAYOUTS",
+    "CoarseSunSensorsConfig",
     "ControlConfig",
     "DetumbleConfig",
     "Dispersion",
     "EnvironmentConfig",
+    "FineSunSensorConfig",
     "GyroConfig",
     "InertiaConfig",
     "KeepOutConfig",
@@ -626,6 +628,59 @@ class MagnetometerConfig:
 
 
 @dataclass(frozen=True)
+class CoarseSunSensorsConfig:
+    """The ``[coarse_sun_sensors]`` table: cosine cells (datasheet units: deg, percent of full scale).
+
+    Parameters
+    ----------
+    period_s : float
+        Sample period [s] (key ``coarse_sun_sensors.period_s``).
+    noise_percent : float
+        1-sigma noise per cell and sample [% of full scale] (key ``coarse_sun_sensors.noise_percent``).
+    normals_B : tuple of tuple of float, optional
+        Cell normals in body axes; None: six cells on the cube faces (key ``coarse_sun_sensors.normals_B``).
+    fov_half_angle_deg : float, optional
+        Field-of-view half-angle of each cell [deg] (key ``coarse_sun_sensors.fov_half_angle_deg``).
+    albedo_percent : float, optional
+        Earth-albedo current at normal incidence [% of full scale] (key ``coarse_sun_sensors.albedo_percent``).
+    """
+
+    period_s: float
+    noise_percent: float
+    normals_B: tuple[Vector, ...] | None = None
+    fov_half_angle_deg: float = 90.0
+    albedo_percent: float = 0.0
+
+
+@dataclass(frozen=True)
+class FineSunSensorConfig:
+    """The ``[fine_sun_sensor]`` table: a two-axis fine sun sensor (datasheet units: deg).
+
+    Parameters
+    ----------
+    period_s : float
+        Sample period [s] (key ``fine_sun_sensor.period_s``).
+    accuracy_deg : float
+        Angle accuracy per axis [deg] (key ``fine_sun_sensor.accuracy_deg``).
+    accuracy_sigma_level : float
+        How many sigma ``accuracy_deg`` is (key ``fine_sun_sensor.accuracy_sigma_level``).
+    fov_half_angle_deg : float
+        Half-angle of the conical field of view [deg] (key ``fine_sun_sensor.fov_half_angle_deg``).
+    boresight_B : tuple of float, optional
+        Boresight in body axes (key ``fine_sun_sensor.boresight_B``).
+    bias_deg : float or tuple of float, optional
+        Constant bias on the two angles [deg] (key ``fine_sun_sensor.bias_deg``).
+    """
+
+    period_s: float
+    accuracy_deg: float
+    accuracy_sigma_level: float
+    fov_half_angle_deg: float
+    boresight_B: Vector = (0.0, 0.0, 1.0)
+    bias_deg: PerWheel = 0.0
+
+
+@dataclass(frozen=True)
 class DetumbleConfig:
     """The ``[detumble]`` table.
 
@@ -911,7 +966,9 @@ class SpacecraftConfig:
     (:attr:`wheels_config`), ``[gyro]`` (:attr:`gyro_config`),
     ``[star_tracker]`` (:attr:`star_tracker_config`), ``[orbit]``
     (:attr:`orbit_config`), ``[magnetorquers]`` (:attr:`magnetorquers_config`)
-    and ``[magnetometer]`` (:attr:`magnetometer_config`), whose names are those of the objects
+    ``[magnetometer]`` (:attr:`magnetometer_config`), ``[coarse_sun_sensors]``
+    (:attr:`coarse_sun_sensors_config`) and ``[fine_sun_sensor]``
+    (:attr:`fine_sun_sensor_config`), whose names are those of the objects
     :mod:`attitude.app.assembly` builds from them. Values keep the units of
     their key names; the builders (:mod:`attitude.config.build`) convert to
     SI. ``source`` (the file it came from) is not part of equality.
@@ -944,6 +1001,10 @@ class SpacecraftConfig:
         Magnetic torque rods (optional) (key ``magnetorquers``).
     magnetometer_config : MagnetometerConfig or None, optional
         Three-axis magnetometer (optional) (key ``magnetometer``).
+    coarse_sun_sensors_config : CoarseSunSensorsConfig or None, optional
+        Coarse sun sensor cells (optional) (key ``coarse_sun_sensors``).
+    fine_sun_sensor_config : FineSunSensorConfig or None, optional
+        Two-axis fine sun sensor (optional) (key ``fine_sun_sensor``).
     detumble : DetumbleConfig or None, optional
         B-dot detumbling study (optional) (key ``detumble``).
     momentum : MomentumConfig or None, optional
@@ -970,6 +1031,8 @@ class SpacecraftConfig:
     surface: SurfaceConfig | None = None
     magnetorquers_config: MagnetorquersConfig | None = None
     magnetometer_config: MagnetometerConfig | None = None
+    coarse_sun_sensors_config: CoarseSunSensorsConfig | None = None
+    fine_sun_sensor_config: FineSunSensorConfig | None = None
     detumble: DetumbleConfig | None = None
     momentum: MomentumConfig | None = None
     source: str = field(default="", compare=False)

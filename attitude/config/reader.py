@@ -38,10 +38,12 @@ from attitude.config.model import (
     PYRAMID_ELEVATION_DEG,
     SATURATION_MODES,
     WHEEL_LAYOUTS,
+    CoarseSunSensorsConfig,
     ControlConfig,
     DetumbleConfig,
     Dispersion,
     EnvironmentConfig,
+    FineSunSensorConfig,
     GyroConfig,
     InertiaConfig,
     KeepOutConfig,
@@ -911,6 +913,43 @@ def _read_magnetometer(r: _Reader, t: _Table) -> MagnetometerConfig:
     return config
 
 
+def _read_coarse_sun_sensors(r: _Reader, t: _Table) -> CoarseSunSensorsConfig:
+    period = t.number("period_s")
+    _positive(r, t.key("period_s"), period, unit="s")
+    noise = t.number("noise_percent")
+    _positive(r, t.key("noise_percent"), noise, unit="% of full scale")
+    normals = None
+    if t.has("normals_B"):
+        key = t.key("normals_B")
+        raw = t.data["normals_B"]
+        if not isinstance(raw, list) or len(raw) < 3:
+            raise r.error(key, f"expected a list of at least 3 cell normals [[x, y, z], ...], got {_describe(raw)}")
+        normals = tuple(r.vector(a, f"{key}[{i}]", 3) for i, a in enumerate(raw))
+    fov = t.number("fov_half_angle_deg", required=False, default=90.0)
+    _in_range(r, t.key("fov_half_angle_deg"), fov, 0.0, 90.0, low_open=True, high_open=False)
+    albedo = t.number("albedo_percent", required=False, default=0.0)
+    _positive(r, t.key("albedo_percent"), albedo, allow_zero=True, unit="% of full scale")
+    config = CoarseSunSensorsConfig(period, noise, normals, fov, albedo)
+    _try_build(r, t.path, lambda: build.coarse_sun_sensors(config))
+    return config
+
+
+def _read_fine_sun_sensor(r: _Reader, t: _Table) -> FineSunSensorConfig:
+    period = t.number("period_s")
+    _positive(r, t.key("period_s"), period, unit="s")
+    accuracy = t.number("accuracy_deg")
+    _positive(r, t.key("accuracy_deg"), accuracy, unit="deg")
+    level = t.number("accuracy_sigma_level")
+    _positive(r, t.key("accuracy_sigma_level"), level)
+    fov = t.number("fov_half_angle_deg")
+    _in_range(r, t.key("fov_half_angle_deg"), fov, 0.0, 90.0, low_open=True, high_open=True)
+    boresight = t.get("boresight_B", lambda v, k: r.vector(v, k, 3), required=False, default=(0.0, 0.0, 1.0))
+    bias = t.get("bias_deg", lambda v, k: r.scalar_or_list(v, k, 2, "angle"), required=False, default=0.0)
+    config = FineSunSensorConfig(period, accuracy, level, fov, boresight, bias)
+    _try_build(r, t.path, lambda: build.fine_sun_sensor(config))
+    return config
+
+
 def _read_detumble(r: _Reader, t: _Table) -> DetumbleConfig:
     tip_off = t.get("tip_off_rate_deg_per_s", lambda v, k: r.scalar_or_list(v, k, 3, "axis"))
     threshold = t.number("rate_threshold_deg_per_s")
@@ -1144,6 +1183,12 @@ def config_from_dict(data: Mapping[str, Any], file: str = "<config>") -> Spacecr
         _needs(r, "magnetometer", magnetic, orbit=orbit is not None)
         if orbit is not None and not field:
             raise r.error("magnetometer", "needs a magnetic field: environment.magnetic_field is 'none'")
+    sun_sensors = {}
+    for table, read in (("coarse_sun_sensors", _read_coarse_sun_sensors), ("fine_sun_sensor", _read_fine_sun_sensor)):
+        st_ = top.table(table, required=False)
+        sun_sensors[table] = None if st_ is None else read(r, st_)
+        if st_ is not None:
+            _needs(r, table, "the Sun's direction and the eclipses come from the orbit", orbit=orbit is not None)
     dt = top.table("detumble", required=False)
     detumble = None
     if dt is not None:
@@ -1190,6 +1235,8 @@ def config_from_dict(data: Mapping[str, Any], file: str = "<config>") -> Spacecr
         surface=surface,
         magnetorquers_config=torquers,
         magnetometer_config=magnetometer,
+        coarse_sun_sensors_config=sun_sensors["coarse_sun_sensors"],
+        fine_sun_sensor_config=sun_sensors["fine_sun_sensor"],
         detumble=detumble,
         momentum=momentum,
         source=str(file),

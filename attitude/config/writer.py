@@ -173,6 +173,8 @@ def config_to_toml(config: SpacecraftConfig) -> str:
     for table, entry in (
         ("magnetorquers", config.magnetorquers_config),
         ("magnetometer", config.magnetometer_config),
+        ("coarse_sun_sensors", config.coarse_sun_sensors_config),
+        ("fine_sun_sensor", config.fine_sun_sensor_config),
         ("detumble", config.detumble),
         ("momentum", config.momentum),
     ):

@@ -30,6 +30,7 @@ import warnings
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
 from attitude.sensors import Magnetometer
@@ -37,7 +38,7 @@ from attitude.simulation.protocols import VectorMeasurement
 from attitude.sun_sensors import CoarseSunSensors, FineSunSensor
 from attitude.validation import positive_scalar
 
-__all__ = ["MagnetometerDirection", "SunDirection", "UnmodelledErrorWarning"]
+__all__ = ["MagnetometerDirection", "SunDirection", "UnmodelledErrorWarning", "field_direction_sigma"]
 
 
 class UnmodelledErrorWarning(UserWarning):
@@ -75,6 +76,27 @@ def _name(name: str | None, default: str) -> str:
 
 def _sigma(sigma_rad: float | None) -> float | None:
     return None if sigma_rad is None else positive_scalar(sigma_rad, "sigma_rad")
+
+
+def field_direction_sigma(noise_T: float, field_B: ArrayLike) -> NDArray[np.float64]:
+    """Angular noise [rad] of a magnetometer's field direction: the per-axis white noise over ``|B|``.
+
+    A noise ``sigma_T`` per axis perpendicular to a field of magnitude ``|B|``
+    turns the direction by ``sigma_T / |B|`` per axis (first order).
+
+    Parameters
+    ----------
+    noise_T : float
+        1-sigma white noise per axis [T].
+    field_B : array_like (..., 3)
+        The field [T].
+
+    Returns
+    -------
+    ndarray (...)
+        [rad]
+    """
+    return noise_T / np.linalg.norm(np.asarray(field_B, dtype=float), axis=-1)
 
 
 class MagnetometerDirection:
@@ -141,7 +163,7 @@ class MagnetometerDirection:
         field_B = np.asarray(truth.magnetic_field_B, dtype=float)
         sigma = self.sigma_rad
         if sigma is None:
-            sigma = self.equivalent_noise_T / float(np.linalg.norm(field_B))
+            sigma = float(field_direction_sigma(self.equivalent_noise_T, field_B))
         return VectorMeasurement(sample_T, quat.rotate(truth.q, field_B), sigma=sigma)
 
 

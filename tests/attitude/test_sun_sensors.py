@@ -126,10 +126,17 @@ def test_least_squares_sun_vector_is_exact_without_noise(make):
     assert checked > 20  # the test looked at valid estimates
 
 
-def test_fewer_than_three_independent_lit_cells_give_no_estimate():
+def test_fewer_than_three_independent_lit_cells_give_no_estimate_unless_in_opposite_pairs():
+    # A cube of hemispherical cells: opposite faces measure each component by their difference, lit or
+    # dark (max(0, c) - max(0, -c) = c), so two lit faces (the Sun in the x-y plane) or one suffice.
     sensor = CoarseSunSensors.cube(period=1.0)
-    # Sun in the x-y plane: only the +x and +y faces are lit (rank 2).
-    est = sensor.sun_vector(sensor.measure(0.0, _truth([1.0, 1.0, 0.0]), 1))
+    for sun in ([1.0, 1.0, 0.0], [0.0, 0.0, -1.0]):
+        est = sensor.sun_vector(sensor.measure(0.0, _truth(sun), 1))
+        assert est.valid and est.n_lit == np.count_nonzero(sun)
+        np.testing.assert_allclose(est.sun_B, np.array(sun) / np.linalg.norm(sun), atol=1e-15)
+    # Narrower cells have no such identity: two lit faces of a 80 deg cube are rank 2, refused.
+    narrow = CoarseSunSensors.cube(period=1.0, fov_half_angle_rad=np.radians(80.0))
+    est = narrow.sun_vector(narrow.measure(0.0, _truth([1.0, 1.0, 0.0]), 1))
     assert not est.valid and est.n_lit == 2
     # Four lit cells but all normals in one plane (rank 2): refused as well.
     ring = CoarseSunSensors(
@@ -381,3 +388,69 @@ def test_the_engine_hands_the_cells_the_nadir_so_albedo_reaches_a_flight():
     ideal = np.array([cells.ideal_currents(s[3], s[4], s[2]) for s in seen])
     np.testing.assert_allclose(flown, ideal, atol=1e-15)  # no noise: the currents are the ideal ones, albedo in
     assert np.any(ideal != np.array([cells.ideal_currents(s[3], s[4]) for s in seen]))  # the Earth is in view
+
+
+def test_batch_sun_vectors_are_the_least_squares_of_the_lit_cells():
+    # Against numpy's lstsq on each sample's lit cells (an independent solver of the same problem), over
+    # random Sun directions, illuminations (eclipse included) and noise; invalid samples where fewer than
+    # three independent cells are lit.
+    rng = np.random.default_rng(7)
+    cells = CoarseSunSensors.cube(period=0.1, fov_half_angle_rad=np.radians(70.0), noise_fraction=0.01)
+    sun = rng.standard_normal((400, 3))
+    sun /= np.linalg.norm(sun, axis=-1, keepdims=True)
+    light = rng.choice([0.0, 0.5, 1.0], size=400)
+    currents = cells.ideal_currents(sun, light) + 0.01 * cells.full_scale * rng.standard_normal((400, 6))
+    sun_B, valid, n_lit, cov = cells.sun_vectors(currents.reshape(20, 20, 6))
+    sun_B, valid, n_lit, cov = sun_B.reshape(400, 3), valid.ravel(), n_lit.ravel(), cov.reshape(400, 3, 3)
+    assert 50 < valid.sum() < 400  # both kinds occur (70 deg cells leave gaps; eclipse rows are dark)
+    for k in range(400):
+        y = currents[k] / cells.full_scale
+        lit = y > cells.lit_threshold
+        assert n_lit[k] == lit.sum()
+        independent = lit.sum() >= 3 and np.linalg.svd(cells.normals_B[lit], compute_uv=False)[-1] >= 1e-6
+        assert valid[k] == independent
+        if independent:
+            x, *_ = np.linalg.lstsq(cells.normals_B[lit], y[lit], rcond=None)
+            # Rounding of two solvers of a system with condition number <= 3 (the cube's normals).
+            np.testing.assert_allclose(sun_B[k], x / np.linalg.norm(x), atol=1e-14)
+            single = cells.sun_vector(currents[k])
+            np.testing.assert_array_equal(single.covariance_B, cov[k])
+        else:
+            assert not np.any(sun_B[k]) and not np.any(cov[k])
+
+
+def test_fine_sensor_batch_samples_are_the_single_samples():
+    rng = np.random.default_rng(3)
+    sensor = FineSunSensor(1e-3, period=0.1, fov_half_angle_rad=np.radians(60.0), boresight_B=[0, 1, 1], bias_rad=1e-4)
+    sun = rng.standard_normal((300, 3))
+    light = rng.choice([0.0, 0.95, 1.0], size=300)
+    # Sample k draws its two normals from a generator seeded k; the batch gets the same numbers.
+    normals = np.array([np.random.default_rng(k).standard_normal(2) for k in range(300)])
+    batch = sensor.sample_batch(sun, light, normals)
+    seen = 0
+    for k in range(300):
+        one = sensor.sample(0.0, _truth(sun[k] / np.linalg.norm(sun[k]), light[k]), np.random.default_rng(k))
+        if one is None:
+            assert np.all(np.isnan(batch[k]))
+        else:
+            seen += 1
+            np.testing.assert_allclose(batch[k], one.sun_B, atol=1e-15)
+    assert 30 < seen < 300
+
+
+def test_the_pair_estimate_of_a_cube_scatters_as_its_first_order_covariance():
+    # One face lit (the Sun 20 deg off +z): the x and y components come from the dark pairs alone.
+    sensor = CoarseSunSensors.cube(period=1.0, noise_fraction=2e-3)
+    sun = np.array([np.sin(np.radians(20.0)), 0.0, np.cos(np.radians(20.0))])
+    rng = np.random.default_rng(5)
+    m = 4000
+    currents = sensor.ideal_currents(sun) + 2e-3 * sensor.full_scale * rng.standard_normal((m, 6))
+    sun_B, valid, n_lit, _ = sensor.sun_vectors(currents)
+    assert np.all(valid) and np.all(n_lit == 2)  # +z and +x lit
+    errors = sun_B - sun
+    predicted = sensor.sun_vector(sensor.ideal_currents(sun)).covariance_B
+    # Pairs only: M = I/2, so the predicted covariance is 2 sigma^2 (I - s s^T) exactly.
+    np.testing.assert_allclose(predicted, 2 * 2e-3**2 * (np.eye(3) - np.outer(sun, sun)), atol=1e-18)
+    sample_trace = float(np.trace(errors.T @ errors) / m)
+    # Sampling std of the trace, sqrt(2 tr(P^2) / M); 5 sigma (second-order bias ~ sigma^2 = 4e-6 relative).
+    assert abs(sample_trace - np.trace(predicted)) < 5 * np.sqrt(2 * np.trace(predicted @ predicted) / m)

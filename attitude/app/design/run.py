@@ -7,7 +7,7 @@ toolkit together and import :mod:`controllers` and :mod:`estimation`; no
 ground-floor module imports them. Writing the report (markdown, HTML, JSON,
 PNG) is :mod:`attitude.app.report.writer`'s job; these modules only compute.
 
-:func:`run_design` runs the seven steps of the report in order and returns a
+:func:`run_design` runs the eight steps of the report in order and returns a
 :class:`DesignResult`: ``results``, a JSON-ready dict holding every number
 the report shows (keys carry their units as in the spacecraft file: ``_s``,
 ``_deg``, ``_deg_per_s``, ``_mNm``, ``_arcsec`` ...), and ``figures``
@@ -20,7 +20,9 @@ the report shows (keys carry their units as in the spacecraft file: ``_s``,
 5. Estimation (:func:`attitude.app.design.estimation.estimation_study`).
 6. Orbit, when the file has an ``[orbit]``: disturbance torques, momentum
    budget and unloading, detumbling (:mod:`attitude.app.design.orbit`).
-7. Requirements (:func:`requirement_verdicts`; :func:`plan_verdicts` judges a
+7. Attitude determination from the Sun and the field, when the file has an
+   ``[orbit]`` and a direction sensor (:mod:`attitude.app.design.determination`).
+8. Requirements (:func:`requirement_verdicts`; :func:`plan_verdicts` judges a
    plan alone for ``attitude slew``): each requirement of the
    file against the achieved figure, judged from the numbers stored in
    ``results`` and nowhere else, so the report, ``results.json`` and the
@@ -41,6 +43,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from attitude.app.design.body import DEFAULT_SPIN_RATE_DEG_PER_S, body_analysis, body_figures
+from attitude.app.design.determination import determination_figures, determination_study
 from attitude.app.design.estimation import FRACTION_INSIDE_MIN, estimation_study
 from attitude.app.design.linear import linear_design
 from attitude.app.design.orbit import (
@@ -69,7 +72,7 @@ __all__ = [
 ]
 
 #: Steps of :func:`run_design` (the progress lines count them).
-STEPS = 7
+STEPS = 8
 
 #: Classical margin guidelines of the advisory checks (not requirements of the file).
 GAIN_MARGIN_GUIDELINE_DB = 6.0
@@ -110,6 +113,11 @@ class DesignOptions:
         """Monte Carlo runs of the rate-EKF consistency check (one filterpy filter per run)."""
         return 4 if self.quick else 20
 
+    @property
+    def determination_runs(self) -> int:
+        """Monte Carlo runs of each sensor model of the determination study (batched)."""
+        return 4 if self.quick else 16
+
 
 @dataclass
 class DesignResult:
@@ -139,7 +147,7 @@ Progress = Callable[[str], None]
 
 
 # ---------------------------------------------------------------------------
-# 7. Requirements
+# 8. Requirements
 
 
 def _row(rid: str, text: str, key: str, required: Any, achieved: Any, unit: str, comparison: str) -> dict[str, Any]:
@@ -252,7 +260,7 @@ def orbit_study(config: SpacecraftConfig, quick: bool = False) -> tuple[dict[str
 
 
 def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> dict[str, Any]:
-    """Section 7: each requirement of the file against the achieved figure (from ``results`` only).
+    """Section 8: each requirement of the file against the achieved figure (from ``results`` only).
 
     A requirement passes when ``achieved <= required`` (or ``>=``, per row);
     a figure that could not be computed (``None``) fails. Returns
@@ -264,7 +272,7 @@ def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> d
     config : SpacecraftConfig
         The spacecraft file (its requirements).
     results : dict
-        The JSON-ready results of sections 1 to 6.
+        The JSON-ready results of sections 1 to 7.
     """
     req = config.requirements
     slews = results["slews"]
@@ -383,6 +391,32 @@ def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> d
                     "<=",
                 )
             )
+    det = results.get("determination")
+    if det is not None:
+        static = (det["static"] or {}).get("noise")
+        if static is not None and static["solutions"]:
+            checks.append(
+                _row(
+                    "quest_nees",
+                    "QUEST covariance not over-confident: mean NEES at most the top of its band (noise model)",
+                    "",
+                    static["nees_band_high"],
+                    static["nees_mean"],
+                    "",
+                    "<=",
+                )
+            )
+        checks.append(
+            _row(
+                "determination_mekf_nees",
+                "Sun-and-field MEKF: fraction of steps with the average NEES inside its band (noise model)",
+                "",
+                FRACTION_INSIDE_MIN,
+                det["mekf"]["noise"]["fraction_inside"],
+                "",
+                ">=",
+            )
+        )
     failed = [r["id"] for r in rows if not r["pass"]]
     return {"requirements": rows, "checks": checks, "verdict": {"pass": not failed, "failed": failed}}
 
@@ -454,6 +488,19 @@ def _caption_table() -> dict[str, tuple[str, str]]:
             "cross-product unloading; dashed: the allowed momentum per wheel (drawn when within the scale).",
         ),
         "detumble": ("orbit", "B-dot detumbling: body rates with the threshold, and the rods' dipole."),
+        "determination_static": (
+            "determination",
+            "QUEST attitude error over one orbit (run 1) for both sensor models, with QUEST's 3-sigma (largest axis); "
+            "below, the angle between the Sun and the field (small: the rotation about them is poorly observed).",
+        ),
+        "determination_mekf": (
+            "determination",
+            "Sun-and-field MEKF (no star tracker): error angle of five runs and the 3-sigma of the largest axis.",
+        ),
+        "determination_nees": (
+            "determination",
+            "Sun-and-field MEKF: average NEES (noise model) with its 95 % chi-square band.",
+        ),
         "orbit_nadir_hold": (
             "orbit",
             "Nadir hold over one orbit in closed loop: error to the LVLH frame, rates, torques, wheel speeds, the "
@@ -487,7 +534,7 @@ def run_design(
     seed = options.seed
     if seed is None:
         seed = 0 if config.montecarlo is None else config.montecarlo.seed
-    seeds = np.random.SeedSequence(seed).spawn(2)
+    seeds = np.random.SeedSequence(seed).spawn(3)
     timing: dict[str, float] = {}
     caught: list[str] = []
     figures: dict[str, Figure] = {}
@@ -516,6 +563,7 @@ def run_design(
             "planner_nodes": options.nodes,
             "mekf_runs": options.mekf_runs,
             "rate_ekf_runs": options.rate_ekf_runs,
+            "determination_runs": options.determination_runs,
             "spin_rate_deg_per_s": options.spin_rate_deg_per_s,
         },
     }
@@ -561,7 +609,16 @@ def run_design(
     )
     results["orbit"] = orbit
     figures.update(figs)
-    verdicts = step(7, "requirements", "requirements", lambda: requirement_verdicts(config, results))
+    determination, histories = step(
+        7,
+        "determination",
+        f"determination: QUEST, TRIAD and MEKF from the Sun and the field ({options.determination_runs} runs)",
+        lambda: determination_study(config, options.determination_runs, seeds[2]),
+    )
+    results["determination"] = determination
+    if determination is not None:
+        figures.update(determination_figures(determination, histories))
+    verdicts = step(8, "requirements", "requirements", lambda: requirement_verdicts(config, results))
     results.update(verdicts)
     captions = _caption_table()
     results["figures"] = {

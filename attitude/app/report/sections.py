@@ -1,4 +1,4 @@
-"""The content of the design report: the seven sections as a list of blocks, built from ``results`` only.
+"""The content of the design report: the eight sections as a list of blocks, built from ``results`` only.
 
 Every number in a block comes from the results dict of
 :func:`attitude.app.design.run.run_design` (the same dict ``results.json`` holds),
@@ -21,7 +21,8 @@ SECTIONS = (
     ("closed_loop", "4. Closed loop"),
     ("estimation", "5. Estimation"),
     ("orbit", "6. Orbit: disturbances, momentum, detumbling"),
-    ("requirements", "7. Requirements"),
+    ("determination", "7. Attitude determination from the Sun and the field"),
+    ("requirements", "8. Requirements"),
 )
 
 
@@ -681,7 +682,137 @@ def _orbit(results: dict[str, Any]) -> list[Block]:
 
 
 # ---------------------------------------------------------------------------
-# 7. Requirements
+# 8. Requirements
+
+
+# ---------------------------------------------------------------------------
+# 7. Attitude determination
+
+
+_SENSOR_NAMES = {
+    "magnetometer": "magnetometer",
+    "coarse_sun_sensors": "coarse Sun sensors",
+    "fine_sun_sensor": "fine Sun sensor",
+}
+
+
+def _determination(results: dict[str, Any]) -> list[Block]:
+    d = results.get("determination")
+    if d is None:
+        return [
+            Paragraph(
+                "No direction sensor ([magnetometer], [coarse_sun_sensors], [fine_sun_sensor]) with an [orbit] in "
+                "the spacecraft file: determination from the Sun and the field not analysed."
+            )
+        ]
+    sensors = ", ".join(_SENSOR_NAMES[n] for n in d["sensors"])
+    systematic = d["systematic_errors"]
+    models = (
+        "Two sensor models: **noise**, each sensor's white noise alone (what QUEST and the MEKF model; their "
+        "consistency is judged on it), and **file**, the sensors as the file describes them, with "
+        + "; ".join(systematic)
+        + ". Neither estimator estimates those errors, so with them their covariance is too small: the file rows "
+        "show by how much."
+        if systematic
+        else "The file's sensors have white noise only: one sensor model."
+    )
+    out: list[Block] = [
+        Paragraph(
+            f"Sensors: {sensors}. Truth: one orbit of the nadir (LVLH) hold, {fmt(d['duration_s'])} s in steps of "
+            f"{fmt(d['step_s'])} s ({fmt(100 * d['eclipse_fraction'])} % of it in eclipse), {d['runs']} Monte Carlo "
+            f"runs per model, each with its own sensor noise. {models}"
+        )
+    ]
+    st = d["static"]
+    if st is None:
+        out.append(
+            Paragraph(
+                "Static determination needs two directions, the Sun and the field: the file lacks one of them, so "
+                "only the MEKF below determines the attitude (with one direction, the rotation about it is observed "
+                "only through the gyro)."
+            )
+        )
+    else:
+        rows = []
+        for model, e in st.items():
+            if not e["solutions"]:
+                rows.append([model, fmt(100 * e["available_fraction"]), "no solution", "", "", "", "", ""])
+                continue
+            rows.append(
+                [
+                    model,
+                    fmt(100 * e["available_fraction"]),
+                    fmt(e["quest_error_rms_deg"]),
+                    fmt(e["quest_error_p95_deg"]),
+                    fmt(e["quest_error_max_deg"]),
+                    fmt(e["triad_error_rms_deg"]),
+                    fmt(e["quest_3sigma_median_deg"]),
+                    f"{fmt(e['nees_mean'])} in [{fmt(e['nees_band_low'])}, {fmt(e['nees_band_high'])}]: {e['verdict']}",
+                ]
+            )
+        out.append(
+            Paragraph(
+                "Static determination at each step with both a Sun direction (the fine sensor when in view, else the "
+                "coarse cells' least squares) and the field: QUEST with its covariance (Shuster and Oh 1981), and "
+                "TRIAD with the more accurate vector as primary. None in eclipse. The coarse cells' covariance enters "
+                "QUEST as its largest axis: exact for cells in opposite pairs (a cube's is isotropic), "
+                "conservative otherwise. The NEES (3 "
+                "degrees of freedom) is averaged over every solution of every run: independent samples, so its band "
+                f"is that of the mean of that many chi-square values ({fmt(d['confidence_percent'])} %)."
+            )
+        )
+        out.append(
+            _t(
+                [
+                    "model",
+                    "orbit with a solution [%]",
+                    "QUEST error RMS [deg]",
+                    "95th percentile [deg]",
+                    "largest [deg]",
+                    "TRIAD error RMS [deg]",
+                    "QUEST 3-sigma, median [deg]",
+                    "QUEST NEES, mean",
+                ],
+                rows,
+            )
+        )
+        out += _figure(results, "determination_static")
+    rows = []
+    for model, e in d["mekf"].items():
+        rows.append(
+            [
+                model,
+                f"{fmt(e['nees_mean'])} ({fmt(100 * e['fraction_inside'])} % of steps in [{fmt(e['band_low'])}, "
+                f"{fmt(e['band_high'])}]): {e['verdict']}",
+                f"{fmt(e['error_rms_sunlit_deg'])} / {fmt(e['sigma_rms_sunlit_deg'])}",
+                f"{fmt(e['error_rms_eclipse_deg'])} / {fmt(e['sigma_rms_eclipse_deg'])}",
+                f"{fmt(e['error_max_sunlit_deg'])} / {fmt(e['error_max_eclipse_deg'])}",
+            ]
+        )
+    out.append(
+        Paragraph(
+            "MEKF with the gyro's angle increments over each step and the direction sensors, no star tracker (a "
+            f"spacecraft without one, or with it blinded), from a {fmt(d['attitude_sigma0_deg'])} deg start (1 sigma "
+            "per axis). Errors and the filter's own sigma are taken after the first tenth of the orbit (the "
+            "convergence); sigma is sqrt(trace P) of the attitude, the RMS of the error angle a consistent filter "
+            "gives."
+        )
+    )
+    out.append(
+        _t(
+            [
+                "model",
+                "average NEES (6 dof), mean",
+                "sunlit: error RMS / sigma [deg]",
+                "eclipse: error RMS / sigma [deg]",
+                "largest error, sunlit / eclipse [deg]",
+            ],
+            rows,
+        )
+    )
+    for name in ("determination_mekf", "determination_nees"):
+        out += _figure(results, name)
+    return out
 
 
 def requirement_rows(rows: list[dict[str, Any]]) -> list[list[str]]:
@@ -736,7 +867,7 @@ def _requirements(results: dict[str, Any]) -> list[Block]:
 
 
 def build_blocks(results: dict[str, Any]) -> list[Block]:
-    """The whole report as blocks: title, summary, the seven sections and the notes.
+    """The whole report as blocks: title, summary, the eight sections and the notes.
 
     Parameters
     ----------
@@ -760,6 +891,7 @@ def build_blocks(results: dict[str, Any]) -> list[Block]:
         "closed_loop": _closed_loop,
         "estimation": _estimation,
         "orbit": _orbit,
+        "determination": _determination,
         "requirements": _requirements,
     }
     for key, title in SECTIONS:

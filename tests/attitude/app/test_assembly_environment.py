@@ -53,9 +53,11 @@ def test_orbit_and_environment_of_the_default_file():
 def test_without_a_surface_only_gravity_gradient_is_flown_and_without_an_orbit_nothing():
     env = assembly.orbit_environment(_without("surface"))
     assert env.sources == ("gravity_gradient",) and env.surface is None
-    bare = _without("orbit", "environment", "surface", "magnetorquers", "magnetometer", "detumble", "momentum")
+    bare = _without(
+        "orbit", "environment", "surface", "magnetorquers", "magnetometer", "coarse_sun_sensors", "detumble", "momentum"
+    )
     assert assembly.orbit(bare) is None and assembly.orbit_environment(bare) is None
-    for build in (assembly.surface, assembly.magnetorquers, assembly.magnetometer):
+    for build in (assembly.surface, assembly.magnetorquers, assembly.magnetometer, assembly.coarse_sun_sensors):
         assert build(bare) is None
     assert assembly.detumble_settings(bare) is None and assembly.momentum_settings(bare) is None
     assert assembly.bdot_controller(bare) is None and assembly.unloading_controller(bare) is None

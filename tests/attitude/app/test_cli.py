@@ -59,7 +59,7 @@ from attitude import quaternion as quat
 from attitude.analytic import flip_period, intermediate_axis_growth_rate
 from attitude.app import assembly
 from attitude.app.cli import main
-from attitude.app.design.run import DesignOptions
+from attitude.app.design.run import STEPS, DesignOptions
 from attitude.app.report.sections import SECTIONS, fmt
 from attitude.config import default_config, default_config_text, load_config
 
@@ -223,8 +223,8 @@ def test_design_end_to_end(which, tmp_path):
     # The resolved file reproduces the spacecraft.
     assert load_config(out / "spacecraft.toml") == config
     # Progress of every step on stderr.
-    for k in range(1, 8):
-        assert f"[{k}/7]" in proc.stderr
+    for k in range(1, STEPS + 1):
+        assert f"[{k}/{STEPS}]" in proc.stderr
     assert "Traceback" not in proc.stderr
     if which == "default":
         # The default design meets its requirements (what `make demo` shows), and the table is printed.

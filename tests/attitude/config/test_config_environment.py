@@ -23,8 +23,10 @@ import dataclasses
 import re
 import tomllib
 
+import numpy as np
 import pytest
 
+from attitude.app import assembly
 from attitude.config import (
     ConfigError,
     config_from_dict,
@@ -76,6 +78,42 @@ def test_default_file_has_every_new_table_and_round_trips():
     assert config.magnetometer_config.noise_nT == 20.0
     assert config.detumble.gain_Nms == "auto" and config.momentum.orbits == 20
     _round_trip(config)
+
+
+def test_sun_sensor_tables_read_in_their_units_build_and_round_trip():
+    data = _with()
+    data["coarse_sun_sensors"] = {
+        "period_s": 0.2,
+        "noise_percent": 2.0,
+        "normals_B": [[1, 0, 1], [0, 1, 1], [-1, 0, 1], [0, -1, 1]],
+        "fov_half_angle_deg": 80.0,
+        "albedo_percent": 10.0,
+    }
+    data["fine_sun_sensor"] = {
+        "period_s": 0.5,
+        "accuracy_deg": 0.3,
+        "accuracy_sigma_level": 3,
+        "fov_half_angle_deg": 60.0,
+        "boresight_B": [0, 1, 0],
+        "bias_deg": [0.01, -0.02],
+    }
+    config = _load(data)
+    _round_trip(config)
+    coarse = assembly.coarse_sun_sensors(config)
+    assert coarse.n_cells == 4 and coarse.period == 0.2
+    np.testing.assert_allclose(coarse.normals_B[0], [np.sqrt(0.5), 0.0, np.sqrt(0.5)], rtol=1e-15)
+    assert coarse.noise == pytest.approx(0.02) and coarse.albedo_fraction == pytest.approx(0.10)
+    assert coarse.fov_half_angle == pytest.approx(np.radians(80.0))
+    fine = assembly.fine_sun_sensor(config)
+    assert fine.sigma == pytest.approx(np.radians(0.1))  # 0.3 deg at 3 sigma
+    np.testing.assert_allclose(fine.C_BS[:, 2], [0.0, 1.0, 0.0])
+    np.testing.assert_allclose(fine.bias, np.radians([0.01, -0.02]))
+    # The white-noise-only sensors of the determination study drop exactly the systematic errors.
+    plain = assembly.direction_sensors(config, white_noise_only=True)
+    assert plain["coarse_sun_sensors"].albedo_fraction == 0.0 and plain["coarse_sun_sensors"].noise == coarse.noise
+    assert not np.any(plain["fine_sun_sensor"].bias) and plain["fine_sun_sensor"].sigma == fine.sigma
+    mag = plain["magnetometer"]
+    assert not np.any(mag.bias) and not np.any(mag.misalignment) and mag.sigma == assembly.magnetometer(config).sigma
 
 
 def test_a_circular_orbit_file_of_before_reads_as_before():
@@ -357,7 +395,14 @@ BAD = [
     ("zero sample period", {"environment.sample_period_s": 0.0}, "environment.sample_period_s", ["(> 0) [s]"]),
     (
         "models without an orbit",
-        {"orbit": None, "detumble": None, "momentum": None, "magnetometer": None, "magnetorquers": None},
+        {
+            "orbit": None,
+            "detumble": None,
+            "momentum": None,
+            "magnetometer": None,
+            "magnetorquers": None,
+            "coarse_sun_sensors": None,
+        },
         "environment.magnetic_field",
         ["needs an [orbit] table"],
     ),
@@ -492,9 +537,66 @@ BAD = [
     ),
     (
         "momentum without an orbit",
-        {"orbit": None, "environment": None, "detumble": None, "magnetometer": None, "magnetorquers": None},
+        {
+            "orbit": None,
+            "environment": None,
+            "detumble": None,
+            "magnetometer": None,
+            "magnetorquers": None,
+            "coarse_sun_sensors": None,
+        },
         "momentum",
         ["needs an [orbit] table"],
+    ),
+    # [coarse_sun_sensors], [fine_sun_sensor]
+    (
+        "negative cell noise",
+        {"coarse_sun_sensors.noise_percent": -1.0},
+        "coarse_sun_sensors.noise_percent",
+        ["strictly positive (> 0) [% of full scale]", "got -1.0"],
+    ),
+    (
+        "cells wider than a hemisphere",
+        {"coarse_sun_sensors.fov_half_angle_deg": 95.0},
+        "coarse_sun_sensors.fov_half_angle_deg",
+        ["in (0, 90] deg", "got 95.0"],
+    ),
+    (
+        "two cells",
+        {"coarse_sun_sensors.normals_B": [[1, 0, 0], [0, 1, 0]]},
+        "coarse_sun_sensors.normals_B",
+        ["at least 3 cell normals"],
+    ),
+    (
+        "zero cell normal",
+        {"coarse_sun_sensors.normals_B": [[1, 0, 0], [0, 0, 0], [0, 0, 1]]},
+        "coarse_sun_sensors.normals_B[1]",
+        ["non-zero"],
+    ),
+    (
+        "fine accuracy without its sigma level",
+        {"fine_sun_sensor": {"period_s": 0.1, "accuracy_deg": 0.1, "fov_half_angle_deg": 60.0}},
+        "fine_sun_sensor.accuracy_sigma_level",
+        ["missing required key", "how many sigma accuracy_deg is"],
+    ),
+    (
+        "fine sensor field of view of a hemisphere",
+        {
+            "fine_sun_sensor": {
+                "period_s": 0.1,
+                "accuracy_deg": 0.1,
+                "accuracy_sigma_level": 3,
+                "fov_half_angle_deg": 90.0,
+            }
+        },
+        "fine_sun_sensor.fov_half_angle_deg",
+        ["in (0, 90) deg", "got 90.0"],
+    ),
+    (
+        "sun sensors without an orbit",
+        {"orbit": None, "environment": None, "detumble": None, "magnetometer": None, "magnetorquers": None},
+        "coarse_sun_sensors",
+        ["needs an [orbit] table", "the Sun's direction and the eclipses come from the orbit"],
     ),
 ]
 
@@ -600,7 +702,7 @@ def test_surface_dispersions_refuse_bad_values_naming_the_key(change, key, rule)
 def test_surface_dispersions_need_an_orbit_and_a_surface(missing, table):
     data = _with_surface_dispersions(**{missing: None})
     if missing == "orbit":  # the tables and models that need an orbit go with it
-        for name in ("magnetorquers", "magnetometer", "detumble", "momentum"):
+        for name in ("magnetorquers", "magnetometer", "coarse_sun_sensors", "detumble", "momentum"):
             data.pop(name)
         data["environment"] = {"sun_direction_N": data["environment"]["sun_direction_N"]}
     data["environment"].pop("sources", None)
