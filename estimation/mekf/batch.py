@@ -141,10 +141,11 @@ class MEKFBatch:
 
     The filter of :class:`MEKF` (same equations, innovation gate,
     covariance reset option, handling of NaN and implausible gyro samples
-    with the last valid rate held, NaN tracker samples skipped) for ``N``
-    runs stacked along a leading axis, each step one numpy operation for all
-    runs. Stepped from outside (a closed loop calls :meth:`step` each
-    estimator tick with the runs' gyro and tracker samples);
+    with the last valid rate held, NaN tracker samples skipped, vector samples
+    applied in order after the tracker) for ``N`` runs stacked along a leading
+    axis, each step one numpy operation for all runs. Stepped from outside (a
+    closed loop calls :meth:`step` each estimator tick with the runs' gyro,
+    tracker and vector samples);
     :func:`run_mekf` (``vectorized=True``) runs its recorded histories
     through the same :meth:`step` code, so there is one definition of the
     batch equations. No filterpy: it runs one filter at a time.
@@ -488,14 +489,16 @@ class MEKFBatch:
         """
         n = self.n_runs
         vb, ref = samples.vector_B, samples.reference_N
-        present = ~np.all(np.isnan(vb), axis=-1)
-        finite = np.all(np.isfinite(vb), axis=-1)
-        self._counts["vector_nan"] += present & ~finite
+        nan = np.isnan(vb)  # rows are finite or hold NaN (check_vector_samples refuses inf)
+        finite = ~nan.any(axis=-1)
+        every = bool(finite.all())
+        if not every:
+            self._counts["vector_nan"] += ~finite & ~nan.all(axis=-1)  # partly NaN: a failed sample
         nis_out = np.full(n, np.nan)
         updated = np.zeros(n, dtype=bool)
-        sel = np.nonzero(finite)[0]
-        if sel.size:
-            # Written out per component (columns of m runs): the cost of a step is numpy's per-call overhead.
+        sel = slice(None) if every else np.nonzero(finite)[0]
+        if every or sel.size:
+            # Written out per component (columns of m runs): a step's cost is numpy's per-call overhead.
             w, x, y, zq = self._q[sel].T
             r0, r1, r2 = ref[sel].T
             # b_hat = C_BN(q_hat) r_N, the rows of C_BN written out (as MEKF's _vector_model).
@@ -504,56 +507,65 @@ class MEKFBatch:
             p2 = 2.0 * (x * zq + w * y) * r0 + 2.0 * (y * zq - w * x) * r1 + (1.0 - 2.0 * (x * x + y * y)) * r2
             # t1 = b_hat x e / |.| with e the axis least aligned with b_hat; t2 = b_hat x t1.
             a0, a1, a2 = np.abs(p0), np.abs(p1), np.abs(p2)
-            ex = (a0 <= a1) & (a0 <= a2)
-            ey = ~ex & (a1 <= a2)
-            zero = np.zeros_like(p0)
-            u0 = np.where(ex, zero, np.where(ey, -p2, p1))
-            u1 = np.where(ex, p2, np.where(ey, zero, -p0))
-            u2 = np.where(ex, -p1, np.where(ey, p0, zero))
+            e0 = (a0 <= a1) & (a0 <= a2)
+            e1 = ~e0 & (a1 <= a2)
+            e2 = ~e0 & ~e1
+            u0, u1, u2 = p1 * e2 - p2 * e1, p2 * e0 - p0 * e2, p0 * e1 - p1 * e0
             norm = np.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
             u0, u1, u2 = u0 / norm, u1 / norm, u2 / norm
             v0, v1, v2 = p1 * u2 - p2 * u1, p2 * u0 - p0 * u2, p0 * u1 - p1 * u0
             b0, b1, b2 = vb[sel].T
-            u = np.stack([u0, u1, u2], axis=-1)
-            v = np.stack([v0, v1, v2], axis=-1)
-            z = np.stack([u0 * b0 + u1 * b1 + u2 * b2, v0 * b0 + v1 * b1 + v2 * b2], axis=-1)
-            h = np.stack([-v, u], axis=1)  # (m, 2, 3)
+            z0, z1 = u0 * b0 + u1 * b1 + u2 * b2, v0 * b0 + v1 * b1 + v2 * b2
             if samples.covariance is None:
-                s2 = samples.sigma[sel] ** 2
-                r00, r01, r11 = s2, zero, s2
+                r00 = r11 = samples.sigma[sel] ** 2
+                r01 = 0.0
             else:
                 c = samples.covariance[sel]
+                u = np.stack([u0, u1, u2], axis=-1)
+                v = np.stack([v0, v1, v2], axis=-1)
                 cu, cv = (c @ u[..., None])[..., 0], (c @ v[..., None])[..., 0]
                 r00, r01, r11 = np.sum(u * cu, axis=-1), np.sum(u * cv, axis=-1), np.sum(v * cv, axis=-1)
             P = self._P[sel]
-            pht = P[:, :, :3] @ np.swapaxes(h, -1, -2)  # (m, 6, 2)
-            hph = h @ pht[:, :3]
-            s00, s01, s11 = hph[:, 0, 0] + r00, hph[:, 0, 1] + r01, hph[:, 1, 1] + r11
-            det = s00 * s11 - s01 * s01  # S is symmetric positive definite (R is)
-            SI = np.stack([np.stack([s11, -s01], -1), np.stack([-s01, s00], -1)], axis=-2) / det[:, None, None]
-            c0 = (s11 * z[:, 0] - s01 * z[:, 1]) / det
-            c1 = (s00 * z[:, 1] - s01 * z[:, 0]) / det
-            nis = z[:, 0] * c0 + z[:, 1] * c1
-            p = np.stack([p0, p1, p2], axis=-1)
-            b = vb[sel]
-            reversed_ = np.sum(p * b, axis=-1) <= 0.0  # more than 90 deg off: rejected (MEKF._correct_vector)
-            nis[reversed_] = NIS_CAP
+            # P H^T with H = [-t2; t1] on the attitude: columns g0 = -P[:, :3] t2, g1 = P[:, :3] t1 (m, 6).
+            g0 = -(P[:, :, 0] * v0[:, None] + P[:, :, 1] * v1[:, None] + P[:, :, 2] * v2[:, None])
+            g1 = P[:, :, 0] * u0[:, None] + P[:, :, 1] * u1[:, None] + P[:, :, 2] * u2[:, None]
+            # S = H P H^T + R, symmetric positive definite (R is); its inverse in closed form.
+            s00 = -(v0 * g0[:, 0] + v1 * g0[:, 1] + v2 * g0[:, 2]) + r00
+            s01 = -(v0 * g1[:, 0] + v1 * g1[:, 1] + v2 * g1[:, 2]) + r01
+            s11 = u0 * g1[:, 0] + u1 * g1[:, 1] + u2 * g1[:, 2] + r11
+            det = s00 * s11 - s01 * s01
+            i00, i01, i11 = s11 / det, -s01 / det, s00 / det
+            c0, c1 = i00 * z0 + i01 * z1, i01 * z0 + i11 * z1  # S^-1 z
+            nis = z0 * c0 + z1 * c1
+            # More than 90 deg off the prediction: rejected (MEKF._correct_vector).
+            reversed_ = p0 * b0 + p1 * b1 + p2 * b2 <= 0.0
+            if reversed_.any():
+                nis = np.where(reversed_, NIS_CAP, nis)
             nis_out[sel] = np.where(nis <= NIS_CAP, nis, NIS_CAP)
             accept = (nis <= self._vector_gate) & ~reversed_
-            self._counts["vector_gated"][sel[~accept]] += 1
-            ok = sel[accept]
+            all_accepted = bool(accept.all())
+            rows = np.arange(n)[sel]
+            ok = rows if all_accepted else rows[accept]
+            if not all_accepted:
+                self._counts["vector_gated"][rows[~accept]] += 1
             if ok.size:
-                pht, SI, P = pht[accept], SI[accept], P[accept]
-                dx = pht[:, :, 0] * c0[accept, None] + pht[:, :, 1] * c1[accept, None]  # K z = P H^T S^-1 z
-                Pn = P - pht @ SI @ np.swapaxes(pht, -1, -2)
+                if not all_accepted:
+                    g0, g1, P = g0[accept], g1[accept], P[accept]
+                    i00, i01, i11, c0, c1 = i00[accept], i01[accept], i11[accept], c0[accept], c1[accept]
+                    sel = ok
+                k0 = g0 * i00[:, None] + g1 * i01[:, None]  # K = P H^T S^-1, its two columns
+                k1 = g0 * i01[:, None] + g1 * i11[:, None]
+                dx = g0 * c0[:, None] + g1 * c1[:, None]  # K z
+                # P - K S K^T = P - (P H^T) S^-1 (P H^T)^T, the single filter's form.
+                Pn = P - k0[:, :, None] * g0[:, None, :] - k1[:, :, None] * g1[:, None, :]
                 dtheta = dx[:, :3]
-                self._q[ok] = compose_rotation_vector(self._q[ok], dtheta)
-                self._b[ok] = self._b[ok] + dx[:, 3:]
+                self._q[sel] = compose_rotation_vector(self._q[sel], dtheta)
+                self._b[sel] = self._b[sel] + dx[:, 3:]
                 if self._second:
                     gm = np.broadcast_to(_EYE6, Pn.shape).copy()
                     gm[:, :3, :3] -= 0.5 * skew(dtheta)
                     Pn = gm @ Pn @ np.swapaxes(gm, -1, -2)
-                self._P[ok] = 0.5 * (Pn + np.swapaxes(Pn, -1, -2))
+                self._P[sel] = 0.5 * (Pn + np.swapaxes(Pn, -1, -2))
                 updated[ok] = True
                 self._counts["vector_updates"][ok] += 1
         self.vector_nis[name] = nis_out
