@@ -128,7 +128,8 @@ class CoarseSunSensors:
     .. math::
 
         I_i = I_{fs} (1 + k_i) \\big[\\lambda\\, \\max(0, n_i \\cdot s)\\, [\\theta_i \\le \\theta_{fov}]
-              + a\\, \\max(0, n_i \\cdot e)\\, [\\psi_i \\le \\theta_{fov}]\\big] + \\sigma I_{fs}\\, w_i
+              + a\\, \\max(0, -e \\cdot s)\\, \\max(0, n_i \\cdot e)\\, [\\psi_i \\le \\theta_{fov}]\\big]
+              + \\sigma I_{fs}\\, w_i
 
     with ``s`` the Sun direction (``truth.sun_B``), ``lambda`` the
     illumination (1 full Sun, 0 umbra, in between in penumbra), ``theta_i``
@@ -137,9 +138,11 @@ class CoarseSunSensors:
     as a fraction of full scale (the cosine law of a flat detector, Markley
     and Crassidis 2014, sec. 4.4; Wertz 1978, sec. 6.1). The albedo term
     (``a`` the albedo fraction, ``e`` the nadir direction, ``psi_i`` its
-    angle from ``n_i``) treats the sunlit Earth as a point source at nadir of
-    constant brightness: a crude bound that ignores the Earth's phase and
-    extent; it is used only when a nadir direction is given
+    angle from ``n_i``) treats the Earth as a Lambertian point source at nadir
+    lit as the sub-satellite point is: ``max(0, -e . s)``, the cosine of the
+    Sun's zenith angle there (zero over the night side, so in eclipse). A
+    crude bound that ignores the Earth's extent and the phase of the rest of
+    its disk; it is used only when a nadir direction is given
     (:meth:`ideal_currents`), see docs/sensors.md. The noise is not clipped:
     a dark cell reads zero-mean noise, as a readout before its threshold.
 
@@ -381,7 +384,10 @@ class CoarseSunSensors:
             e = as_float_array(nadir_B, "nadir_B")
             if e.shape[-1:] != (3,) or np.any(np.linalg.norm(e, axis=-1) == 0.0):
                 raise ValueError(f"nadir_B must be non-zero vectors of shape (..., 3), got shape {e.shape}")
-            out = out + self.albedo_fraction * self._response(e / np.linalg.norm(e, axis=-1, keepdims=True))
+            e = e / np.linalg.norm(e, axis=-1, keepdims=True)
+            # The sub-satellite point's Sun elevation: -e . s is the cosine of its solar zenith angle.
+            day = np.maximum(0.0, -np.sum(e * (s / norms), axis=-1))
+            out = out + self.albedo_fraction * day[..., None] * self._response(e)
         return self.full_scale * (1.0 + self.scale_factor) * out
 
     def measure(self, t: float, truth: Any, rng: Any = None) -> NDArray[np.float64]:
@@ -423,19 +429,22 @@ class CoarseSunSensors:
         Two kinds of rows, with ``y`` the currents over full scale:
 
         - **opposite pairs** (cells ``i``, ``j`` with ``n_j = -n_i``, when the
-          cells see their whole hemisphere, ``fov_half_angle = pi/2``): the
-          difference ``y_i - y_j = lambda n_i . s`` exactly, lit or dark, since
-          ``max(0, c) - max(0, -c) = c``; noise variance ``2 sigma^2``. A cube
-          of six cells thus measures every component of the Sun vector
+          cells see their whole hemisphere, ``fov_half_angle = pi/2``): when
+          exactly one is lit, that cell alone (``y_i = lambda n_i . s``,
+          variance ``sigma^2``: the dark one reads noise only); otherwise
+          the difference ``y_i - y_j = lambda n_i . s``, exact lit or dark
+          since ``max(0, c) - max(0, -c) = c``, variance ``2 sigma^2``. A
+          cube of six cells thus measures every component of the Sun vector
           wherever the Sun is;
         - **other cells**, when lit (above ``lit_threshold``):
           ``y_k = lambda n_k . s``, variance ``sigma^2`` (a dark cell only
           says ``n_k . s <= 0``, which is not a linear measurement).
 
         The weighted least squares ``x = M^{-1} sum_rows w n y`` with
-        ``M = sum_rows w n n^T`` (``w`` = 1/2 for a pair, 1 for a cell)
+        ``M = sum_rows w n n^T``
         estimates ``lambda s``, and ``s = x / |x|`` (Markley and Crassidis
-        2014, sec. 4.4). Exact without noise inside the cells' field of view.
+        2014, sec. 4.4). ``w`` is 1 for a single cell, 1/2 for a difference.
+        Exact without noise inside the cells' field of view.
         Not ``valid`` in eclipse (no cell lit), or when the rows do not span
         three dimensions (a smallest eigenvalue of ``M`` below 1e-12). The
         covariance is ``(I - s s^T) sigma^2 M^{-1} (I - s s^T) / |x|^2``
@@ -485,13 +494,19 @@ class CoarseSunSensors:
         lit = y > self.lit_threshold
         n_lit = np.count_nonzero(lit, axis=-1)
         first, second, single = self._pairs
-        # Pair rows: n_i with value y_i - y_j, weight 1/2; single rows: lit cells with weight 1.
+        # Cells in no pair: a row each when lit, weight 1.
         w = np.where(single, lit, False).astype(np.float64)
+        normal_matrix = np.einsum("...c,ci,cj->...ij", w, self.normals_B, self.normals_B)
+        rhs = (w * y) @ self.normals_B
+        # A pair: the lit cell alone when exactly one is lit (weight 1; the dark one reads noise only), else
+        # the difference (weight 1/2: its noise is 2 sigma^2), both as rows along the first normal n_i.
+        lit_i, lit_j = lit[..., first], lit[..., second]
+        y_i, y_j = y[..., first], y[..., second]
+        value = np.where(lit_i & ~lit_j, y_i, np.where(lit_j & ~lit_i, -y_j, y_i - y_j))
+        weight = np.where(lit_i ^ lit_j, 1.0, 0.5)
         pair_normals = self.normals_B[first]
-        normal_matrix = np.einsum("...c,ci,cj->...ij", w, self.normals_B, self.normals_B) + 0.5 * (
-            pair_normals.T @ pair_normals
-        )
-        rhs = (w * y) @ self.normals_B + 0.5 * (y[..., first] - y[..., second]) @ pair_normals
+        normal_matrix = normal_matrix + np.einsum("...k,ki,kj->...ij", weight, pair_normals, pair_normals)
+        rhs = rhs + (weight * value) @ pair_normals
         smallest = np.linalg.eigvalsh(normal_matrix)[..., 0]
         valid = (n_lit >= 1) & (smallest >= _RANK_TOLERANCE**2)
         safe = np.where(valid[..., None, None], normal_matrix, np.eye(3))

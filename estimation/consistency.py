@@ -47,6 +47,7 @@ __all__ = [
     "NisHealth",
     "average_nees",
     "average_nis",
+    "band_verdict",
     "chi2_band",
     "fraction_inside_band",
     "gate_threshold",
@@ -178,6 +179,29 @@ def chi2_band(dof: int, n_runs: int = 1, confidence: float = 0.95) -> tuple[floa
     a = 1.0 - _check_confidence(confidence)
     lo, hi = stats.chi2.ppf([a / 2.0, 1.0 - a / 2.0], dof * n_runs) / n_runs
     return float(lo), float(hi)
+
+
+def band_verdict(mean: float, low: float, high: float) -> str:
+    """A mean NEES (or NIS) against its band: ``"consistent"``, ``"over-confident"`` or ``"conservative"``.
+
+    Parameters
+    ----------
+    mean : float
+        The averaged statistic.
+    low, high : float
+        Its band (:func:`chi2_band`).
+
+    Returns
+    -------
+    str
+        ``"over-confident"`` above the band (the covariance too small),
+        ``"conservative"`` below it, ``"consistent"`` inside.
+    """
+    if mean > high:
+        return "over-confident"
+    if mean < low:
+        return "conservative"
+    return "consistent"
 
 
 def gate_threshold(gate_probability: float | None, dof: int) -> float:

@@ -87,7 +87,7 @@ from attitude.simulation.engine import settling_time_after, simulate
 from attitude.simulation.protocols import Truth
 from controllers.slew.problem import SlewPlanningError
 from controllers.tracking import ReferenceTrajectory, TrackingController
-from estimation.consistency import chi2_band, nees
+from estimation.consistency import band_verdict, chi2_band, nees
 from estimation.mekf import MEKF, MEKFBatch
 
 __all__ = [
@@ -665,7 +665,7 @@ def nees_consistency(result: CampaignResult, confidence: float = 0.95) -> str | 
         return None
     low, high = chi2_band(3, values.size, confidence)
     mean = float(np.mean(values))
-    verdict = "consistent" if low <= mean <= high else ("over-confident" if mean > high else "conservative")
+    verdict = band_verdict(mean, low, high)
     return (
         f"  attitude NEES: mean {mean:.3g} over {values.size} runs, {verdict} (a consistent MEKF's mean lies in "
         f"[{low:.3g}, {high:.3g}] at {100 * confidence:g} %, 3 degrees of freedom; the tracker mount's dispersion "

@@ -925,6 +925,13 @@ def _read_coarse_sun_sensors(r: _Reader, t: _Table) -> CoarseSunSensorsConfig:
         if not isinstance(raw, list) or len(raw) < 3:
             raise r.error(key, f"expected a list of at least 3 cell normals [[x, y, z], ...], got {_describe(raw)}")
         normals = tuple(r.vector(a, f"{key}[{i}]", 3) for i, a in enumerate(raw))
+        unit = np.array(normals) / np.linalg.norm(np.array(normals), axis=1, keepdims=True)
+        r.check(
+            np.linalg.svd(unit, compute_uv=False)[-1] > 1e-6,
+            key,
+            "normals spanning three dimensions (a Sun vector has three components; these lie in a plane)",
+            [list(n) for n in normals],
+        )
     fov = t.number("fov_half_angle_deg", required=False, default=90.0)
     _in_range(r, t.key("fov_half_angle_deg"), fov, 0.0, 90.0, low_open=True, high_open=False)
     albedo = t.number("albedo_percent", required=False, default=0.0)

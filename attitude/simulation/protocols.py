@@ -30,6 +30,7 @@ __all__ = [
     "Sensor",
     "Truth",
     "VectorMeasurement",
+    "check_vector_covariances",
 ]
 
 
@@ -213,23 +214,76 @@ def _vector_covariance(value: ArrayLike, b: NDArray[np.float64]) -> NDArray[np.f
     c = as_float_array(value, "covariance")
     if c.shape != (3, 3):
         raise ValueError(f"covariance must have shape (3, 3) [rad^2], got shape {c.shape}")
-    scale = float(np.abs(c).max())
-    if not scale > 0.0 or not np.allclose(c, c.T, rtol=0.0, atol=1e-12 * scale):
-        raise ValueError(f"covariance must be symmetric and non-zero, got {describe(c)}")
-    c = 0.5 * (c + c.T)
+    out = check_vector_covariances(c, b, "covariance")
+    out.flags.writeable = False
+    return out
+
+
+def check_vector_covariances(covariance: ArrayLike, vector_B: ArrayLike, name: str) -> NDArray[np.float64]:
+    """The rules of a direction's noise covariance, for one (3, 3) or many (..., 3, 3); symmetrised copies.
+
+    Each must be finite, non-zero, symmetric (to 1e-12 of its largest
+    entry), positive semi-definite (eigenvalues above -1e-12 of it), and,
+    where its ``vector_B`` is finite, positive definite on the plane
+    perpendicular to it (the part the attitude sees). The one check of
+    :class:`VectorMeasurement` and of the batch MEKF's
+    ``estimation.mekf.batch.VectorSamples``.
+
+    Parameters
+    ----------
+    covariance : array_like (..., 3, 3)
+        Covariances of the unit vectors' errors [rad^2].
+    vector_B : array_like (..., 3)
+        The unit vectors (non-finite rows: failed samples, no plane check).
+    name : str
+        Argument name used in error messages (with the index of a bad one).
+
+    Returns
+    -------
+    ndarray (..., 3, 3)
+        The symmetrised covariances.
+
+    Raises
+    ------
+    ValueError
+        Naming the first covariance that breaks a rule, its index and values.
+    """
+    c = as_float_array(covariance, name)
+    b = np.asarray(vector_B, dtype=float)
+    lead = c.shape[:-2]
+
+    def where(mask: NDArray[np.bool_]) -> str:
+        if not lead:
+            return name
+        return f"{name}{[int(i) for i in np.argwhere(mask)[0]]}"
+
+    def value(mask: NDArray[np.bool_], array: NDArray[np.float64]) -> str:
+        return describe(array if not lead else array[tuple(np.argwhere(mask)[0])])
+
+    scale = np.abs(c).max(axis=(-2, -1))
+    asym = np.abs(c - np.swapaxes(c, -1, -2)).max(axis=(-2, -1))
+    bad = ~(scale > 0.0) | (asym > 1e-12 * scale)
+    if np.any(bad):
+        raise ValueError(f"{where(bad)} must be symmetric and non-zero, got {value(bad, c)}")
+    c = 0.5 * (c + np.swapaxes(c, -1, -2))
     eig = np.linalg.eigvalsh(c)
-    if eig[0] < -1e-12 * scale:
-        raise ValueError(f"covariance must be positive semi-definite, got eigenvalues {describe(eig)}")
-    if np.all(np.isfinite(b)):
-        # Its part perpendicular to the vector, the one the attitude sees, must be positive definite.
-        t = np.linalg.svd(np.eye(3) - np.outer(b, b))[0][:, :2]
-        eig2 = np.linalg.eigvalsh(t.T @ c @ t)
-        if not eig2[0] > 1e-12 * scale:
+    bad = eig[..., 0] < -1e-12 * scale
+    if np.any(bad):
+        raise ValueError(f"{where(bad)} must be positive semi-definite, got eigenvalues {value(bad, eig)}")
+    finite = np.all(np.isfinite(b), axis=-1)
+    if np.any(finite):
+        # Its part perpendicular to the vector: with u = b / |b|, (I - u u^T) C (I - u u^T) has a zero
+        # eigenvalue along u and the two of the plane; the smaller of those must be positive.
+        u = np.where(finite[..., None], b, 0.0)
+        u = u / np.where(finite, np.linalg.norm(u, axis=-1), 1.0)[..., None]
+        proj = np.eye(3) - u[..., :, None] * u[..., None, :]
+        plane = np.linalg.eigvalsh(proj @ c @ proj)[..., 1:]
+        bad = finite & ~(plane[..., 0] > 1e-12 * scale)
+        if np.any(bad):
             raise ValueError(
-                "covariance must be positive definite on the plane perpendicular to vector_B, got eigenvalues "
-                f"{describe(eig2)} there"
+                f"{where(bad)} must be positive definite on the plane perpendicular to vector_B, got eigenvalues "
+                f"{value(bad, plane)} there"
             )
-    c.flags.writeable = False
     return c
 
 

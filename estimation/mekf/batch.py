@@ -22,6 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 from attitude import quaternion as quat
 from attitude.rigid_body import skew
 from attitude.sensors import farrenkopf_process_noise
+from attitude.simulation.protocols import check_vector_covariances
 from attitude.validation import as_float_array, scalar_time
 from estimation.consistency import NIS_CAP
 from estimation.mekf.filter import (
@@ -489,7 +490,7 @@ class MEKFBatch:
         """
         n = self.n_runs
         vb, ref = samples.vector_B, samples.reference_N
-        nan = np.isnan(vb)  # rows are finite or hold NaN (check_vector_samples refuses inf)
+        nan = np.isnan(vb)  # checked rows: finite, all NaN (no sample) or a failed sample (inf and NaN)
         finite = ~nan.any(axis=-1)
         every = bool(finite.all())
         if not every:
@@ -575,6 +576,14 @@ class MEKFBatch:
 def check_vector_samples(samples: Any, name: str, lead: tuple[int, ...]) -> VectorSamples:
     """Checked :class:`VectorSamples` with unit rows, broadcast to the leading shape ``lead``.
 
+    The rules of :class:`attitude.simulation.protocols.VectorMeasurement`,
+    row by row: a ``vector_B`` row that is all NaN is no sample; one with
+    another non-finite entry is a failed sample (skipped and counted);
+    otherwise it must be non-zero. Where there is a sample, the reference
+    must be finite and non-zero, ``sigma`` positive, and the covariance pass
+    :func:`attitude.simulation.protocols.check_vector_covariances`; rows
+    without a sample may hold anything (NaN) there.
+
     Parameters
     ----------
     samples : VectorSamples
@@ -587,64 +596,71 @@ def check_vector_samples(samples: Any, name: str, lead: tuple[int, ...]) -> Vect
     Returns
     -------
     VectorSamples
-        ``vector_B`` (lead, 3) normalised (NaN rows kept), ``reference_N``
-        (lead, 3) normalised, and ``sigma`` (lead) or ``covariance`` (lead, 3, 3).
+        ``vector_B`` (lead, 3) normalised (NaN rows where no sample or a
+        failed one), ``reference_N`` (lead, 3) normalised, and ``sigma``
+        (lead) or ``covariance`` (lead, 3, 3); unit vectors, unit sigma and
+        the identity fill the rows without a sample.
 
     Raises
     ------
     ValueError
-        Not a :class:`VectorSamples`, shapes that do not broadcast to ``lead``,
-        a zero or infinite ``vector_B`` row, a zero or non-finite reference,
-        a non-positive ``sigma``, neither or both noise descriptions, or a
-        covariance that is not symmetric positive semi-definite.
+        Not a :class:`VectorSamples`, shapes that do not broadcast to
+        ``lead``, or a sampled row that breaks a rule (its index and value
+        named).
     """
     if not isinstance(samples, VectorSamples):
         raise ValueError(f"vectors[{name!r}] must be a VectorSamples, got {type(samples).__name__}")
     where = f"vectors[{name!r}]"
 
-    def rows(value: Any, field: str, tail: tuple[int, ...], allow_nan: bool) -> NDArray[np.float64]:
-        arr = as_float_array(value, f"{where}.{field}", allow_nonfinite=allow_nan)
+    def rows(value: Any, field: str, tail: tuple[int, ...]) -> NDArray[np.float64]:
+        arr = as_float_array(value, f"{where}.{field}", allow_nonfinite=True)
         try:
-            return np.broadcast_to(arr, (*lead, *tail)) if arr.shape != (*lead, *tail) else arr
+            return np.broadcast_to(arr, (*lead, *tail))
         except ValueError:
             raise ValueError(
                 f"{where}.{field} must broadcast to shape {(*lead, *tail)}, got shape {arr.shape}"
             ) from None
 
-    vb = rows(samples.vector_B, "vector_B", (3,), True)
-    if np.any(np.isinf(vb)):
-        raise ValueError(f"{where}.vector_B must not hold inf (an all-NaN row means no sample)")
-    lengths = np.linalg.norm(vb, axis=-1)
-    if np.any(lengths == 0.0):
+    def first(mask: NDArray[np.bool_]) -> list[int]:
+        return [int(i) for i in np.argwhere(mask)[0]]
+
+    vb = rows(samples.vector_B, "vector_B", (3,))
+    sampled = np.all(np.isfinite(vb), axis=-1)
+    lengths = np.linalg.norm(np.where(sampled[..., None], vb, 1.0), axis=-1)
+    bad = sampled & (lengths == 0.0)
+    if np.any(bad):
         raise ValueError(
-            f"{where}.vector_B must have non-zero rows, found a zero row at {np.argwhere(lengths == 0.0)[0].tolist()}"
+            f"{where}.vector_B must have non-zero rows (normalised to directions); row {first(bad)} is zero"
         )
-    ref = rows(samples.reference_N, "reference_N", (3,), False)
+    ref = rows(samples.reference_N, "reference_N", (3,))
     ref_len = np.linalg.norm(ref, axis=-1)
-    if np.any(ref_len == 0.0):
-        raise ValueError(f"{where}.reference_N must have non-zero rows, found a zero row")
+    bad = sampled & ~(np.isfinite(ref_len) & (ref_len > 0.0))
+    if np.any(bad):
+        i = first(bad)
+        raise ValueError(
+            f"{where}.reference_N must be finite and non-zero where there is a sample; row {i} is "
+            f"{ref[tuple(i)].tolist()}"
+        )
     if (samples.sigma is None) == (samples.covariance is None):
         raise ValueError(f"{where} must give exactly one of sigma and covariance")
     sigma = cov = None
     if samples.sigma is not None:
-        sigma = rows(samples.sigma, "sigma", (), False)
-        if np.any(sigma <= 0.0):
-            raise ValueError(f"{where}.sigma must be > 0 [rad], got a smallest value of {float(np.min(sigma))!r}")
+        sigma = rows(samples.sigma, "sigma", ())
+        bad = sampled & ~(sigma > 0.0)
+        if np.any(bad):
+            i = first(bad)
+            raise ValueError(
+                f"{where}.sigma must be > 0 [rad] where there is a sample; row {i} is {float(sigma[tuple(i)])!r}"
+            )
+        sigma = np.where(sampled, sigma, 1.0)
     else:
-        cov = rows(samples.covariance, "covariance", (3, 3), False)
-        if not np.allclose(cov, np.swapaxes(cov, -1, -2), rtol=1e-12, atol=0.0):
-            raise ValueError(f"{where}.covariance must be symmetric")
-        if np.any(np.linalg.eigvalsh(cov)[..., 0] < -1e-12 * np.max(np.abs(cov))):
-            raise ValueError(f"{where}.covariance must be positive semi-definite")
-        # Positive definite on the plane perpendicular to each sample (that of VectorMeasurement): the
-        # projected covariance has one zero eigenvalue (along the vector) and two positive ones.
-        sampled = np.all(np.isfinite(vb), axis=-1)
-        unit = np.where(sampled[..., None], vb, 0.0) / np.where(sampled, lengths, 1.0)[..., None]
-        proj = np.eye(3) - unit[..., :, None] * unit[..., None, :]
-        perp = np.linalg.eigvalsh(proj @ cov @ proj)[..., 1]
-        if np.any(sampled & (perp <= 1e-15 * np.max(np.abs(cov)))):
-            raise ValueError(f"{where}.covariance must be positive definite perpendicular to vector_B")
-    # Finite rows normalised; a failed row keeps its NaN pattern (partly NaN: counted; all NaN: no sample).
-    sampled = np.all(np.isfinite(vb), axis=-1)
-    unit_B = np.where(sampled[..., None], vb / np.where(sampled, lengths, 1.0)[..., None], vb)
-    return VectorSamples(unit_B, ref / ref_len[..., None], sigma, cov)
+        cov = rows(samples.covariance, "covariance", (3, 3))
+        cov = np.where(sampled[..., None, None], cov, np.eye(3))
+        unit = np.where(sampled[..., None], vb, np.nan)
+        cov = check_vector_covariances(cov, unit, f"{where}.covariance")
+    # Failed rows keep their NaN pattern (partly NaN: counted; all NaN: no sample); inf becomes NaN.
+    failed = ~sampled & ~np.all(np.isnan(vb), axis=-1)
+    unit_B = np.where(sampled[..., None], vb / lengths[..., None], np.nan)
+    unit_B[failed, 0] = np.inf  # a failed sample: non-finite but not all NaN
+    unit_ref = np.where(sampled[..., None], ref / np.where(sampled, ref_len, 1.0)[..., None], np.array([1.0, 0.0, 0.0]))
+    return VectorSamples(unit_B, unit_ref, sigma, cov)

@@ -9,6 +9,8 @@ equations.
 from __future__ import annotations
 
 import time
+import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -199,12 +201,12 @@ def run_mekf(
     mekf: MEKF,
     t: ArrayLike,
     gyro_meas: ArrayLike,
-    tracker_meas: ArrayLike,
+    tracker_meas: ArrayLike | None,
     *,
     tracker_mask: ArrayLike | None = None,
     q0: ArrayLike | None = None,
     bias0: ArrayLike | None = None,
-    vectors: dict[str, VectorSamples] | None = None,
+    vectors: Mapping[str, VectorSamples] | None = None,
     vectorized: bool | None = None,
 ) -> MEKFResult:
     """Run the MEKF over recorded samples: one run, or many runs at once.
@@ -223,8 +225,9 @@ def run_mekf(
         ``(t[k-1], t[k]]`` (row 0 only sets the first rate estimate). Rows
         with NaN, or with a component above the filter's ``gyro_rate_max``,
         are skipped, counted, and the last valid sample is held.
-    tracker_meas : array_like (n, 4) or (n_runs, n, 4)
-        Tracker quaternions ``q_BN``; all-NaN rows mean "no sample". Samples
+    tracker_meas : array_like (n, 4) or (n_runs, n, 4), or None
+        Tracker quaternions ``q_BN``; all-NaN rows mean "no sample" (None: no
+        tracker at all). Samples
         above the innovation gate are rejected and counted (``info["gated"]``,
         :attr:`MEKFResult.gated`).
     tracker_mask : array_like (n,) or (n_runs, n) of bool, optional
@@ -234,12 +237,15 @@ def run_mekf(
         Initial attitude estimate(s) replacing the filter's.
     bias0 : float or array_like (3,) or (n_runs, 3), optional
         Initial bias estimate(s) [rad/s] replacing the filter's.
-    vectors : dict of str to VectorSamples, optional
+    vectors : mapping of str to VectorSamples, optional
         Direction sensors' histories, applied in order after the tracker
         (:class:`estimation.mekf.batch.VectorSamples`: ``vector_B`` (n, 3) or
-        (n_runs, n, 3), all-NaN rows meaning no sample; ``reference_N``,
-        ``sigma`` or ``covariance`` per step, shared or per run). Any subset
-        of tracker and vectors may be present at a step.
+        (n_runs, n, 3), all-NaN rows meaning no sample; ``reference_N``
+        (3,), (n, 3) or (n_runs, n, 3); ``sigma`` a scalar, (n,) per step or
+        (n_runs, n); or ``covariance`` (3, 3), (n, 3, 3) or (n_runs, n, 3,
+        3)). Applied as given, in their order (a warning when their names
+        differ from the filter's ``vector_names``). Any subset of tracker and
+        vectors may be present at a step.
     vectorized : bool, optional
         True: the numpy path over a runs axis; False: :class:`MEKF` steps
         (filterpy) run by run. Default: vectorised for a batch, steps for one run.
@@ -267,6 +273,8 @@ def run_mekf(
         raise ValueError(f"t[0] = {tt[0]!r} s is before the filter's time {mekf.t!r} s")
     n = tt.size
     g = as_float_array(gyro_meas, "gyro_meas", allow_nonfinite=True)
+    if tracker_meas is None:  # no tracker flies
+        tracker_meas = np.full((*g.shape[:-1], 4), np.nan)
     y = as_float_array(tracker_meas, "tracker_meas", allow_nonfinite=True)
     batch = g.ndim == 3
     if g.shape[-2:] != (n, 3) or g.ndim not in (2, 3):
@@ -294,9 +302,16 @@ def run_mekf(
         )
 
     runs = g.shape[0] if batch else 1
-    if vectors is not None and not isinstance(vectors, dict):
-        raise ValueError(f"vectors must be a dict name -> VectorSamples, got {type(vectors).__name__}")
+    if vectors is not None and not isinstance(vectors, Mapping):
+        raise ValueError(f"vectors must be a mapping name -> VectorSamples, got {type(vectors).__name__}")
     v3 = {name: _vector_histories(v, name, runs, n, batch) for name, v in (vectors or {}).items()}
+    if mekf.vector_names and set(v3) != set(mekf.vector_names):
+        warnings.warn(
+            f"vectors has the sensors {sorted(v3)} but the filter's vector_names are {list(mekf.vector_names)}: "
+            "run_mekf applies the vectors it is given, in their order; check the names",
+            UserWarning,
+            stacklevel=2,
+        )
     qs, bs = initial_states(mekf, runs, q0, bias0)
     g3 = g if batch else g[None]
     y3 = y if batch else y[None]

@@ -30,12 +30,12 @@ from attitude.environment.orbit import CircularOrbit
 from attitude.environment.orbit_environment import OrbitEnvironment
 from attitude.simulation.engine import simulate
 from attitude.simulation.protocols import Sensor, Truth
-from attitude.sun_sensors import CoarseSunSensors, FineSunSensor
+from attitude.sun_sensors import CUBE_NORMALS_B, CoarseSunSensors, FineSunSensor
 
 ROTATION = Rotation.from_euler("zyx", [35.0, -20.0, 50.0], degrees=True)  # a generic sensor mounting
 
 
-def _truth(sun_B, illumination=1.0):
+def _truth(sun_B, illumination=1.0, nadir_B=None):
     s = np.asarray(sun_B, dtype=float)
     return Truth(
         0.0,
@@ -44,6 +44,7 @@ def _truth(sun_B, illumination=1.0):
         np.zeros(0),
         sun_B=s / np.linalg.norm(s),
         illumination=illumination,
+        nadir_B=None if nadir_B is None else np.asarray(nadir_B, dtype=float),
     )
 
 
@@ -191,11 +192,22 @@ def test_albedo_adds_a_cosine_weighted_fraction_when_the_earth_is_in_view():
     sensor = CoarseSunSensors.cube(period=1.0, albedo_fraction=0.3, full_scale_A=1.0)
     sun = np.array([0.0, 0.0, 1.0])
     nadir = np.array([0.6, 0.0, -0.8])  # +x sees the Earth at cos = 0.6, -z at 0.8
+    # The sub-satellite point sees the Sun at a zenith angle of cos = -nadir . sun = 0.8 (Lambert).
     expected = np.zeros(6)
     expected[4] = 1.0  # +z: the Sun
-    expected[0] += 0.3 * 0.6
-    expected[5] += 0.3 * 0.8
+    expected[0] += 0.3 * 0.8 * 0.6
+    expected[5] += 0.3 * 0.8 * 0.8
     np.testing.assert_allclose(sensor.ideal_currents(sun, 1.0, nadir), expected, atol=1e-15)
+
+
+def test_albedo_is_dark_over_the_night_side_so_eclipse_gives_no_sun():
+    # A review found a constant-brightness Earth lighting the nadir cell in umbra: the cube then "found" a
+    # Sun at nadir. Below the spacecraft it is night when the Sun is behind the Earth (-nadir . sun <= 0).
+    sensor = CoarseSunSensors.cube(period=1.0, albedo_fraction=0.3, noise_fraction=1e-3)
+    sun, nadir = np.array([0.0, 0.0, 1.0]), np.array([0.0, 0.0, 1.0])  # the Sun behind the Earth
+    np.testing.assert_array_equal(sensor.ideal_currents(sun, 0.0, nadir), np.zeros(6))
+    est = sensor.sun_vector(sensor.measure(0.0, _truth(sun, 0.0, nadir), 2))
+    assert not est.valid and est.n_lit == 0
 
 
 def test_without_an_orbit_the_sensors_say_there_is_no_sun():
@@ -413,8 +425,11 @@ def test_batch_sun_vectors_are_the_least_squares_of_the_lit_cells():
             x, *_ = np.linalg.lstsq(cells.normals_B[lit], y[lit], rcond=None)
             # Rounding of two solvers of a system with condition number <= 3 (the cube's normals).
             np.testing.assert_allclose(sun_B[k], x / np.linalg.norm(x), atol=1e-14)
-            single = cells.sun_vector(currents[k])
-            np.testing.assert_array_equal(single.covariance_B, cov[k])
+            s_hat = x / np.linalg.norm(x)
+            perp = np.eye(3) - np.outer(s_hat, s_hat)
+            n_lit_cells = cells.normals_B[lit]
+            expected = 0.01**2 * perp @ np.linalg.inv(n_lit_cells.T @ n_lit_cells) @ perp / (x @ x)
+            np.testing.assert_allclose(cov[k], expected, rtol=1e-10, atol=1e-20)
         else:
             assert not np.any(sun_B[k]) and not np.any(cov[k])
 
@@ -439,7 +454,7 @@ def test_fine_sensor_batch_samples_are_the_single_samples():
 
 
 def test_the_pair_estimate_of_a_cube_scatters_as_its_first_order_covariance():
-    # One face lit (the Sun 20 deg off +z): the x and y components come from the dark pairs alone.
+    # Two faces lit (the Sun 20 deg off +z towards +x): the y component comes from the dark pair alone.
     sensor = CoarseSunSensors.cube(period=1.0, noise_fraction=2e-3)
     sun = np.array([np.sin(np.radians(20.0)), 0.0, np.cos(np.radians(20.0))])
     rng = np.random.default_rng(5)
@@ -449,8 +464,42 @@ def test_the_pair_estimate_of_a_cube_scatters_as_its_first_order_covariance():
     assert np.all(valid) and np.all(n_lit == 2)  # +z and +x lit
     errors = sun_B - sun
     predicted = sensor.sun_vector(sensor.ideal_currents(sun)).covariance_B
-    # Pairs only: M = I/2, so the predicted covariance is 2 sigma^2 (I - s s^T) exactly.
-    np.testing.assert_allclose(predicted, 2 * 2e-3**2 * (np.eye(3) - np.outer(sun, sun)), atol=1e-18)
+    # +x and +z lit alone (weight 1), the dark y pair by its difference (weight 1/2): M = diag(1, 1/2, 1).
+    perp = np.eye(3) - np.outer(sun, sun)
+    np.testing.assert_allclose(predicted, 2e-3**2 * perp @ np.diag([1.0, 2.0, 1.0]) @ perp, atol=1e-18)
     sample_trace = float(np.trace(errors.T @ errors) / m)
     # Sampling std of the trace, sqrt(2 tr(P^2) / M); 5 sigma (second-order bias ~ sigma^2 = 4e-6 relative).
     assert abs(sample_trace - np.trace(predicted)) < 5 * np.sqrt(2 * np.trace(predicted @ predicted) / m)
+
+
+def test_the_pair_rule_is_the_weighted_least_squares_of_its_rows():
+    # Independent formulation: the rule's rows written out one by one and solved by numpy's lstsq with
+    # square-root weights, against sun_vectors' normal equations; random Sun directions, penumbra, noise.
+    rng = np.random.default_rng(12)
+    sigma = 5e-3
+    cells = CoarseSunSensors(ROTATION.apply(CUBE_NORMALS_B.copy()), period=1.0, fov_half_angle_rad=np.pi / 2,
+                             noise_fraction=sigma)  # fmt: skip
+    sun = rng.standard_normal((300, 3))
+    sun /= np.linalg.norm(sun, axis=-1, keepdims=True)
+    light = rng.uniform(0.3, 1.0, 300)
+    currents = cells.ideal_currents(sun, light) + sigma * cells.full_scale * rng.standard_normal((300, 6))
+    sun_B, valid, _, cov = cells.sun_vectors(currents)
+    assert np.all(valid)
+    n = cells.normals_B
+    for k in range(300):
+        y = currents[k] / cells.full_scale
+        lit = y > cells.lit_threshold
+        rows, values, weights = [], [], []
+        for i, j in ((0, 1), (2, 3), (4, 5)):  # the cube's opposite faces
+            if lit[i] != lit[j]:
+                one = i if lit[i] else j
+                rows.append(n[one]), values.append(y[one]), weights.append(1.0)
+            else:
+                rows.append(n[i]), values.append(y[i] - y[j]), weights.append(0.5)
+        a = np.array(rows) * np.sqrt(weights)[:, None]
+        x, *_ = np.linalg.lstsq(a, np.array(values) * np.sqrt(weights), rcond=None)
+        s_hat = x / np.linalg.norm(x)
+        np.testing.assert_allclose(sun_B[k], s_hat, atol=1e-13)  # rounding of two solvers, condition <= 2
+        perp = np.eye(3) - np.outer(s_hat, s_hat)
+        expected = sigma**2 * perp @ np.linalg.inv(a.T @ a) @ perp / (x @ x)
+        np.testing.assert_allclose(cov[k], expected, rtol=1e-9, atol=1e-22)

@@ -689,13 +689,6 @@ def _orbit(results: dict[str, Any]) -> list[Block]:
 # 7. Attitude determination
 
 
-_SENSOR_NAMES = {
-    "magnetometer": "magnetometer",
-    "coarse_sun_sensors": "coarse Sun sensors",
-    "fine_sun_sensor": "fine Sun sensor",
-}
-
-
 def _determination(results: dict[str, Any]) -> list[Block]:
     d = results.get("determination")
     if d is None:
@@ -705,24 +698,45 @@ def _determination(results: dict[str, Any]) -> list[Block]:
                 "the spacecraft file: determination from the Sun and the field not analysed."
             )
         ]
-    sensors = ", ".join(_SENSOR_NAMES[n] for n in d["sensors"])
+    sensors = ", ".join(d["sensor_labels"])
+    if d["excluded_sensors"]:
+        sensors += " (left out: " + "; ".join(d["excluded_sensors"]) + ")"
     systematic = d["systematic_errors"]
     models = (
-        "Two sensor models: **noise**, each sensor's white noise alone (what QUEST and the MEKF model; their "
-        "consistency is judged on it), and **file**, the sensors as the file describes them, with "
+        "Two sensor models: **noise**, each direction sensor's white noise alone (what QUEST and the MEKF model; "
+        "their consistency is judged on it), and **file**, the sensors as the file describes them, with "
         + "; ".join(systematic)
         + ". Neither estimator estimates those errors, so with them their covariance is too small: the file rows "
-        "show by how much."
+        "show by how much. Left out of both: the on-board field model's error (the reference field here is the "
+        "truth's) and the gyro's scale factor and misalignment."
         if systematic
-        else "The file's sensors have white noise only: one sensor model."
+        else "The file's direction sensors have white noise only: one sensor model."
     )
     out: list[Block] = [
         Paragraph(
             f"Sensors: {sensors}. Truth: one orbit of the nadir (LVLH) hold, {fmt(d['duration_s'])} s in steps of "
-            f"{fmt(d['step_s'])} s ({fmt(100 * d['eclipse_fraction'])} % of it in eclipse), {d['runs']} Monte Carlo "
-            f"runs per model, each with its own sensor noise. {models}"
+            f"{fmt(d['step_s'])} s ({fmt(100 * d['eclipse_fraction'])} % of it with less than half the Sun's disk), "
+            f"{d['runs']} Monte Carlo runs per model, each with its own sensor noise"
+            + (" (a first look: with so few runs the NEES checks below have little power)" if d["runs"] < 10 else "")
+            + ". Every sensor is read once per "
+            "step: the samples of a faster sensor in between are not used, so the figures are those of a "
+            f"{fmt(1.0 / d['step_s'])} Hz determination. {models}"
         )
     ]
+    found = d.get("sun_vector_fraction_of_sunlit") or {}
+    if found:
+        parts = [
+            f"the {'coarse cells' if k == 'coarse_sun_sensors' else 'fine sensor'} at {fmt(100 * v)} %"
+            for k, v in found.items()
+        ]
+        text = "Sun vector found at the steps with at least half the Sun's disk: " + ", ".join(parts) + "."
+        if found.get("coarse_sun_sensors") == 0.0:
+            text += (
+                " The coarse cells never found the Sun: their lit rows never spanned three dimensions (cells "
+                "narrower than a hemisphere pair up with no opposite cell, and a Sun in a plane of their normals "
+                "lights at most two independent ones)."
+            )
+        out.append(Paragraph(text))
     st = d["static"]
     if st is None:
         out.append(
@@ -754,9 +768,11 @@ def _determination(results: dict[str, Any]) -> list[Block]:
             Paragraph(
                 "Static determination at each step with both a Sun direction (the fine sensor when in view, else the "
                 "coarse cells' least squares) and the field: QUEST with its covariance (Shuster and Oh 1981), and "
-                "TRIAD with the more accurate vector as primary. None in eclipse. The coarse cells' covariance enters "
-                "QUEST as its largest axis: exact for cells in opposite pairs (a cube's is isotropic), "
-                "conservative otherwise. The NEES (3 "
+                "TRIAD with the more accurate vector as primary; none where the Sun sensors find no Sun (umbra, and "
+                "outside a fine sensor's view; the coarse cells may still find it in the penumbra). QUEST takes one "
+                "sigma per vector: for the coarse cells the largest axis of their covariance (conservative where it "
+                "is not isotropic), for a fine sensor its angle noise (conservative off its boresight, where an "
+                "angle error turns the direction less). The NEES (3 "
                 "degrees of freedom) is averaged over every solution of every run: independent samples, so its band "
                 f"is that of the mean of that many chi-square values ({fmt(d['confidence_percent'])} %)."
             )
@@ -784,6 +800,7 @@ def _determination(results: dict[str, Any]) -> list[Block]:
                 model,
                 f"{fmt(e['nees_mean'])} ({fmt(100 * e['fraction_inside'])} % of steps in [{fmt(e['band_low'])}, "
                 f"{fmt(e['band_high'])}]): {e['verdict']}",
+                f"{fmt(e['attitude_nees_mean'])} / {fmt(e['bias_nees_mean'])}",
                 f"{fmt(e['error_rms_sunlit_deg'])} / {fmt(e['sigma_rms_sunlit_deg'])}",
                 f"{fmt(e['error_rms_eclipse_deg'])} / {fmt(e['sigma_rms_eclipse_deg'])}",
                 f"{fmt(e['error_max_sunlit_deg'])} / {fmt(e['error_max_eclipse_deg'])}",
@@ -793,7 +810,14 @@ def _determination(results: dict[str, Any]) -> list[Block]:
         Paragraph(
             "MEKF with the gyro's angle increments over each step and the direction sensors, no star tracker (a "
             f"spacecraft without one, or with it blinded), from a {fmt(d['attitude_sigma0_deg'])} deg start (1 sigma "
-            "per axis). Errors and the filter's own sigma are taken after the first tenth of the orbit (the "
+            "per axis, drawn from the filter's initial covariance, so the NEES holds from the first step; it is "
+            "averaged over every step). The gyro draws the file's noise (angle random walk, the bias instability "
+            "as a Gauss-Markov bias, rate random walk) in both models; the filter models the bias as a random walk "
+            "tuned by Gyro.filter_sigma_u, a bound on the Gauss-Markov increments (docs/sensors.md), so its bias "
+            "covariance, and in eclipse, where the gyro carries the attitude, its attitude covariance, can be "
+            "conservative: the attitude and bias NEES (3 degrees of freedom each; the band of one step's average "
+            f"[{fmt(d['mekf']['noise']['part_band_low'])}, {fmt(d['mekf']['noise']['part_band_high'])}]) say "
+            "which. Errors and the filter's own sigma are taken after the first tenth of the orbit (the "
             "convergence); sigma is sqrt(trace P) of the attitude, the RMS of the error angle a consistent filter "
             "gives."
         )
@@ -803,6 +827,7 @@ def _determination(results: dict[str, Any]) -> list[Block]:
             [
                 "model",
                 "average NEES (6 dof), mean",
+                "attitude / bias NEES, mean",
                 "sunlit: error RMS / sigma [deg]",
                 "eclipse: error RMS / sigma [deg]",
                 "largest error, sunlit / eclipse [deg]",

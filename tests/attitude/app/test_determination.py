@@ -90,18 +90,55 @@ def test_static_determination_is_consistent_with_its_covariance_and_absent_in_ec
     assert static["triad_error_rms_deg"] == pytest.approx(static["quest_error_rms_deg"], rel=0.05)
 
 
-def test_the_filter_is_consistent_on_the_noise_and_the_files_systematic_errors_are_exposed():
+def test_the_filter_is_not_over_confident_on_the_noise_and_the_files_systematic_errors_are_exposed():
     out, _ = default_study()
     assert out["systematic_errors"] == ["magnetometer bias 269 nT", "magnetometer misalignment 0.62 deg"]
     noise, file_ = out["mekf"]["noise"], out["mekf"]["file"]
-    assert noise["fraction_inside"] >= FRACTION_INSIDE_MIN and noise["verdict"] == "consistent"
-    # The error the filter reports in sunlight matches its own sigma to within the scatter of 4 runs.
-    assert noise["error_rms_sunlit_deg"] == pytest.approx(noise["sigma_rms_sunlit_deg"], rel=0.35)
+    # The default gyro's bias instability is a Gauss-Markov bias the filter bounds by a random walk: the
+    # filter may be conservative (its consistency proper is the next test's, on a gyro it models exactly).
+    assert noise["fraction_not_above"] >= FRACTION_INSIDE_MIN and noise["verdict"] in ("consistent", "conservative")
     # Eclipse: the magnetometer alone, the rotation about the field only through the gyro: far larger.
     assert noise["sigma_rms_eclipse_deg"] > 3 * noise["sigma_rms_sunlit_deg"]
     # A 269 nT bias on a 20-50 uT field is 0.3-0.8 deg, ten times the field's 20 nT noise: over-confident.
     assert file_["verdict"] == "over-confident" and file_["nees_mean"] > 10 * file_["band_high"]
     assert out["static"]["file"]["verdict"] == "over-confident"
+
+
+def _gyro_modelled_exactly(text):
+    """The default file with a gyro of angle and rate random walk only: the MEKF's own gyro model."""
+    return text.replace(
+        'preset = "mems"                # gyro grade; the figures below override it',
+        "arw_deg_per_sqrt_h = 0.34\nrrw_deg_per_h_per_sqrt_h = 2.0",
+    )
+
+
+@pytest.mark.slow
+def test_on_a_gyro_it_models_exactly_the_sun_and_field_filter_is_consistent():
+    config = parse_config(_gyro_modelled_exactly(default_config_text()))
+    assert (
+        assembly.gyro(config).sigma_b == 0.0 and assembly.gyro(config).filter_sigma_u == assembly.gyro(config).sigma_u
+    )
+    runs = 16
+    out, _ = determination.determination_study(config, runs, 5)
+    noise = out["mekf"]["noise"]
+    # The section's rule (80 % of the steps inside the 95 % band of the 16-run average; the steps are
+    # correlated, so the rule of the MEKF tests, test_filter_vectors.MIN_FRACTION = 0.85 at 99 %, in kind).
+    assert noise["fraction_inside"] >= FRACTION_INSIDE_MIN and noise["verdict"] == "consistent"
+    # Attitude and bias apart, each a 3-dof mean over runs and time: inside the band of one step's 16-run mean
+    # (a time average has at most the variance of one step's).
+    low, high = stats.chi2.ppf([0.005, 0.995], 3 * runs) / runs
+    assert low <= noise["attitude_nees_mean"] <= high and low <= noise["bias_nees_mean"] <= high
+
+
+def test_albedo_does_not_fake_a_sun_in_eclipse():
+    # A review found the cube's nadir cell, lit by a constant-brightness Earth in umbra, giving a "Sun".
+    text = default_config_text().replace("# albedo_percent = 0.0", "albedo_percent = 20.0")
+    out, histories = determination.determination_study(parse_config(text), 2, 1)
+    assert out["systematic_errors"][-1] == "Earth albedo on the coarse cells, 20 % of full scale"
+    umbra = histories["illumination"] == 0.0
+    assert umbra.sum() > 1500
+    for model in ("noise", "file"):
+        assert not np.any(histories[f"static_{model}"]["available"][:, umbra])
 
 
 def test_the_figures_are_drawn():
@@ -145,3 +182,11 @@ def test_a_fine_sun_sensor_is_used_when_the_sun_is_in_its_view():
     assert st["nees_mean"] <= high and st["verdict"] in ("consistent", "conservative")
     # Against 0.05 deg of noise on the Sun and 20 nT on the field, QUEST is well under the coarse cells' degree.
     assert st["quest_error_rms_deg"] < 0.5
+
+
+def test_a_noise_free_magnetometer_is_left_out_not_a_crash():
+    # A new user's trial: noise_nT = 0 (accepted by the file) crashed the design with infinite weights.
+    text = default_config_text().replace("noise_nT = 20.0", "noise_nT = 0.0")
+    out, _ = determination.determination_study(parse_config(text), 2, 0)
+    assert out["sensors"] == ["coarse_sun_sensors"] and out["static"] is None
+    assert out["excluded_sensors"] == ["magnetometer (noise_nT = 0: a noise-free direction cannot be weighted)"]

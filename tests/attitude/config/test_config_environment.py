@@ -568,6 +568,12 @@ BAD = [
         ["at least 3 cell normals"],
     ),
     (
+        "cell normals in a plane",
+        {"coarse_sun_sensors.normals_B": [[1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0]]},
+        "coarse_sun_sensors.normals_B",
+        ["normals spanning three dimensions"],
+    ),
+    (
         "zero cell normal",
         {"coarse_sun_sensors.normals_B": [[1, 0, 0], [0, 0, 0], [0, 0, 1]]},
         "coarse_sun_sensors.normals_B[1]",

@@ -28,6 +28,7 @@ from scipy import stats
 from scipy.spatial.transform import Rotation
 
 from attitude import quaternion as quat
+from attitude.simulation.protocols import VectorMeasurement
 from estimation.consistency import nees
 from estimation.mekf import MEKFBatch, run_mekf
 from estimation.mekf.batch import VectorSamples
@@ -165,8 +166,11 @@ def test_a_vector_only_batch_campaign_is_consistent():
     [
         (VectorSamples(np.zeros((2, 3)), SUN_N, sigma=1e-3), "vector_B must have non-zero rows"),
         (VectorSamples(np.ones((2, 2)), SUN_N, sigma=1e-3), r"vector_B must broadcast to shape \(2, 3\)"),
-        (VectorSamples(np.full((2, 3), np.inf), SUN_N, sigma=1e-3), "must not hold inf"),
-        (VectorSamples(np.ones((2, 3)), [0, 0, 0], sigma=1e-3), "reference_N must have non-zero rows"),
+        (
+            VectorSamples(np.ones((2, 3)), [0, 0, 0], sigma=1e-3),
+            r"reference_N must be finite and non-zero .* row \[0\]",
+        ),
+        (VectorSamples(np.ones((2, 3)), SUN_N, sigma=[1e-3, np.nan]), r"sigma must be > 0 .* row \[1\] is nan"),
         (VectorSamples(np.ones((2, 3)), SUN_N), "exactly one of sigma and covariance"),
         (VectorSamples(np.ones((2, 3)), SUN_N, sigma=[1e-3, 0.0]), r"sigma must be > 0"),
         (VectorSamples(np.ones((2, 3)), SUN_N, covariance=-np.eye(3)), "semi-definite"),
@@ -194,3 +198,35 @@ def test_run_mekf_refuses_vector_histories_of_the_wrong_length():
             np.full((5, 4), np.nan),
             vectors={"mag": VectorSamples(np.ones((4, 3)), SUN_N, sigma=1e-3)},
         )
+
+
+def test_the_batch_takes_the_single_filters_rules_for_failed_and_absent_samples():
+    # A review found the batch refusing what the single filter counts (an inf sample) or accepts (a
+    # covariance asymmetric by rounding, NaN noise figures at steps without a sample).
+    f = make_filter(quat.identity(), 1e-2)
+    b = MEKFBatch(f, 3)
+    vb = np.array([[np.inf, 0.0, 1.0], [np.nan] * 3, [0.0, 0.0, 1.0]])
+    cov = np.broadcast_to(np.eye(3) * 1e-6, (3, 3, 3)).copy()
+    cov[2, 2, 0] += 1e-25  # asymmetric by rounding
+    cov[1] = np.nan  # no sample in run 1: its noise figure is never read
+    ref = np.array([[0.0, 0.0, 1.0], [np.nan] * 3, [0.0, 0.0, 1.0]])
+    b.step(0.0, np.zeros((3, 3)), vectors={"sun_sensor": VectorSamples(vb, ref, covariance=cov)})
+    assert b.counts["vector_nan"].tolist() == [1, 0, 0]
+    assert b.counts["vector_updates"].tolist() == [0, 0, 1]
+    single = make_filter(quat.identity(), 1e-2)
+    single.step(0.0, np.zeros(3), None, {"sun_sensor": VectorMeasurement(vb[0], ref[0], covariance=cov[0])})
+    assert single.counts["vector_nan"] == 1
+    single.step(0.0, None, None, {"sun_sensor": VectorMeasurement(vb[2], ref[2], covariance=cov[2])})
+    np.testing.assert_allclose(single.P, b.P[2], rtol=1e-12)
+
+
+def test_run_mekf_without_a_tracker_and_with_names_other_than_the_filters():
+    sig_a0 = np.radians(1.0)
+    t, q_true, g, _, _, q0, vectors = histories(2, 5.0, seed=4, sig_a0=sig_a0)
+    f = make_filter(q_true[0], sig_a0)
+    none = run_mekf(f, t, g, None, q0=q0, vectors=vectors)
+    nan = run_mekf(f, t, g, np.full((2, t.size, 4), np.nan), q0=q0, vectors=vectors)
+    np.testing.assert_array_equal(none.q, nan.q)
+    # A new user's trial: a sensor the filter does not name was applied silently (twice the updates).
+    with pytest.warns(UserWarning, match=r"vector_names are \['sun_sensor', 'magnetometer'\]"):
+        run_mekf(f, t, g, None, q0=q0, vectors={**vectors, "extra": vectors["sun_sensor"]})
