@@ -646,11 +646,12 @@ def check_vector_samples(samples: Any, name: str, lead: tuple[int, ...]) -> Vect
     sigma = cov = None
     if samples.sigma is not None:
         sigma = rows(samples.sigma, "sigma", ())
-        bad = sampled & ~(sigma > 0.0)
+        bad = sampled & ~(np.isfinite(sigma) & (sigma > 0.0))
         if np.any(bad):
             i = first(bad)
             raise ValueError(
-                f"{where}.sigma must be > 0 [rad] where there is a sample; row {i} is {float(sigma[tuple(i)])!r}"
+                f"{where}.sigma must be finite and > 0 [rad] where there is a sample; row {i} is "
+                f"{float(sigma[tuple(i)])!r}"
             )
         sigma = np.where(sampled, sigma, 1.0)
     else:

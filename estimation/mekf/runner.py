@@ -274,6 +274,8 @@ def run_mekf(
     n = tt.size
     g = as_float_array(gyro_meas, "gyro_meas", allow_nonfinite=True)
     if tracker_meas is None:  # no tracker flies
+        if tracker_mask is not None:
+            raise ValueError("tracker_mask was given without tracker samples (tracker_meas is None)")
         tracker_meas = np.full((*g.shape[:-1], 4), np.nan)
     y = as_float_array(tracker_meas, "tracker_meas", allow_nonfinite=True)
     batch = g.ndim == 3

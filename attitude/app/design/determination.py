@@ -63,7 +63,7 @@ __all__ = ["ATTITUDE_SIGMA0_DEG", "CONFIDENCE", "STEP_S", "determination_figures
 #: Step of the study [s]: the MEKF's step and the sensors' sampling grid over one orbit (about 5,700 steps
 #: in LEO: the batch filter runs the orbit in seconds).
 STEP_S = 1.0
-#: Initial attitude knowledge of the Sun-and-field MEKF, 1 sigma per axis [deg]: a coarse start (the
+#: Initial attitude knowledge of the direction-sensor MEKF, 1 sigma per axis [deg]: a coarse start (the
 #: knowledge of a coarse Sun sensor and magnetometer; see attitude.app.assembly.ATTITUDE_SIGMA0_DEG).
 ATTITUDE_SIGMA0_DEG = 1.0
 #: Confidence of the chi-square bands.
@@ -75,13 +75,15 @@ RUNS_DRAWN = 5
 _DEG = math.pi / 180.0
 
 
-def systematic_errors(config: SpacecraftConfig) -> list[str]:
-    """The file's sensor errors that the estimators do not model (what the ``file`` model adds), as text.
+def systematic_errors(config: SpacecraftConfig, sensors: list[str]) -> list[str]:
+    """The errors of the flown sensors that the estimators do not model (what the ``file`` model adds), as text.
 
     Parameters
     ----------
     config : SpacecraftConfig
         The spacecraft file.
+    sensors : list of str
+        The direction sensors flown (table names).
 
     Returns
     -------
@@ -89,7 +91,7 @@ def systematic_errors(config: SpacecraftConfig) -> list[str]:
         One entry per error; empty when the sensors have white noise only.
     """
     out = []
-    m = config.magnetometer_config
+    m = config.magnetometer_config if "magnetometer" in sensors else None
     if m is not None:
         bias = np.broadcast_to(np.asarray(m.bias_nT, dtype=float), (3,))
         if np.any(bias):
@@ -101,10 +103,10 @@ def systematic_errors(config: SpacecraftConfig) -> list[str]:
             out.append(f"magnetometer misalignment {np.linalg.norm(m.misalignment_deg):.2f} deg")
         if m.quantization_nT:
             out.append(f"magnetometer quantisation {m.quantization_nT:g} nT")
-    c = config.coarse_sun_sensors_config
+    c = config.coarse_sun_sensors_config if "coarse_sun_sensors" in sensors else None
     if c is not None and c.albedo_percent:
         out.append(f"Earth albedo on the coarse cells, {c.albedo_percent:g} % of full scale")
-    f = config.fine_sun_sensor_config
+    f = config.fine_sun_sensor_config if "fine_sun_sensor" in sensors else None
     if f is not None and np.any(f.bias_deg):
         out.append(f"fine Sun sensor bias {np.max(np.abs(f.bias_deg)):g} deg")
     return out
@@ -428,7 +430,7 @@ def determination_study(config: SpacecraftConfig, runs: int, seed: Any) -> tuple
         "confidence_percent": 100.0 * CONFIDENCE,
         "sensor_labels": [SENSOR_NAMES[n] for n in names],
         "excluded_sensors": excluded,
-        "systematic_errors": systematic_errors(config),
+        "systematic_errors": systematic_errors(config, names),
         "static": {},
         "mekf": {},
     }
@@ -449,12 +451,15 @@ def determination_study(config: SpacecraftConfig, runs: int, seed: Any) -> tuple
         samples = _draw({k: (v if k in names else None) for k, v in sensors.items()}, truth, runs, run_seeds)
         drawn.append(samples)
         if model == "noise":
+            # Over the steps the sensor samples with at least half the Sun's disk.
             sunlit = truth["illumination"] >= 0.5
-            out["sun_vector_fraction_of_sunlit"] = {
-                name: _f(float(np.mean(~np.isnan(samples[name].vector_B[:, sunlit, 0]))))
-                for name in ("coarse_sun_sensors", "fine_sun_sensor")
-                if name in samples
-            }
+            step = float(truth["step"])
+            found = {}
+            for name in ("coarse_sun_sensors", "fine_sun_sensor"):
+                if name in samples:
+                    read = sunlit & (np.arange(truth["t"].size) % _every(sensors[name].period, step) == 0)
+                    found[name] = _f(float(np.mean(~np.isnan(samples[name].vector_B[:, read, 0]))))
+            out["sun_vector_fraction_of_sunlit"] = found
         static = _static(samples, truth)
         if static is not None:
             out["static"][model] = _static_summary(static)

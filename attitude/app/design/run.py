@@ -409,7 +409,7 @@ def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> d
         checks.append(
             _row(
                 "determination_mekf_nees",
-                "Sun-and-field MEKF not over-confident: fraction of steps with the average NEES at most the top "
+                "Direction-sensor MEKF not over-confident: fraction of steps with the average NEES at most the top "
                 "of its band, whole state and attitude alone, the smaller (noise model)",
                 "",
                 FRACTION_INSIDE_MIN,
@@ -496,11 +496,12 @@ def _caption_table() -> dict[str, tuple[str, str]]:
         ),
         "determination_mekf": (
             "determination",
-            "Sun-and-field MEKF (no star tracker): error angle of the first runs and the 3-sigma of the largest axis.",
+            "MEKF on the gyro and the direction sensors (no star tracker): error angle of the first runs and the "
+            "3-sigma of the largest axis.",
         ),
         "determination_nees": (
             "determination",
-            "Sun-and-field MEKF: average NEES (noise model) with its 95 % chi-square band.",
+            "MEKF on the gyro and the direction sensors: average NEES (noise model) with its 95 % chi-square band.",
         ),
         "orbit_nadir_hold": (
             "orbit",

@@ -741,7 +741,7 @@ def _determination(results: dict[str, Any]) -> list[Block]:
     if st is None:
         out.append(
             Paragraph(
-                "Static determination needs two directions, the Sun and the field: the file lacks one of them, so "
+                "Static determination needs two directions, the Sun and the field: one of them is not flown, so "
                 "only the MEKF below determines the attitude (with one direction, the rotation about it is observed "
                 "only through the gyro)."
             )
@@ -799,7 +799,8 @@ def _determination(results: dict[str, Any]) -> list[Block]:
             [
                 model,
                 f"{fmt(e['nees_mean'])} ({fmt(100 * e['fraction_inside'])} % of steps in [{fmt(e['band_low'])}, "
-                f"{fmt(e['band_high'])}]): {e['verdict']}",
+                f"{fmt(e['band_high'])}]; attitude alone {fmt(100 * e['attitude_fraction_inside'])} %): "
+                f"{e['verdict']}",
                 f"{fmt(e['attitude_nees_mean'])} / {fmt(e['bias_nees_mean'])}",
                 f"{fmt(e['error_rms_sunlit_deg'])} / {fmt(e['sigma_rms_sunlit_deg'])}",
                 f"{fmt(e['error_rms_eclipse_deg'])} / {fmt(e['sigma_rms_eclipse_deg'])}",

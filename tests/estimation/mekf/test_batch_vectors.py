@@ -170,9 +170,16 @@ def test_a_vector_only_batch_campaign_is_consistent():
             VectorSamples(np.ones((2, 3)), [0, 0, 0], sigma=1e-3),
             r"reference_N must be finite and non-zero .* row \[0\]",
         ),
-        (VectorSamples(np.ones((2, 3)), SUN_N, sigma=[1e-3, np.nan]), r"sigma must be > 0 .* row \[1\] is nan"),
+        (
+            VectorSamples(np.ones((2, 3)), SUN_N, sigma=[1e-3, np.nan]),
+            r"sigma must be finite and > 0 .* row \[1\] is nan",
+        ),
+        (
+            VectorSamples(np.ones((2, 3)), SUN_N, sigma=[np.inf, 1e-3]),
+            r"sigma must be finite and > 0 .* row \[0\] is inf",
+        ),
         (VectorSamples(np.ones((2, 3)), SUN_N), "exactly one of sigma and covariance"),
-        (VectorSamples(np.ones((2, 3)), SUN_N, sigma=[1e-3, 0.0]), r"sigma must be > 0"),
+        (VectorSamples(np.ones((2, 3)), SUN_N, sigma=[1e-3, 0.0]), r"sigma must be finite and > 0"),
         (VectorSamples(np.ones((2, 3)), SUN_N, covariance=-np.eye(3)), "semi-definite"),
         (VectorSamples([[0, 0, 1.0]] * 2, SUN_N, covariance=np.diag([1.0, 0, 0])), "perpendicular to vector_B"),
         ((np.ones((2, 3)), SUN_N, 1e-3), "must be a VectorSamples"),
@@ -227,6 +234,8 @@ def test_run_mekf_without_a_tracker_and_with_names_other_than_the_filters():
     none = run_mekf(f, t, g, None, q0=q0, vectors=vectors)
     nan = run_mekf(f, t, g, np.full((2, t.size, 4), np.nan), q0=q0, vectors=vectors)
     np.testing.assert_array_equal(none.q, nan.q)
+    with pytest.raises(ValueError, match="tracker_mask was given without tracker samples"):
+        run_mekf(f, t, g, None, tracker_mask=np.ones(t.size, dtype=bool), q0=q0, vectors=vectors)
     # A new user's trial: a sensor the filter does not name was applied silently (twice the updates).
     with pytest.warns(UserWarning, match=r"vector_names are \['sun_sensor', 'magnetometer'\]"):
         run_mekf(f, t, g, None, q0=q0, vectors={**vectors, "extra": vectors["sun_sensor"]})
