@@ -502,7 +502,7 @@ def build_parser() -> argparse.ArgumentParser:
             "and a star-tracker-free MEKF over an orbit; with direction sensors), 8 requirements (pass/fail).\n"
             "Writes report.md, report.html (self-contained), figures/*.png, results.json (every number of the\n"
             "report) and spacecraft.toml (the resolved file) into --out, and prints the requirements table.\n"
-            "About 50 s for the default spacecraft (--quick: about 30 s)."
+            "About 35 s for the default spacecraft on 2 cores (--quick: about 25 s)."
         ),
         epilog=_EPILOG,
     )

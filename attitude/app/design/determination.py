@@ -483,7 +483,12 @@ SENSOR_NAMES = {
 
 
 def _sensor_text(names: list[str]) -> str:
-    return " and ".join(SENSOR_NAMES[n] for n in names)
+    """``"the gyro, magnetometer and coarse Sun sensors"`` for the flown direction sensors."""
+    return (
+        "the gyro, " + ", ".join(SENSOR_NAMES[n] for n in names[:-1]) + " and " + SENSOR_NAMES[names[-1]]
+        if len(names) > 1
+        else f"the gyro and {SENSOR_NAMES[names[0]]}"
+    )
 
 
 def _shade_eclipse(ax: Any, t_min: np.ndarray, illumination: np.ndarray) -> None:
@@ -557,7 +562,7 @@ def determination_figures(out: dict[str, Any], histories: dict[str, Any]) -> dic
         ax.semilogy(t_min, 3.0 * h["sigma_max_deg"][0], "k-", lw=1.0, label=r"$3\sigma$ (largest axis, run 1)")
         _shade_eclipse(ax, t_min, light)
         ax.set_ylabel("attitude error [deg]")
-        ax.set_title(f"MEKF with the gyro and {_sensor_text(out['sensors'])}, no star tracker: {model} model")
+        ax.set_title(f"MEKF on {_sensor_text(out['sensors'])}, no star tracker: {model} model")
         ax.legend(fontsize=8, loc="upper right")
     axes[-1].set_xlabel("time [min]")
     figures["determination_mekf"] = fig
@@ -568,7 +573,6 @@ def determination_figures(out: dict[str, Any], histories: dict[str, Any]) -> dic
         6,
         e["runs"],
         confidence=CONFIDENCE,
-        title=f"MEKF with the gyro and {_sensor_text(out['sensors'])} (noise model): average NEES of {e['runs']} "
-        f"runs, mean {e['nees_mean']:.2f}",
+        title=f"Direction-sensor MEKF, noise model: average NEES of {e['runs']} runs, mean {e['nees_mean']:.2f}",
     )
     return figures
