@@ -220,9 +220,9 @@ def _quat_text(q: Sequence[float]) -> str:
 
 def _cmd_slew(args: argparse.Namespace) -> int:
     from attitude.app.design.run import plan_verdicts
-    from attitude.app.design.slew import plan_slews
     from attitude.app.report.sections import fmt
     from attitude.app.report.writer import dumps_json, requirements_text
+    from attitude.app.slew_study import plan_slews
 
     config = _load(args.file)
     if args.to is not None:
@@ -499,7 +499,8 @@ def build_parser() -> argparse.ArgumentParser:
             "control, wheels, gyro, star tracker and MEKF), 5 estimation (rate EKF and MEKF errors, NEES over a\n"
             "Monte Carlo set), 6 orbit (disturbance torques, momentum budget and unloading, nadir hold,\n"
             "detumbling; with an [orbit]), 7 attitude determination from the Sun and the field (QUEST, TRIAD\n"
-            "and a star-tracker-free MEKF over an orbit; with direction sensors), 8 requirements (pass/fail).\n"
+            "and a star-tracker-free MEKF over an orbit; with direction sensors), 8 requirements (pass/fail;\n"
+            "with a [montecarlo] table, a dispersed check: a small vectorised campaign that a failing run fails).\n"
             "Writes report.md, report.html (self-contained), figures/*.png, results.json (every number of the\n"
             "report) and spacecraft.toml (the resolved file) into --out, and prints the requirements table.\n"
             "About 35 s for the default spacecraft on 2 cores (--quick: about 25 s)."

@@ -10,7 +10,7 @@ estimators; :mod:`attitude.montecarlo.campaign` never does (a scenario is any ca
     and a controller designed on the *nominal* inertia. By default
     (``guidance="plan"``) it flies the design's guidance: the required slew
     planned once, on the nominal spacecraft, by
-    :func:`attitude.app.design.slew.plan_slews` (minimum time around the
+    :func:`attitude.app.slew_study.plan_slews` (minimum time around the
     keep-out cones, within the rate limit and the wheels' torque and
     momentum), tracked by :class:`controllers.tracking.TrackingController`
     with the plan's torque as feedforward, as ``attitude design`` flies it.
@@ -70,7 +70,7 @@ import numpy as np
 
 from attitude import quaternion as quat
 from attitude.app import assembly
-from attitude.app.design.slew import SlewStudy, plan_slews
+from attitude.app.slew_study import SlewStudy, plan_slews
 from attitude.config import SpacecraftConfig, load_config
 from attitude.config.schema import SURFACE_DISPERSIONS
 from attitude.environment.orbit_environment import OrbitEnvironment
@@ -283,10 +283,10 @@ class ClosedLoopScenario:
         bound holds for the design inertia and the true rate, so a dispersed
         inertia and a noisy rate estimate overshoot a limit set exactly at
         the requirement (by about 0.5 % for the default spacecraft). The
-        plan has its own margins (:data:`attitude.app.design.slew.PLAN_RATE_FRACTION`).
+        plan has its own margins (:data:`attitude.app.slew_study.PLAN_RATE_FRACTION`).
     guidance : {"plan", "eigenaxis"}
         ``"plan"`` (default): the design's optimal slew, planned once here
-        on the nominal spacecraft (:func:`attitude.app.design.slew.plan_slews`,
+        on the nominal spacecraft (:func:`attitude.app.slew_study.plan_slews`,
         ``nodes`` intervals) and flown by
         :class:`controllers.tracking.TrackingController` (feedback at the
         file's bandwidth and damping, designed on the nominal inertia; the
@@ -300,7 +300,7 @@ class ClosedLoopScenario:
         Planner intervals for ``guidance="plan"`` (default :data:`PLAN_NODES`,
         the design report's).
     study : SlewStudy, optional
-        A study already made by :func:`attitude.app.design.slew.plan_slews` for
+        A study already made by :func:`attitude.app.slew_study.plan_slews` for
         this ``config`` (e.g. the design report's) to fly instead of planning
         again; its start and target must be the file's.
     consider_misalignment : bool

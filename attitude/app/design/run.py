@@ -7,7 +7,7 @@ toolkit together and import :mod:`controllers` and :mod:`estimation`; no
 ground-floor module imports them. Writing the report (markdown, HTML, JSON,
 PNG) is :mod:`attitude.app.report.writer`'s job; these modules only compute.
 
-:func:`run_design` runs the eight steps of the report in order and returns a
+:func:`run_design` runs the nine steps of the report in order and returns a
 :class:`DesignResult`: ``results``, a JSON-ready dict holding every number
 the report shows (keys carry their units as in the spacecraft file: ``_s``,
 ``_deg``, ``_deg_per_s``, ``_mNm``, ``_arcsec`` ...), and ``figures``
@@ -22,7 +22,10 @@ the report shows (keys carry their units as in the spacecraft file: ``_s``,
    budget and unloading, detumbling (:mod:`attitude.app.design.orbit`).
 7. Attitude determination from the Sun and the field, when the file has an
    ``[orbit]`` and a direction sensor (:mod:`attitude.app.design.determination`).
-8. Requirements (:func:`requirement_verdicts`; :func:`plan_verdicts` judges a
+8. The dispersed check, when the file has a ``[montecarlo]`` table: a small
+   vectorised campaign on its dispersions (:mod:`attitude.app.design.dispersed`);
+   a failing run fails the design (a requirement row).
+9. Requirements (:func:`requirement_verdicts`; :func:`plan_verdicts` judges a
    plan alone for ``attitude slew``): each requirement of the
    file against the achieved figure, judged from the numbers stored in
    ``results`` and nowhere else, so the report, ``results.json`` and the
@@ -44,6 +47,7 @@ from matplotlib.figure import Figure
 
 from attitude.app.design.body import DEFAULT_SPIN_RATE_DEG_PER_S, body_analysis, body_figures
 from attitude.app.design.determination import determination_figures, determination_study
+from attitude.app.design.dispersed import dispersed_check
 from attitude.app.design.estimation import FRACTION_INSIDE_MIN, estimation_study
 from attitude.app.design.linear import linear_design
 from attitude.app.design.orbit import (
@@ -72,7 +76,7 @@ __all__ = [
 ]
 
 #: Steps of :func:`run_design` (the progress lines count them).
-STEPS = 8
+STEPS = 9
 
 #: Classical margin guidelines of the advisory checks (not requirements of the file).
 GAIN_MARGIN_GUIDELINE_DB = 6.0
@@ -114,6 +118,11 @@ class DesignOptions:
         return 4 if self.quick else 20
 
     @property
+    def dispersed_runs(self) -> int:
+        """Runs of the dispersed check (one vectorised batch: seconds)."""
+        return 10 if self.quick else 50
+
+    @property
     def determination_runs(self) -> int:
         """Monte Carlo runs of each sensor model of the determination study (batched)."""
         return 4 if self.quick else 16
@@ -147,7 +156,7 @@ Progress = Callable[[str], None]
 
 
 # ---------------------------------------------------------------------------
-# 8. Requirements
+# 9. Requirements
 
 
 def _row(rid: str, text: str, key: str, required: Any, achieved: Any, unit: str, comparison: str) -> dict[str, Any]:
@@ -260,7 +269,7 @@ def orbit_study(config: SpacecraftConfig, quick: bool = False) -> tuple[dict[str
 
 
 def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> dict[str, Any]:
-    """Section 8: each requirement of the file against the achieved figure (from ``results`` only).
+    """Section 8 of the report: each requirement of the file against the achieved figure (from ``results`` only).
 
     A requirement passes when ``achieved <= required`` (or ``>=``, per row);
     a figure that could not be computed (``None``) fails. Returns
@@ -272,7 +281,7 @@ def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> d
     config : SpacecraftConfig
         The spacecraft file (its requirements).
     results : dict
-        The JSON-ready results of sections 1 to 7.
+        The JSON-ready results of sections 1 to 7 and of the dispersed check.
     """
     req = config.requirements
     slews = results["slews"]
@@ -391,6 +400,20 @@ def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> d
                     "<=",
                 )
             )
+    dispersed = results.get("dispersed")
+    if dispersed is not None:
+        what = dispersed.get("statement") or f"not flown: {dispersed.get('error')}"
+        rows.append(
+            _row(
+                "dispersed",
+                f"dispersed check: runs of the [montecarlo] dispersions failing a campaign requirement ({what})",
+                "montecarlo",
+                0,
+                dispersed.get("failures"),
+                "runs",
+                "<=",
+            )
+        )
     det = results.get("determination")
     if det is not None:
         static = (det["static"] or {}).get("noise")
@@ -566,6 +589,7 @@ def run_design(
             "mekf_runs": options.mekf_runs,
             "rate_ekf_runs": options.rate_ekf_runs,
             "determination_runs": options.determination_runs,
+            "dispersed_runs": options.dispersed_runs,
             "spin_rate_deg_per_s": options.spin_rate_deg_per_s,
         },
     }
@@ -620,7 +644,16 @@ def run_design(
     results["determination"] = determination
     if determination is not None:
         figures.update(determination_figures(determination, histories))
-    verdicts = step(8, "requirements", "requirements", lambda: requirement_verdicts(config, results))
+    plan = results["slews"].get("plan")
+    results["dispersed"] = step(
+        8,
+        "dispersed",
+        f"dispersed check: {options.dispersed_runs} runs of the [montecarlo] dispersions, vectorised",
+        lambda: dispersed_check(
+            config, options.dispersed_runs, None if plan is None else plan["duration_s"], options.nodes
+        ),
+    )
+    verdicts = step(9, "requirements", "requirements", lambda: requirement_verdicts(config, results))
     results.update(verdicts)
     captions = _caption_table()
     results["figures"] = {

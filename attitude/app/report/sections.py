@@ -864,6 +864,28 @@ def requirement_rows(rows: list[dict[str, Any]]) -> list[list[str]]:
     return out
 
 
+def _dispersed(d: dict[str, Any] | None) -> list[Block]:
+    """The dispersed check's paragraph."""
+    if d is None:
+        return [Paragraph("No [montecarlo] table: no dispersed check; the verdict is the nominal spacecraft's.")]
+    if "error" in d:
+        return [Paragraph(f"The dispersed check could not be flown, so it fails: {d['error']}")]
+    text = (
+        f"Dispersed check: {d['runs']} runs of the file's [montecarlo] dispersions (seed {d['seed']}), each flying "
+        f"the planned slew in closed loop for {fmt(d['duration_s'])} s (the slew, the settling time and a minute "
+        "of hold) and judged by the campaign's requirements ("
+        + ", ".join(f"{name}: {v['passed']}/{d['runs']} passed" for name, v in d["requirements"].items())
+        + f"). {d['statement']}. A failing run fails the design. The same runs: `{d['command']}`."
+    )
+    if d["failing_runs"]:
+        listed = "; ".join(
+            f"run {f['run']} missed {', '.join(f['missed']) or 'nothing'}" + (f" ({f['error']})" if f["error"] else "")
+            for f in d["failing_runs"]
+        )
+        text += f" First failing runs: {listed}."
+    return [Paragraph(text)]
+
+
 def _requirements(results: dict[str, Any]) -> list[Block]:
     verdict = results["verdict"]
     header = ["requirement", "file key", "required", "achieved", "verdict"]
@@ -881,6 +903,7 @@ def _requirements(results: dict[str, Any]) -> list[Block]:
             + summary
         ),
         _t(header, requirement_rows(results["requirements"]), "Requirements (they decide the exit code)"),
+        *_dispersed(results.get("dispersed")),
         Paragraph(
             "Advisory design checks: classical guidelines and consistency checks that are not requirements of "
             "the file and do not change the verdict."

@@ -183,6 +183,10 @@ def check_verdicts(results: dict, config) -> None:
         judged = budget["unloading"] if budget["unloading"] is not None else budget["no_dumping"]
         allowed = config.momentum.wheel_momentum_margin * min(judged["capacity_per_wheel_mNms"])
         expected["wheel_momentum_budget"] = (allowed, max(judged["peak_per_wheel_mNms"]))
+    dispersed = results.get("dispersed")
+    if dispersed is not None:  # the dispersed check: no run of the small campaign may fail (0 failures allowed)
+        assert dispersed["runs"] == results["settings"]["dispersed_runs"]
+        expected["dispersed"] = (0, dispersed.get("failures"))
     rows = {r["id"]: r for r in results["requirements"]}
     assert set(rows) == set(expected), "one row per requirement of the file"
     for rid, (required, achieved) in expected.items():

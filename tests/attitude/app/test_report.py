@@ -182,6 +182,8 @@ def test_missing_sections_fail_their_requirements_and_still_render(design):
     results["slews"]["error"] = "SlewPlanningError: no start converged"
     results["closed_loop"] = None
     results["estimation"] = None
+    # The dispersed check plans the same slew, so it cannot fly either (dispersed_check's error form).
+    results["dispersed"] = {"runs": 10, "error": "SlewPlanningError: no start converged", "command": "attitude ..."}
     verdicts = requirement_verdicts(design.config, results)
     rows = {r["id"]: r for r in verdicts["requirements"]}
     # The momentum budget of section 6 needs no flown slew: it is judged on its own figures.
@@ -192,6 +194,7 @@ def test_missing_sections_fail_their_requirements_and_still_render(design):
     results.update(verdicts)
     md = render_markdown(build_blocks(results))
     assert "no start converged" in md and "Nothing to fly" in md and "estimation not analysed" in md
+    assert "The dispersed check could not be flown, so it fails" in md
     assert "| n/a | FAIL |" in md
 
 
