@@ -503,7 +503,7 @@ def build_parser() -> argparse.ArgumentParser:
             "with a [montecarlo] table, a dispersed check: a small vectorised campaign that a failing run fails).\n"
             "Writes report.md, report.html (self-contained), figures/*.png, results.json (every number of the\n"
             "report) and spacecraft.toml (the resolved file) into --out, and prints the requirements table.\n"
-            "About 35 s for the default spacecraft on 2 cores (--quick: about 25 s)."
+            "About 40 s for the default spacecraft on 2 cores (--quick: about 27 s)."
         ),
         epilog=_EPILOG,
     )
