@@ -182,6 +182,9 @@ class MEKFBatch:
     tracker_nan, gyro_nan, gyro_rejected : ndarray (N,) of bool
         The last step skipped a NaN tracker sample / a NaN gyro sample /
         rejected a gyro sample above ``gyro_rate_max``.
+    vector_nis : dict of str to ndarray (N,)
+        Per direction sensor, the NIS (2 dof) of the last step's samples,
+        applied or gated (NaN without one).
 
     Raises
     ------
@@ -385,7 +388,6 @@ class MEKFBatch:
         self.gyro_nan = np.zeros(n, dtype=bool)
         self.gyro_rejected = np.zeros(n, dtype=bool)
         self.vector_nis: dict[str, NDArray[np.float64]] = {}
-        self.vector_updated: dict[str, NDArray[np.bool_]] = {}
 
     def step_unchecked(
         self,
@@ -496,16 +498,11 @@ class MEKFBatch:
         if not every:
             self._counts["vector_nan"] += ~finite & ~nan.all(axis=-1)  # partly NaN: a failed sample
         nis_out = np.full(n, np.nan)
-        updated = np.zeros(n, dtype=bool)
         sel = slice(None) if every else np.nonzero(finite)[0]
         if every or sel.size:
             # Written out per component (columns of m runs): a step's cost is numpy's per-call overhead.
-            w, x, y, zq = self._q[sel].T
-            r0, r1, r2 = ref[sel].T
-            # b_hat = C_BN(q_hat) r_N, the rows of C_BN written out (as MEKF's _vector_model).
-            p0 = (1.0 - 2.0 * (y * y + zq * zq)) * r0 + 2.0 * (x * y + w * zq) * r1 + 2.0 * (x * zq - w * y) * r2
-            p1 = 2.0 * (x * y - w * zq) * r0 + (1.0 - 2.0 * (x * x + zq * zq)) * r1 + 2.0 * (y * zq + w * x) * r2
-            p2 = 2.0 * (x * zq + w * y) * r0 + 2.0 * (y * zq - w * x) * r1 + (1.0 - 2.0 * (x * x + y * y)) * r2
+            # b_hat = C_BN(q_hat) r_N, by the one rotation of attitude.quaternion (on columns of m runs).
+            p0, p1, p2 = quat.rotate_inverse_components(list(self._q[sel].T), list(ref[sel].T))
             # t1 = b_hat x e / |.| with e the axis least aligned with b_hat; t2 = b_hat x t1.
             a0, a1, a2 = np.abs(p0), np.abs(p1), np.abs(p2)
             e0 = (a0 <= a1) & (a0 <= a2)
@@ -567,10 +564,8 @@ class MEKFBatch:
                     gm[:, :3, :3] -= 0.5 * skew(dtheta)
                     Pn = gm @ Pn @ np.swapaxes(gm, -1, -2)
                 self._P[sel] = 0.5 * (Pn + np.swapaxes(Pn, -1, -2))
-                updated[ok] = True
                 self._counts["vector_updates"][ok] += 1
         self.vector_nis[name] = nis_out
-        self.vector_updated[name] = updated
 
 
 def check_vector_samples(samples: Any, name: str, lead: tuple[int, ...]) -> VectorSamples:

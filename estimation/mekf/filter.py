@@ -283,12 +283,8 @@ def _vector_model(
     q_hat: NDArray[np.float64], m: VectorMeasurement
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Residual (2,), attitude Jacobian (2, 3), noise (2, 2) and ``b . b_hat`` of one vector sample (hot path)."""
-    w, x, y, z = q_hat.tolist()
-    r0, r1, r2 = m.reference_N.tolist()
-    # b_hat = C_BN(q_hat) r_N, the rows of C_BN written out.
-    p0 = (1.0 - 2.0 * (y * y + z * z)) * r0 + 2.0 * (x * y + w * z) * r1 + 2.0 * (x * z - w * y) * r2
-    p1 = 2.0 * (x * y - w * z) * r0 + (1.0 - 2.0 * (x * x + z * z)) * r1 + 2.0 * (y * z + w * x) * r2
-    p2 = 2.0 * (x * z + w * y) * r0 + 2.0 * (y * z - w * x) * r1 + (1.0 - 2.0 * (x * x + y * y)) * r2
+    # b_hat = C_BN(q_hat) r_N, by the one rotation of attitude.quaternion (on Python floats).
+    p0, p1, p2 = quat.rotate_inverse_components(q_hat.tolist(), m.reference_N.tolist())
     # t1 = b_hat x e / |.|, e the axis least aligned with b_hat (|b_hat x e| >= sqrt(2/3): no cancellation);
     # t2 = b_hat x t1, so (t1, t2, b_hat) is right-handed and orthonormal.
     a0, a1, a2 = abs(p0), abs(p1), abs(p2)
