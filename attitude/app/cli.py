@@ -427,7 +427,7 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
             environment=args.environment,
         )
     except ScenarioError as exc:
-        flag = f"--duration-s {args.duration_s:g}: " if str(exc).startswith("duration") else ""
+        flag = f"--duration-s {args.duration_s:g}: " if "duration" in str(exc)[:40] and args.duration_s else ""
         if "environment" in str(exc) and not flag:
             flag = "--environment: " if args.environment else ""
         raise UsageError(f"{flag}{exc}") from None
@@ -637,8 +637,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--duration-s",
         type=_positive,
-        default=600.0,
-        help="simulated time per run [s] (default 600); with the planned slew at least the slew plus settling_time_s",
+        default=None,
+        help="simulated time per run [s] (default: to the end of the requirements' hold: the planned slew, or "
+        "slew.time_max_s with --guidance eigenaxis, plus settling_time_s and hold_time_s; the pointing is judged "
+        "over that hold only, so a longer run adds nothing to the verdict)",
     )
     p.add_argument(
         "--guidance",

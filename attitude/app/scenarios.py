@@ -83,8 +83,9 @@ from attitude.rng import NormalStreams
 from attitude.sensors import Gyro, GyroBatch
 from attitude.simulation.batch import closed_loop_metrics, simulate_batch
 from attitude.simulation.batch_estimated import simulate_batch_estimated
-from attitude.simulation.engine import settling_time_after, simulate
+from attitude.simulation.engine import simulate
 from attitude.simulation.protocols import Truth
+from attitude.simulation.slew_windows import SlewWindowsTracker
 from controllers.slew.problem import SlewPlanningError
 from controllers.tracking import ReferenceTrajectory, TrackingController
 from estimation.consistency import band_verdict, chi2_band, nees
@@ -267,10 +268,12 @@ class ClosedLoopScenario:
     ----------
     config : SpacecraftConfig
         The spacecraft (nominal values; the campaign's dispersions perturb them).
-    duration : float
-        Simulated time [s] (default 600). With ``guidance="plan"`` it must
-        cover the planned slew plus the required settling time
-        (``requirements.settling_time_s``), else ScenarioError names both.
+    duration : float, optional
+        Simulated time [s]; it must reach the end of the requirements' hold
+        (:attr:`windows`: the planned slew, or the allowed slew time with
+        ``guidance="eigenaxis"``, plus the settling time and the hold), else
+        ScenarioError names each part. Default: exactly that
+        (:func:`attitude.app.assembly.judged_duration`).
     history_stride : int, optional
         Keep time histories every this many ticks (None: metrics only).
         Histories: ``error_angle`` (true error to the target) [rad],
@@ -392,7 +395,7 @@ class ClosedLoopScenario:
     def __init__(
         self,
         config: SpacecraftConfig,
-        duration: float = 600.0,
+        duration: float | None = None,
         history_stride: int | None = None,
         rate_margin: float = 0.9,
         *,
@@ -406,13 +409,13 @@ class ClosedLoopScenario:
             raise ScenarioError(f"guidance must be one of {', '.join(map(repr, GUIDANCES))}, got {guidance!r}")
         if not 0.0 < rate_margin <= 1.0:
             raise ScenarioError(f"rate_margin must be in (0, 1], got {rate_margin!r}")
-        duration = float(duration)
-        if not (math.isfinite(duration) and duration > 0.0):
-            raise ScenarioError(f"duration must be a positive number of seconds, got {duration!r}")
+        if duration is not None:
+            duration = float(duration)
+            if not (math.isfinite(duration) and duration > 0.0):
+                raise ScenarioError(f"duration must be a positive number of seconds, got {duration!r}")
         self.guidance = guidance
         self.rate_margin = float(rate_margin)
         self.config = config
-        self.duration = duration
         self.history_stride = history_stride
         self.nodes = int(nodes)
         self.consider_misalignment = bool(consider_misalignment)
@@ -446,12 +449,15 @@ class ClosedLoopScenario:
         self.plan_summary: dict[str, Any] | None = None
         if guidance == "plan":
             self._plan(study)
-            needed = self.slew_end + req.settling_time_s
-            if duration < needed:
-                raise ScenarioError(
-                    f"duration must cover the planned slew ({self.slew_end:.4g} s) plus the required settling time "
-                    f"({req.settling_time_s:g} s), at least {needed:.4g} s; got {duration:g} s"
-                )
+        #: When the requirements are judged: the planned slew's end, or the allowed slew time (eigenaxis).
+        self.windows = assembly.slew_windows(config, self.slew_end)
+        if duration is None:
+            duration = assembly.judged_duration(config, self.slew_end)
+        try:
+            self.windows.check_covers(duration)
+        except ValueError as exc:
+            raise ScenarioError(str(exc)) from None
+        self.duration = duration
 
     def _plan(self, study: SlewStudy | None) -> None:
         """Plan (or take) the slew on the nominal spacecraft and keep numpy copies of it."""
@@ -552,12 +558,11 @@ class ClosedLoopScenario:
             environment=self._environment,
             surface_parameters=surface_parameters(self._environment, params),
         )
-        accuracy = self.config.requirements.pointing_accuracy_rad
-        metrics = closed_loop_metrics(result, accuracy)
-        # Judged against the target attitude, not the moving reference (module docstring).
+        metrics = closed_loop_metrics(result, self.windows.accuracy_rad)
+        # Judged against the target attitude, not the moving reference, over the requirement's windows
+        # (module docstring): the design's definitions.
         to_target = np.asarray(quat.error_angle(self._q_target, result.q))
-        outside = np.nonzero(to_target > accuracy)[0]
-        metrics["settling_time"] = float(settling_time_after(result.t, outside[-1] if outside.size else -1))
+        metrics.update(self.windows.metrics(result.t, to_target))
         metrics["final_pointing_error"] = float(to_target[-1])
         q_hat = np.array(estimator.q)
         k = np.searchsorted(result.t, np.array(estimator.t))
@@ -684,12 +689,11 @@ class _BatchRecorder:
     def __init__(self, scenario: ClosedLoopScenario, n: int, mekf: Any) -> None:
         self.scenario, self.mekf = scenario, mekf
         req = scenario.config.requirements
-        self.accuracy = req.pointing_accuracy_rad
+        self.windows = SlewWindowsTracker(scenario.windows, n)
         self.cones = list(req.keep_out)
         self.controller = scenario.controller()
         self.stride = scenario.history_stride
         self.wheels = scenario._wheels
-        self.last_outside = np.full(n, -1, dtype=np.int64)
         self.rate_peak = np.zeros(n)
         self.speed_peak = np.zeros(n)
         self.nees_sum = np.zeros(n)
@@ -704,7 +708,7 @@ class _BatchRecorder:
     def __call__(self, k: int, t: float, x: np.ndarray, q_hat: np.ndarray, w_hat: np.ndarray, updated: bool) -> None:
         q = quat.normalize(x[:, :4])
         to_target = np.asarray(quat.error_angle(self.scenario._q_target, q))
-        self.last_outside[to_target > self.accuracy] = k
+        self.windows.update(t, to_target)
         self.final_error = to_target
         self.n_ticks = k
         np.fmax(self.rate_peak, np.linalg.norm(x[:, 4:7], axis=1), out=self.rate_peak)
@@ -740,11 +744,10 @@ class _BatchRecorder:
         broken: np.ndarray | None = None,
         bound: np.ndarray | None = None,
     ) -> list[RunOutput]:
-        last = self.last_outside
-        settle = settling_time_after(self.t, last)
+        windowed = self.windows.metrics()
         history = {name: np.stack(rows, axis=1) for name, rows in self.history.items()}
         outputs = []
-        for r in range(last.size):
+        for r in range(self.final_error.size):
             if math.isfinite(diverged_at[r]):
                 outputs.append(RunOutput(error=f"the closed loop diverged at t = {diverged_at[r]:.6g} s"))
                 continue
@@ -760,7 +763,7 @@ class _BatchRecorder:
                 outputs.append(RunOutput(error=_STEP_RULE_ERROR.format(bound=float(bound[r]))))
                 continue
             metrics = {
-                "settling_time": float(settle[r]),
+                **{name: float(values[r]) for name, values in windowed.items()},
                 "final_pointing_error": float(self.final_error[r]),
                 "rate_peak": float(self.rate_peak[r]),
                 "wheel_speed_peak": float(self.speed_peak[r]),
@@ -960,7 +963,7 @@ def run_campaign_from_config(
     out_dir: str | Path | None = None,
     *,
     seed: int | None = None,
-    duration: float = 600.0,
+    duration: float | None = None,
     history_stride: int | None = 10,
     progress: bool | None = None,
     figures: bool = True,
@@ -989,9 +992,11 @@ def run_campaign_from_config(
         Where the table, statistics, histories, checkpoint and figures go.
     seed : int, optional
         Overrides ``montecarlo.seed`` (None and no table: drawn and recorded).
-    duration : float
-        Simulated time per run [s]; with the planned guidance at least the
-        planned slew plus ``requirements.settling_time_s`` (ValueError otherwise).
+    duration : float, optional
+        Simulated time per run [s], at least to the end of the requirements'
+        hold (ScenarioError otherwise). Default: exactly that
+        (:func:`attitude.app.assembly.judged_duration`: the planned slew, the
+        settling time and the hold, as the design flies it).
     history_stride : int, optional
         Keep time histories every this many ticks (default 10: 1 s at 10 Hz).
     progress : bool, optional

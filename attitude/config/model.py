@@ -834,6 +834,10 @@ class KeepOutConfig:
         return np.arccos(np.clip(b_N @ (d / np.linalg.norm(d)), -1.0, 1.0))
 
 
+#: Shortest hold judged when the file gives no ``requirements.hold_time_s`` [s].
+DEFAULT_HOLD_TIME_MIN_S = 30.0
+
+
 @dataclass(frozen=True)
 class RequirementsConfig:
     """The ``[requirements]`` table.
@@ -850,12 +854,23 @@ class RequirementsConfig:
         The required reorientation (key ``requirements.slew``).
     keep_out : tuple of KeepOutConfig, optional
         Keep-out cones (array of tables [[requirements.keep_out]]) (key ``requirements.keep_out``).
+    hold_time_s : float, optional
+        Time the pointing accuracy is held after the settling time, over which it is judged [s] (key
+        ``requirements.hold_time_s``); None: :attr:`hold_time_judged_s`.
     """
 
     pointing_accuracy_deg: float
     settling_time_s: float
     slew: SlewRequirement
     keep_out: tuple[KeepOutConfig, ...] = ()
+    hold_time_s: float | None = None
+
+    @property
+    def hold_time_judged_s(self) -> float:
+        """The hold the pointing accuracy is judged over [s]: ``hold_time_s``, else max(30 s, settling time)."""
+        if self.hold_time_s is not None:
+            return self.hold_time_s
+        return max(DEFAULT_HOLD_TIME_MIN_S, self.settling_time_s)
 
     @property
     def pointing_accuracy_rad(self) -> float:

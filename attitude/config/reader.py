@@ -1083,7 +1083,10 @@ def _read_requirements(r: _Reader, t: _Table, sun: Vector | None) -> Requirement
     _positive(r, t.key("settling_time_s"), settling, unit="s")
     slew = _read_slew(r, t.table("slew"))
     keep_out = t.get("keep_out", lambda v, k: _read_keep_out(r, v, k, sun), required=False, default=())
-    return RequirementsConfig(accuracy, settling, slew, keep_out)
+    hold = t.number("hold_time_s", required=False)
+    if hold is not None:
+        _positive(r, t.key("hold_time_s"), hold, unit="s")
+    return RequirementsConfig(accuracy, settling, slew, keep_out, hold)
 
 
 def _read_dispersion(r: _Reader, t: _Table, name: str) -> Dispersion | None:

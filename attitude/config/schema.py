@@ -235,6 +235,11 @@ CONFIG_KEYS: dict[str, tuple[str, str]] = {
     "requirements": ("", "what the design must achieve"),
     "requirements.pointing_accuracy_deg": ("deg", "largest attitude error angle after settling"),
     "requirements.settling_time_s": ("s", "time after the end of the slew by which the pointing accuracy is met"),
+    "requirements.hold_time_s": (
+        "s",
+        "time the pointing accuracy is held after the settling time, over which it is judged "
+        "(optional; default max(30 s, settling_time_s))",
+    ),
     "requirements.slew": ("", "the required reorientation"),
     "requirements.slew.angle_deg": ("deg", "slew angle about axis_B (with axis_B; or give target_q_BN)"),
     "requirements.slew.axis_B": ("", "slew axis in body axes (normalised)"),

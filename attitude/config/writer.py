@@ -187,6 +187,7 @@ def config_to_toml(config: SpacecraftConfig) -> str:
     w.table("requirements")
     w.key("requirements", "pointing_accuracy_deg", rc.pointing_accuracy_deg)
     w.key("requirements", "settling_time_s", rc.settling_time_s)
+    w.key("requirements", "hold_time_s", rc.hold_time_s)
     w.table("requirements.slew")
     for name in ("angle_deg", "axis_B", "target_q_BN", "start_q_BN", "time_max_s", "rate_max_deg_per_s"):
         w.key("requirements.slew", name, getattr(rc.slew, name))

@@ -36,7 +36,7 @@ def test_a_campaign_records_its_provenance(tmp_path):
     from attitude.app.cli import main
     from attitude.config import DEFAULT_CONFIG_FILE, default_config_text
 
-    argv = ["montecarlo", "--runs", "2", "--duration-s", "100", "--nodes", "30", "--vectorized", "--workers", "1"]
+    argv = ["montecarlo", "--runs", "2", "--nodes", "30", "--vectorized", "--workers", "1"]
     main([*argv, "--out", str(tmp_path / "mc")])
     p = json.loads((tmp_path / "mc" / "campaign.json").read_text())["info"]["provenance"]
     assert p["input"]["source"].endswith(DEFAULT_CONFIG_FILE)

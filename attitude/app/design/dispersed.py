@@ -8,13 +8,15 @@ Clopper-Pearson bound on the probability of success
 (:func:`attitude.montecarlo.statistics.success_lower_bound`).
 
 The campaign is ``attitude montecarlo FILE --runs N --vectorized`` with the
-duration and planner nodes the row names: the same scenario (the planned
-slew, tracked, with wheels, gyro, star tracker and MEKF), the file's
-dispersions and seed (``montecarlo.seed``), the same requirements
-(:func:`attitude.app.scenarios.requirements_from_config`), run in this
-process. Each run lasts the planned slew, the required settling time and
-:data:`HOLD_S` of hold (the vectorised loop's cost is per tick, not per
-run). Each failing run is listed with the requirements it missed, so the
+planner nodes the row names: the same scenario (the planned slew, tracked,
+with wheels, gyro, star tracker and MEKF), the file's dispersions and seed
+(``montecarlo.seed``), the same requirements as the design's table, on the
+same windows (:func:`attitude.app.assembly.monte_carlo_requirements`,
+:mod:`attitude.simulation.slew_windows`), run in this process. Each run
+lasts the planned slew, the required settling time and the hold
+(:func:`attitude.app.assembly.judged_duration`, the campaign's default and
+the design's flight; the vectorised loop's cost is per tick, not per run).
+Each failing run is listed with the requirements it missed, so the
 failure explains itself, and the command reruns the campaign to look at it.
 """
 
@@ -24,18 +26,17 @@ from typing import Any
 
 import numpy as np
 
+from attitude.app import assembly
 from attitude.app.scenarios import ScenarioError, run_campaign_from_config
 from attitude.config import SpacecraftConfig
 from attitude.montecarlo.statistics import success_lower_bound
 from attitude.plain import plain_float as _f
 from controllers.slew.problem import SlewPlanningError
 
-__all__ = ["CONFIDENCE", "FAILING_RUNS_LISTED", "HOLD_S", "dispersed_check"]
+__all__ = ["CONFIDENCE", "FAILING_RUNS_LISTED", "dispersed_check"]
 
 #: Confidence of the success bound.
 CONFIDENCE = 0.95
-#: Hold after the slew and the settling time [s]: the final pointing error is judged at its end.
-HOLD_S = 60.0
 #: Failing runs listed by number in the results and the report.
 FAILING_RUNS_LISTED = 5
 
@@ -66,18 +67,17 @@ def dispersed_check(config: SpacecraftConfig, runs: int, slew_s: float | None, n
     mc = config.montecarlo
     if mc is None:
         return None
-    duration = round((slew_s or 0.0) + config.requirements.settling_time_s + HOLD_S)
-    command = (
-        f"attitude montecarlo {config.source or 'FILE'} --runs {runs} --vectorized --duration-s {duration:g} "
-        f"--nodes {nodes}"
-    )
+    # The campaign's own default (None below): to the end of the hold of the slew it plans, which is the
+    # design's plan (same file, same nodes); here for the report.
+    duration = assembly.judged_duration(config, slew_s)
+    command = f"attitude montecarlo {config.source or 'FILE'} --runs {runs} --vectorized --nodes {nodes}"
     try:
         result = run_campaign_from_config(
             config,
             runs=runs,
             workers=1,
             out_dir=None,
-            duration=float(duration),
+            duration=None,
             nodes=nodes,
             progress=False,
             figures=False,

@@ -57,6 +57,7 @@ from attitude.app.design.orbit import (
     momentum_figures,
     nadir_hold,
 )
+from attitude.app.design.reasons import failure_reason
 from attitude.app.design.slew import check_periods, fly_slew, plan_slews, slew_figures
 from attitude.config import SpacecraftConfig
 from attitude.results import provenance
@@ -293,13 +294,13 @@ def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> d
         slews["angle_deg"],
         flight,
         "flown",
-        "flown: error within the pointing accuracy from then on",
+        "flown, error to the target",
         None if flight is None else flight["flown_slew_time_s"],
     )
     rows.append(
         _row(
             "settling_time",
-            "settling time after the end of the slew (flown)",
+            "settling time after the end of the planned slew (flown, error to the target)",
             "requirements.settling_time_s",
             req.settling_time_s,
             None if flight is None else flight["settling_time_after_slew_s"],
@@ -310,7 +311,7 @@ def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> d
     rows.append(
         _row(
             "pointing_accuracy",
-            "largest pointing error after settling (flown)",
+            "largest error to the target over the hold (flown)",
             "requirements.pointing_accuracy_deg",
             req.pointing_accuracy_deg,
             None if flight is None else flight["pointing_error_max_in_window_deg"],
@@ -402,11 +403,10 @@ def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> d
             )
     dispersed = results.get("dispersed")
     if dispersed is not None:
-        what = dispersed.get("statement") or f"not flown: {dispersed.get('error')}"
         rows.append(
             _row(
                 "dispersed",
-                f"dispersed check: runs of the [montecarlo] dispersions failing a campaign requirement ({what})",
+                f"dispersed check: runs failing a requirement ({dispersed.get('runs')} runs of [montecarlo])",
                 "montecarlo",
                 0,
                 dispersed.get("failures"),
@@ -441,6 +441,8 @@ def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> d
                 ">=",
             )
         )
+    for row in (*rows, *checks):
+        row["reason"] = failure_reason(row, results)
     failed = [r["id"] for r in rows if not r["pass"]]
     return {"requirements": rows, "checks": checks, "verdict": {"pass": not failed, "failed": failed}}
 
@@ -472,6 +474,8 @@ def plan_verdicts(config: SpacecraftConfig, slews: dict[str, Any]) -> dict[str, 
     plan = slews["plan"]
     duration = None if plan is None else plan["duration_s"]
     rows = _slew_rows(config, slews["angle_deg"], plan, "plan", "optimal plan", duration)
+    for row in rows:
+        row["reason"] = failure_reason(row, {"slews": slews, "closed_loop": None})
     failed = [r["id"] for r in rows if not r["pass"]]
     return {"requirements": rows, "verdict": {"pass": not failed, "failed": failed}}
 

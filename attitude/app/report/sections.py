@@ -428,10 +428,10 @@ def _slews(results: dict[str, Any]) -> list[Block]:
 
 def _settling_text(f: dict[str, Any]) -> str:
     text = fmt(f["settling_time_after_slew_s"])
-    if math.isinf(float(f["settled_at_s"])):
+    if math.isinf(float(f["flown_slew_time_s"])):
         text += " (never stays within the accuracy)"
-    elif float(f["settled_at_s"]) <= f["slew_end_s"]:
-        text += f" (within the accuracy from {fmt(f['settled_at_s'])} s, before the slew ended)"
+    elif float(f["flown_slew_time_s"]) <= f["slew_end_s"]:
+        text += f" (the error to the target is within the accuracy from {fmt(f['flown_slew_time_s'])} s on)"
     return text
 
 
@@ -448,8 +448,8 @@ def _closed_loop(results: dict[str, Any]) -> list[Block]:
             f"loop from an initial knowledge error of {fmt(f.get('drawn_initial_knowledge_error_arcsec'))} arcsec "
             "(drawn from the filter's initial covariance; "
             f"{fmt(f['initial_knowledge_error_arcsec'])} arcsec after the first star-tracker update). The slew "
-            f"ends at {fmt(f['slew_end_s'])} s; pointing is judged from {fmt(f['pointing_window_start_s'])} s "
-            "(end of slew plus the required settling time) to the end of the run. "
+            f"ends at {fmt(f['slew_end_s'])} s. {f.get('judged_how', '')} The Monte Carlo campaigns and the "
+            "dispersed check judge their runs the same way. "
             + (
                 "Flown in empty inertial space (no [orbit] in the file)."
                 if not f.get("environment")
@@ -464,10 +464,17 @@ def _closed_loop(results: dict[str, Any]) -> list[Block]:
     ]
     rows = [
         ["slew time, planned [s]", fmt(f.get("plan_slew_time_s"))],
-        ["slew time, flown (error within the pointing accuracy from then on) [s]", fmt(f.get("flown_slew_time_s"))],
-        ["settling time after the end of the slew [s]", _settling_text(f)],
-        ["largest pointing error after the end of the slew [deg]", fmt(f.get("pointing_error_max_after_slew_deg"))],
-        ["largest pointing error after settling [deg]", fmt(f["pointing_error_max_in_window_deg"])],
+        [
+            "slew time, flown (error to the target within the accuracy from then on, to the hold) [s]",
+            fmt(f.get("flown_slew_time_s")),
+        ],
+        ["settling time after the end of the slew (error to the target) [s]", _settling_text(f)],
+        [
+            "largest error to the target after the end of the slew [deg]",
+            fmt(f.get("pointing_error_max_after_slew_deg")),
+        ],
+        ["largest error to the target over the hold [deg]", fmt(f["pointing_error_max_in_window_deg"])],
+        ["largest error to the moving reference over the hold [deg]", fmt(f.get("tracking_error_max_in_window_deg"))],
         ["pointing error at the end [deg]", fmt(f["pointing_error_end_deg"])],
         ["pointing error at the end [arcsec]", fmt(f["pointing_error_end_arcsec"])],
         ["knowledge error after settling, RMS [arcsec]", fmt(f["knowledge_error_rms_in_window_arcsec"])],
@@ -872,8 +879,8 @@ def _dispersed(d: dict[str, Any] | None) -> list[Block]:
         return [Paragraph(f"The dispersed check could not be flown, so it fails: {d['error']}")]
     text = (
         f"Dispersed check: {d['runs']} runs of the file's [montecarlo] dispersions (seed {d['seed']}), each flying "
-        f"the planned slew in closed loop for {fmt(d['duration_s'])} s (the slew, the settling time and a minute "
-        "of hold) and judged by the campaign's requirements ("
+        f"the planned slew in closed loop for {fmt(d['duration_s'])} s (the slew, the settling time and the hold) "
+        "and judged by the same requirements, definitions and windows as the table above ("
         + ", ".join(f"{name}: {v['passed']}/{d['runs']} passed" for name, v in d["requirements"].items())
         + f"). {d['statement']}. A failing run fails the design. The same runs: `{d['command']}`."
     )
@@ -884,6 +891,12 @@ def _dispersed(d: dict[str, Any] | None) -> list[Block]:
         )
         text += f" First failing runs: {listed}."
     return [Paragraph(text)]
+
+
+def _reasons(rows: list[dict[str, Any]]) -> list[Block]:
+    """One line per failing row saying why (:func:`attitude.app.design.reasons.failure_reason`)."""
+    lines = [f"{r['id']}: {r['reason']}" for r in rows if not r["pass"] and r.get("reason")]
+    return [Paragraph("Why each failing requirement fails: " + " | ".join(lines) + ".")] if lines else []
 
 
 def _requirements(results: dict[str, Any]) -> list[Block]:
@@ -898,17 +911,20 @@ def _requirements(results: dict[str, Any]) -> list[Block]:
     return [
         Paragraph(
             "Each requirement of the spacecraft file against the achieved figure of the sections above (the same "
-            "numbers, from results.json). 'Flown' figures come from the closed-loop run of section 4; the pointing "
-            "error is the largest from the end of the slew plus the required settling time to the end of the run. "
+            "numbers, from results.json). 'Flown' figures come from the closed-loop run of section 4. "
+            + ((results.get("closed_loop") or {}).get("judged_how") or "")
+            + " "
             + summary
         ),
         _t(header, requirement_rows(results["requirements"]), "Requirements (they decide the exit code)"),
+        *_reasons(results["requirements"]),
         *_dispersed(results.get("dispersed")),
         Paragraph(
             "Advisory design checks: classical guidelines and consistency checks that are not requirements of "
             "the file and do not change the verdict."
         ),
         _t(header, requirement_rows(results["checks"]), "Advisory checks"),
+        *_reasons(results["checks"]),
     ]
 
 

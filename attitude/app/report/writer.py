@@ -114,6 +114,9 @@ def requirements_text(results: Mapping[str, Any]) -> str:
         )
         if i == 0:
             lines.append("  " + "  ".join("-" * w for w in widths))
+    dispersed = results.get("dispersed")
+    if dispersed is not None:
+        lines.append(f"Dispersed check: {dispersed.get('statement') or 'not flown: ' + str(dispersed.get('error'))}")
     verdict = results["verdict"]
     n = len(results["requirements"])
     if verdict["pass"]:
@@ -122,6 +125,10 @@ def requirements_text(results: Mapping[str, Any]) -> str:
         lines.append(
             f"Verdict: FAIL ({len(verdict['failed'])} of {n} requirements not met: {', '.join(verdict['failed'])})"
         )
+        # One line per failing requirement with its reason (issue 12: failures explain themselves).
+        for r in results["requirements"]:
+            if not r["pass"]:
+                lines.append(f"  FAIL {r['id']}: {r.get('reason') or 'no reason recorded'}")
     return "\n".join(lines)
 
 

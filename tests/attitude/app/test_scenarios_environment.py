@@ -37,7 +37,7 @@ BASE = default_config()
 # A short settling requirement so a planned run is short (the planned slew takes 39 s).
 CONFIG = dataclasses.replace(
     BASE,
-    requirements=dataclasses.replace(BASE.requirements, settling_time_s=5.0),
+    requirements=dataclasses.replace(BASE.requirements, settling_time_s=5.0, hold_time_s=1.0),
     montecarlo=dataclasses.replace(
         BASE.montecarlo,
         drag_scale=DispersionConfig("normal", 20.0, "percent"),

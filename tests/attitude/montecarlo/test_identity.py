@@ -165,7 +165,12 @@ from attitude.montecarlo.campaign import Campaign
 from attitude.montecarlo.dispersions import Normal
 import user_campaign
 
+import dataclasses
 config = default_config()
+req = config.requirements
+# Requirements a 10 s run can judge: a 5 s allowed slew, 2 s of settling, a 3 s hold.
+config = dataclasses.replace(config, requirements=dataclasses.replace(
+    req, slew=dataclasses.replace(req.slew, time_max_s=5.0), settling_time_s=2.0, hold_time_s=3.0))
 X = {"x": Normal(0.0, 1.0)}
 scenarios = {
     "pd": PDWheelsScenario.from_config(config, duration=10.0),
