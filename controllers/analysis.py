@@ -77,6 +77,7 @@ __all__ = [
     "Margins",
     "SampleTimeStudy",
     "attitude_closed_loop",
+    "closed_loop_poles",
     "controller_period",
     "delayed_loop",
     "loop_gain",
@@ -236,6 +237,46 @@ def controller_period(controller: Any) -> float | None:
     return None if period is None else float(check_positive(period, "controller.period"))
 
 
+def _open_loop(
+    plant: Any, controller: Any, sampled: bool | None, computation_delay: float
+) -> tuple[control.StateSpace, bool]:
+    """``G = G_c P`` from the plant input to the controller output, sampled or continuous (see :func:`loop_gain`)."""
+    P = rigid_body_at_rest(plant) if isinstance(plant, RigidBody) else plant
+    if not isinstance(P, (control.StateSpace, control.TransferFunction)):
+        raise ValueError(f"plant must be a RigidBody or a control StateSpace/TransferFunction, got {plant!r}")
+    if _is_discrete(P):
+        raise ValueError(f"plant must be continuous (loop_gain samples it for a sampled controller), got dt = {P.dt}")
+    P = control.ss(P)
+    Gc = _controller_system(controller)
+    if Gc.ninputs != P.noutputs or Gc.noutputs != P.ninputs:
+        raise ValueError(
+            f"controller must map the plant's {P.noutputs} outputs to its {P.ninputs} inputs, "
+            f"got {Gc.ninputs} inputs and {Gc.noutputs} outputs"
+        )
+    if sampled is not None and not isinstance(sampled, bool):
+        raise ValueError(f"sampled must be True, False or None, got {sampled!r}")
+    delay = float(check_positive(computation_delay, "computation_delay", allow_zero=True))
+    period = controller_period(controller)
+    if sampled is None:
+        sampled = period is not None
+    if sampled:
+        if period is None:
+            raise ValueError(
+                f"sampled=True needs a controller with a period (its sample time in s), got {type(controller).__name__}"
+            )
+        P = sampled_loop(P, period=period, computation_delay=delay)
+        # A gain with a period is static; a dynamic controller with a period is discrete at it.
+        Gc = control.ss(Gc.A, Gc.B, Gc.C, Gc.D, period)
+    elif delay:
+        raise ValueError(
+            f"computation_delay = {delay!r} s needs the sampled loop (a controller with a period and sampled=None "
+            "or True); a delay on the continuous loop is delayed_loop"
+        )
+    elif _is_discrete(Gc):
+        raise ValueError(f"sampled=False needs a continuous controller, got a discrete one (dt = {Gc.dt} s)")
+    return control.series(P, Gc), sampled  # G_c P: plant input to controller output
+
+
 def loop_gain(
     plant: Any,
     controller: Any,
@@ -317,41 +358,8 @@ def loop_gain(
     s^2`` per axis, and the default gives its zero-order-hold equivalent at
     ``T``.
     """
-    P = rigid_body_at_rest(plant) if isinstance(plant, RigidBody) else plant
-    if not isinstance(P, (control.StateSpace, control.TransferFunction)):
-        raise ValueError(f"plant must be a RigidBody or a control StateSpace/TransferFunction, got {plant!r}")
-    if _is_discrete(P):
-        raise ValueError(f"plant must be continuous (loop_gain samples it for a sampled controller), got dt = {P.dt}")
-    P = control.ss(P)
-    Gc = _controller_system(controller)
-    if Gc.ninputs != P.noutputs or Gc.noutputs != P.ninputs:
-        raise ValueError(
-            f"controller must map the plant's {P.noutputs} outputs to its {P.ninputs} inputs, "
-            f"got {Gc.ninputs} inputs and {Gc.noutputs} outputs"
-        )
-    if sampled is not None and not isinstance(sampled, bool):
-        raise ValueError(f"sampled must be True, False or None, got {sampled!r}")
-    delay = float(check_positive(computation_delay, "computation_delay", allow_zero=True))
-    period = controller_period(controller)
-    if sampled is None:
-        sampled = period is not None
-    if sampled:
-        if period is None:
-            raise ValueError(
-                f"sampled=True needs a controller with a period (its sample time in s), got {type(controller).__name__}"
-            )
-        P = sampled_loop(P, period=period, computation_delay=delay)
-        # A gain with a period is static; a dynamic controller with a period is discrete at it.
-        Gc = control.ss(Gc.A, Gc.B, Gc.C, Gc.D, period)
-    elif delay:
-        raise ValueError(
-            f"computation_delay = {delay!r} s needs the sampled loop (a controller with a period and sampled=None "
-            "or True); a delay on the continuous loop is delayed_loop"
-        )
-    elif _is_discrete(Gc):
-        raise ValueError(f"sampled=False needs a continuous controller, got a discrete one (dt = {Gc.dt} s)")
-    G = control.series(P, Gc)  # G_c P: plant input to controller output
-    m = P.ninputs
+    G, sampled = _open_loop(plant, controller, sampled, computation_delay)
+    m = G.ninputs
     loops: list[control.TransferFunction | control.StateSpace] = []
     for i in range(m):
         if m == 1:
@@ -370,6 +378,42 @@ def loop_gain(
             tf = _snap_origin(control.minreal(tf, verbose=False))
         loops.append(tf)
     return loops
+
+
+def closed_loop_poles(
+    plant: Any, controller: Any, *, sampled: bool | None = None, computation_delay: float = 0.0
+) -> NDArray[np.complex128]:
+    """Poles of the loop closed on every channel: the s-plane, or the z-plane for the sampled loop.
+
+    The eigenvalues of ``(I + G)^-1`` with ``G = G_c P`` as in
+    :func:`loop_gain` (the same plant, controller and sampling rules): the
+    sampled loop is stable when every pole has ``|z| < 1``.
+
+    Parameters
+    ----------
+    plant : RigidBody or control LTI
+        As for :func:`loop_gain`.
+    controller : object with ``K`` (and ``C``), array_like (m, p), or control LTI
+        As for :func:`loop_gain`.
+    sampled : bool, optional
+        As for :func:`loop_gain` (None: sampled when the controller has a period).
+    computation_delay : float
+        Delay [s] from sampling to applying the command, sampled loop only (>= 0).
+
+    Returns
+    -------
+    ndarray of complex
+        The poles, sorted by magnitude: ``s`` [1/s] for the continuous loop,
+        ``z`` [-] for the sampled one (the computation delay's buffer states
+        included).
+    """
+    G, _ = _open_loop(plant, controller, sampled, computation_delay)
+    A, B, C, D = (np.asarray(x, dtype=float) for x in (G.A, G.B, G.C, G.D))
+    m = B.shape[1]
+    if A.shape[0] == 0:
+        return np.zeros(0, dtype=complex)
+    poles = np.linalg.eigvals(A - B @ np.linalg.solve(np.eye(m) + D, C)).astype(complex)
+    return poles[np.argsort(np.abs(poles), kind="stable")]
 
 
 def attitude_closed_loop(body: RigidBody, controller: Any) -> control.StateSpace:
