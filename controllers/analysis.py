@@ -58,7 +58,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import control
@@ -461,8 +461,13 @@ def attitude_closed_loop(body: RigidBody, controller: Any) -> control.StateSpace
 
 
 @dataclass(frozen=True, eq=False)
-class Margins:
+class Margins(ResultIO):
     """Stability margins of a SISO loop ``L`` (negative unity feedback).
+
+    The toolkit's result protocol: :meth:`summary` (one line),
+    :meth:`plot` (the Bode figure of the loop with these margins marked),
+    ``save(path)`` / ``load(path)`` (``.npz``, the loop kept as its
+    state-space matrices).
 
     Attributes
     ----------
@@ -495,6 +500,9 @@ class Margins:
         the gains at which stability would be *gained*.
     dt : float or None
         Sample time of a discrete loop [s] (None: continuous).
+    loop : dict of ndarray
+        The analysed loop as state-space matrices ``A``, ``B``, ``C``, ``D``
+        (with ``dt``, :attr:`system`); empty when not kept.
     """
 
     gain_margin: float
@@ -507,6 +515,29 @@ class Margins:
     phase_crossovers: NDArray[np.float64]
     stable: bool
     dt: float | None = None
+    loop: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def system(self) -> control.StateSpace:
+        """The analysed loop (continuous, or discrete at :attr:`dt`)."""
+        if not self.loop:
+            raise ValueError("Margins made without their loop (loop = {}) have no system to show")
+        return control.ss(*(np.asarray(self.loop[k], dtype=float) for k in "ABCD"), self.dt or 0)
+
+    def plot(self, label: str | None = None) -> Figure:
+        """Bode plot of the loop with its margins marked (:func:`plot_bode`).
+
+        Parameters
+        ----------
+        label : str, optional
+            Title of the panel (default: the loop's kind, sampled or continuous).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        title = label if label is not None else self.summary().split(":")[0]
+        return plot_bode(self.system, labels=[title])
 
     @property
     def gain_margin_db(self) -> float:
@@ -623,7 +654,14 @@ def _assemble(
         phase_crossovers=w_phase,
         stable=stable,
         dt=dt,
+        loop=_matrices(loop),
     )
+
+
+def _matrices(loop: Any) -> dict[str, NDArray[np.float64]]:
+    """The state-space matrices of a SISO loop, to keep with its margins."""
+    ss = control.ss(loop)
+    return {k: np.array(getattr(ss, k), dtype=float) for k in "ABCD"}
 
 
 def _sign_change(f: Any, w: float) -> bool:

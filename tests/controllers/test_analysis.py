@@ -498,6 +498,31 @@ class TestFigures:
         fig = sample_time_study(pd_double_integrator(), periods=[0.1, 0.5, 1.0]).plot()
         assert isinstance(fig, Figure) and len(fig.axes) == 2
 
+    def test_margins_have_the_result_protocol(self, tmp_path):
+        # save/load keeps every field (and the loop, as state-space matrices) bit for bit; plot()
+        # is the Bode figure of that loop with the same margins marked.
+        pd = QuaternionPD.from_bandwidth(FULL, wn=WN, zeta=ZETA, period=0.5)
+        for loop in (loop_gain(FULL, pd)[1], pd_double_integrator()):
+            m = margins(loop)
+            back = Margins.load(m.save(tmp_path / "margins"))
+            for name in ("gain_margin", "gain_margin_lower", "phase_margin_deg", "delay_margin_s", "stable", "dt"):
+                assert getattr(back, name) == getattr(m, name), name
+            for name in ("gain_crossover", "phase_crossover"):
+                assert math.isnan(getattr(m, name)) or getattr(back, name) == getattr(m, name), name
+            np.testing.assert_array_equal(back.gain_crossovers, m.gain_crossovers)
+            assert back.summary() == m.summary()
+            w = np.array([0.05, 0.3, 1.5])
+            x = np.exp(1j * w * m.dt) if m.dt else 1j * w
+            np.testing.assert_allclose([complex(back.system(v)) for v in x], [complex(loop(v)) for v in x], rtol=1e-9)
+            fig = back.plot(label="PD, y axis")
+            assert isinstance(fig, Figure) and len(fig.axes) == 2
+            assert fig.axes[0].get_title() == "PD, y axis"
+            texts = "\n".join(t.get_text() for ax in fig.axes for t in ax.texts)
+            assert f"PM = {m.phase_margin_deg:.1f} deg" in texts
+        kept_out = Margins(**{**{f: getattr(m, f) for f in m.__dataclass_fields__}, "loop": {}})
+        with pytest.raises(ValueError, match="Margins made without their loop"):
+            kept_out.plot()
+
     def test_bad_figure_input_is_rejected(self):
         with pytest.raises(ValueError, match="labels must have one entry per system"):
             plot_bode([pd_double_integrator()], labels=["a", "b"])
