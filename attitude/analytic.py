@@ -5,6 +5,12 @@ dynamics in :mod:`attitude.rigid_body` (Euler's equations with zero torque):
 
 * :func:`torque_free_motion` -- the body rates of any rigid body, from Jacobi
   elliptic functions (Jacobi 1849; Landau & Lifshitz, *Mechanics*, section 37).
+  Rates only, no attitude: with the angular momentum fixed in space, two
+  Euler angles follow from the rates algebraically, but the third needs an
+  elliptic integral of the third kind (Landau & Lifshitz, section 37), which
+  is not implemented. For the attitude of a triaxial body integrate with
+  :func:`attitude.propagate.propagate` (whose rates this closed form
+  checks); an axisymmetric body has both in closed form (next item).
 * :func:`axisymmetric_precession` -- rates *and* attitude quaternion of an
   axisymmetric body (free precession), with the Earth's Euler (Chandler)
   period as a named example (:func:`earth_euler_period`).
@@ -23,8 +29,7 @@ its signs, why the elliptic functions are evaluated here, the separatrix).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
-from os import PathLike
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -32,6 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.special import ellipkm1, elliprf
 
 from attitude import quaternion as quat
+from attitude.results import ResultIO
 from attitude.rigid_body import RigidBody
 from attitude.validation import as_float_array, check_vector, describe
 
@@ -288,11 +294,14 @@ def _argument_of(sn0: float, cn0: float, mc: float, quarter: float) -> float:
 
 
 @dataclass(frozen=True, eq=False)
-class TorqueFreeMotion:
+class TorqueFreeMotion(ResultIO):
     """Exact torque-free body rates of one rigid body from one initial rate.
 
     Create it with :func:`torque_free_motion`; evaluate it with
-    :meth:`omega`.
+    :meth:`omega`. The closed form gives the body rates only, not the
+    attitude (module docstring). The toolkit's result protocol:
+    :meth:`summary`, :meth:`plot` (the rates over two periods),
+    ``save(path)`` / ``load(path)`` (``.npz``).
 
     Attributes
     ----------
@@ -357,6 +366,76 @@ class TorqueFreeMotion:
     def flip_period(self) -> float:
         """Time between successive sign reversals of the middle-axis rate ``2 K / lam`` [s]."""
         return math.inf if self.regime in _CONSTANT_REGIMES else 2.0 * self.K / self.lam
+
+    def check_loaded(self, path: str) -> None:
+        """Refuse a loaded file with an unknown regime or symmetry.
+
+        Parameters
+        ----------
+        path : str
+            The file read, named in the error.
+        """
+        if self.regime not in ("major", "minor", *_CONSTANT_REGIMES):
+            raise ValueError(f"{path}: regime must be major, minor or one of {_CONSTANT_REGIMES}, got {self.regime!r}")
+        if self.symmetry not in ("asymmetric", "oblate", "prolate", "sphere"):
+            raise ValueError(f"{path}: symmetry must be asymmetric, oblate, prolate or sphere, got {self.symmetry!r}")
+
+    def summary(self) -> str:
+        """One line: the regime, the invariants and the periods (rates only: no attitude)."""
+        text = (
+            f"torque-free rates, {self.regime} regime ({self.symmetry} body, principal moments "
+            f"{', '.join(f'{i:.4g}' for i in self.moments)} kg m^2): |H| = {self.H:.4g} N m s, T = {self.T:.4g} J"
+        )
+        if self.regime in _CONSTANT_REGIMES:
+            return text + ", constant rates"
+        text += f", rate period {self.period:.4g} s"
+        if self.symmetry == "asymmetric":
+            text += f", middle-axis flip every {self.flip_period:.4g} s"
+        return text
+
+    def plot(self, t: ArrayLike | None = None) -> Any:
+        """Body rates in body and principal axes against time; returns the matplotlib Figure.
+
+        Parameters
+        ----------
+        t : array_like, optional
+            Times [s] (default: two periods of the rates; ten seconds for
+            constant rates).
+        """
+        from matplotlib.figure import Figure
+
+        if t is None:
+            span = 2.0 * self.period if math.isfinite(self.period) else 10.0
+            t = np.linspace(0.0, span, 801)
+        t = _times(t)
+        fig = Figure(figsize=(9, 6), layout="constrained")
+        ax_b, ax_p = fig.subplots(2, 1, sharex=True)
+        for i, name in enumerate("xyz"):
+            ax_b.plot(t, self.omega(t)[:, i], label=f"omega_{name}")
+        principal = self.omega_principal(t)
+        # The dn component keeps its sign s (w1 in the minor regime, w3 in the major one);
+        # the sn and cn components swing between -amplitude and +amplitude.
+        kept = {"minor": 0, "major": 2}.get(self.regime)
+        for i in range(3):
+            line = ax_p.plot(t, principal[:, i], label=f"omega_{i + 1} (I{i + 1} = {self.moments[i]:.4g} kg m^2)")[0]
+            if kept is not None:
+                for sign in (self.sign,) if i == kept else (-1.0, 1.0):
+                    ax_p.axhline(sign * self.amplitudes[i], color=line.get_color(), ls=":", lw=0.8)
+        ax_b.set_ylabel("body axes [rad/s]")
+        ax_p.set_ylabel("principal axes [rad/s]")
+        ax_p.set_xlabel("time [s]")
+        for ax in (ax_b, ax_p):
+            ax.legend(loc="center left", bbox_to_anchor=(1.0, 0.5), fontsize=8)
+            ax.grid(True, alpha=0.3)
+        if kept is None:
+            title = f"Torque-free body rates (closed form): {self.regime}, constant"
+        else:
+            title = (
+                f"Torque-free body rates (closed form): {self.regime}-axis regime, {self.symmetry} body, "
+                f"period {self.period:.4g} s; dotted: amplitudes"
+            )
+        fig.suptitle(title, fontsize=10)
+        return fig
 
     def omega_principal(self, t: ArrayLike) -> NDArray[np.float64]:
         """Body rates in principal components [rad/s], shape ``(len(t), 3)``.
@@ -623,8 +702,10 @@ def flip_period(
 
 
 @dataclass(frozen=True, eq=False)
-class AxisymmetricPrecession:
+class AxisymmetricPrecession(ResultIO):
     """Exact free precession of an axisymmetric body (see :func:`axisymmetric_precession`).
+
+    Rates and attitude. :meth:`plot`, ``save(path)`` / ``load(path)`` (``.npz``).
 
     Attributes
     ----------
@@ -664,32 +745,6 @@ class AxisymmetricPrecession:
     angular_momentum_N: NDArray[np.float64]
     symmetry_moment: float
     transverse_moment: float
-
-    def save(self, path: str | PathLike[str]) -> None:
-        """Write every field to a ``.npz`` file at ``path``.
-
-        Parameters
-        ----------
-        path : str or os.PathLike
-            Destination ``.npz`` file.
-        """
-        np.savez(path, **{f.name: np.asarray(getattr(self, f.name)) for f in fields(self)})
-
-    @classmethod
-    def load(cls, path: str | PathLike[str]) -> AxisymmetricPrecession:
-        """Read a result written by :meth:`save`.
-
-        Parameters
-        ----------
-        path : str or os.PathLike
-            The ``.npz`` file written by :meth:`save`.
-        """
-        with np.load(path) as data:
-            values = {}
-            for f in fields(cls):
-                arr = data[f.name]
-                values[f.name] = float(arr) if arr.ndim == 0 else arr.copy()
-        return cls(**values)
 
     def plot(self) -> Any:
         """Body rates and attitude quaternion against time; returns the matplotlib Figure."""

@@ -13,6 +13,7 @@ from controllers.analysis import (
     sample_time_study,
     sampled_loop,
 )
+from controllers.diagnostics import Finding, mismatch_findings
 from controllers.guidance import (
     GroundTarget,
     GroundTargetReference,
@@ -37,6 +38,7 @@ __all__ = [
     "BDotController",
     "CrossProductUnloading",
     "EigenaxisSlew",
+    "Finding",
     "GroundTarget",
     "GroundTargetReference",
     "GuidanceController",
@@ -67,6 +69,7 @@ __all__ = [
     "eigenaxis_slew",
     "loop_gain",
     "margins",
+    "mismatch_findings",
     "plan_slew",
     "plot_bode",
     "plot_step",

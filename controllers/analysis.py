@@ -4,8 +4,10 @@ The linearised rigid body at rest is a double integrator per axis,
 ``J theta'' = tau``, and the quaternion feedback sees ``q_e,v ≈ theta / 2``
 (half the angle). :func:`loop_gain` breaks the loop at the plant input, one
 channel at a time with the other channels closed (the classical
-loop-at-a-time margins of a MIMO loop), and returns one SISO transfer
-function per channel.
+loop-at-a-time margins of a MIMO loop), and returns one SISO loop per
+channel: for a controller that samples (it has a ``period``) the sampled
+loop that flies, with the zero-order hold of :func:`sampled_loop` on every
+channel; the continuous loop only when asked for (``sampled=False``).
 
 Margins
 -------
@@ -56,7 +58,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import control
@@ -75,6 +77,8 @@ __all__ = [
     "Margins",
     "SampleTimeStudy",
     "attitude_closed_loop",
+    "closed_loop_poles",
+    "controller_period",
     "delayed_loop",
     "loop_gain",
     "margins",
@@ -164,6 +168,8 @@ def _controller_system(controller: Any) -> control.StateSpace:
     if hasattr(controller, "K") and hasattr(controller, "C"):
         gain = np.hstack([np.asarray(controller.K, dtype=float), np.asarray(controller.C, dtype=float)])
         return control.ss([], [], [], gain)
+    if hasattr(controller, "K"):  # state feedback: an LQRDesign or LQRController
+        return control.ss([], [], [], np.atleast_2d(as_float_array(controller.K, "controller.K")))
     if isinstance(controller, (control.StateSpace, control.TransferFunction)):
         return control.ss(controller)
     gain = np.atleast_2d(as_float_array(controller, "controller"))
@@ -209,44 +215,37 @@ def _snap_origin(sys: control.TransferFunction) -> control.TransferFunction:
     return _clean_tf(control.tf(np.real(num), np.real(den), sys.dt))
 
 
-def loop_gain(plant: Any, controller: Any, *, minimal: bool = True) -> list[control.TransferFunction]:
-    """Loop transfer functions broken at the plant input, one per input channel.
-
-    With negative feedback ``u = -G_c y`` and ``G = G_c P`` (input to input),
-    channel ``i`` is broken while the other channels stay closed:
-    ``L_i = [(I + G F_i)^-1 G]_ii`` with ``F_i`` the identity without its
-    ``i``-th one. For one input this is ``G`` itself.
+def controller_period(controller: Any) -> float | None:
+    """Sample time [s] of a controller, or None for a continuous one.
 
     Parameters
     ----------
-    plant : RigidBody or control LTI
-        A :class:`~attitude.rigid_body.RigidBody` (linearised at rest by
-        :func:`rigid_body_at_rest`, outputs ``[q_v, omega]``) or any
-        ``control.StateSpace`` / ``TransferFunction`` (``m`` inputs,
-        ``p`` outputs).
-    controller : object with ``K`` and ``C``, array_like (m, p), or control LTI
-        A PD controller (:class:`~controllers.pd.QuaternionPD`,
-        :class:`~controllers.pd.RateLimitedPD` in its linear region: static
-        gain ``[K, C]`` on ``[q_v, omega]``), a static gain, or a dynamic
-        controller, all mapping plant outputs to the torque with the
-        negative-feedback sign convention.
-    minimal : bool
-        Cancel coinciding poles and zeros (``control.minreal``), leaving the
-        loop the channel really sees.
+    controller : object
+        A controller with a ``period`` attribute (every controller the
+        simulation flies; an :class:`~controllers.lqr.LQRDesign` made at a
+        sample time), a discrete control LTI (its ``dt``), or a gain matrix or
+        continuous LTI (None: nothing says it samples).
 
     Returns
     -------
-    list of control.TransferFunction
-        ``L_i(s)`` for each plant input (body axis for a rigid body).
-
-    Examples
-    --------
-    For a diagonal inertia and ``QuaternionPD.from_bandwidth(body, wn=wn,
-    zeta=zeta, period=T)`` each loop is ``(2 zeta wn s + wn^2) / s^2``.
+    float or None
+        The period [s].
     """
+    if isinstance(controller, (control.StateSpace, control.TransferFunction)):
+        return float(controller.dt) if _is_discrete(controller) else None
+    period = getattr(controller, "period", None)
+    return None if period is None else float(check_positive(period, "controller.period"))
+
+
+def _open_loop(
+    plant: Any, controller: Any, sampled: bool | None, computation_delay: float
+) -> tuple[control.StateSpace, bool]:
+    """``G = G_c P`` from the plant input to the controller output, sampled or continuous (see :func:`loop_gain`)."""
     P = rigid_body_at_rest(plant) if isinstance(plant, RigidBody) else plant
     if not isinstance(P, (control.StateSpace, control.TransferFunction)):
         raise ValueError(f"plant must be a RigidBody or a control StateSpace/TransferFunction, got {plant!r}")
+    if _is_discrete(P):
+        raise ValueError(f"plant must be continuous (loop_gain samples it for a sampled controller), got dt = {P.dt}")
     P = control.ss(P)
     Gc = _controller_system(controller)
     if Gc.ninputs != P.noutputs or Gc.noutputs != P.ninputs:
@@ -254,9 +253,114 @@ def loop_gain(plant: Any, controller: Any, *, minimal: bool = True) -> list[cont
             f"controller must map the plant's {P.noutputs} outputs to its {P.ninputs} inputs, "
             f"got {Gc.ninputs} inputs and {Gc.noutputs} outputs"
         )
-    G = control.series(P, Gc)  # G_c P: plant input to controller output
-    m = P.ninputs
-    loops = []
+    if sampled is not None and not isinstance(sampled, bool):
+        raise ValueError(f"sampled must be True, False or None, got {sampled!r}")
+    delay = float(check_positive(computation_delay, "computation_delay", allow_zero=True))
+    period = controller_period(controller)
+    if sampled is None:
+        sampled = period is not None
+    if sampled:
+        if period is None:
+            raise ValueError(
+                f"sampled=True needs a controller with a period (its sample time in s), got {type(controller).__name__}"
+            )
+        P = sampled_loop(P, period=period, computation_delay=delay)
+        # A gain with a period is static; a dynamic controller with a period is discrete at it.
+        Gc = control.ss(Gc.A, Gc.B, Gc.C, Gc.D, period)
+    elif delay:
+        raise ValueError(
+            f"computation_delay = {delay!r} s needs the sampled loop (a controller with a period and sampled=None "
+            "or True); a delay on the continuous loop is delayed_loop"
+        )
+    elif _is_discrete(Gc):
+        raise ValueError(f"sampled=False needs a continuous controller, got a discrete one (dt = {Gc.dt} s)")
+    return control.series(P, Gc), sampled  # G_c P: plant input to controller output
+
+
+def loop_gain(
+    plant: Any,
+    controller: Any,
+    *,
+    sampled: bool | None = None,
+    computation_delay: float = 0.0,
+    minimal: bool = True,
+) -> list[control.TransferFunction | control.StateSpace]:
+    """Loop transfer functions broken at the plant input, one per input channel.
+
+    With negative feedback ``u = -G_c y`` and ``G = G_c P`` (input to input),
+    channel ``i`` is broken while the other channels stay closed:
+    ``L_i = [(I + G F_i)^-1 G]_ii`` with ``F_i`` the identity without its
+    ``i``-th one. For one input this is ``G`` itself.
+
+    A controller that samples (one with a ``period``, as every controller
+    the simulation flies) gives the **sampled loop**, the one that flies:
+    the plant with a zero-order hold on every input and the computation
+    delay (:func:`sampled_loop`, exact), the gain applied to the samples, the
+    other channels closed through the same hold. ``L_i`` is then a
+    discrete transfer function (``dt`` = the period) and :func:`margins`
+    reads it as such (``Margins.dt``, named by ``Margins.summary``). The
+    continuous loop, which ignores the hold (``omega_c T / 2`` rad less
+    phase margin, and a gain margin at the Nyquist frequency it cannot
+    show), is given only when asked for with ``sampled=False``.
+
+    Parameters
+    ----------
+    plant : RigidBody or control LTI
+        A :class:`~attitude.rigid_body.RigidBody` (linearised at rest by
+        :func:`rigid_body_at_rest`, outputs ``[q_v, omega]``) or any
+        continuous ``control.StateSpace`` / ``TransferFunction`` (``m``
+        inputs, ``p`` outputs).
+    controller : object with ``K`` (and ``C``), array_like (m, p), or control LTI
+        A PD controller (:class:`~controllers.pd.QuaternionPD`,
+        :class:`~controllers.pd.RateLimitedPD` in its linear region: static
+        gain ``[K, C]`` on ``[q_v, omega]``), a state-feedback gain ``K``
+        (:class:`~controllers.lqr.LQRDesign`,
+        :class:`~controllers.lqr.LQRController`: ``K`` on the states of
+        :func:`attitude.linearize.linearize`, which are ``[q_v, omega]``), a
+        static gain, or a dynamic controller (continuous, or discrete at its
+        ``dt``), all mapping plant outputs to the torque with the
+        negative-feedback sign convention.
+    sampled : bool, optional
+        None (default): the sampled loop when the controller has a period
+        (:func:`controller_period`), else the continuous one. False: the
+        continuous loop even for a sampled controller, on purpose. True:
+        the sampled loop (an error when the controller has no period).
+    computation_delay : float
+        Delay [s] from sampling to applying the torque, for the sampled
+        loop (>= 0). The simulation engine applies each command at its
+        sample time, so the loop it flies has none; a flight computer's
+        frame delay is studied with this.
+    minimal : bool
+        Cancel coinciding poles and zeros of the continuous loops
+        (``control.minreal``), leaving the loop the channel really sees.
+
+    Returns
+    -------
+    list of control.TransferFunction or control.StateSpace
+        One SISO loop per plant input (body axis for a rigid body): the
+        continuous ``L_i(s)`` as a transfer function, or the sampled
+        ``L_i(z)`` as a state-space system with ``dt`` the period (not
+        reduced: the polynomials of a fast-sampled loop lose the digits its
+        margins depend on, see the module docstring; its extra modes are the
+        other channels' closed-loop poles, hidden from ``L_i``).
+
+    Raises
+    ------
+    ValueError
+        A plant or controller of the wrong kind or size; ``sampled=True``
+        for a controller without a period; a computation delay for the
+        continuous loop.
+
+    Examples
+    --------
+    For a diagonal inertia and ``QuaternionPD.from_bandwidth(body, wn=wn,
+    zeta=zeta, period=T)``, ``sampled=False`` gives ``(2 zeta wn s + wn^2) /
+    s^2`` per axis, and the default gives its zero-order-hold equivalent at
+    ``T``.
+    """
+    G, sampled = _open_loop(plant, controller, sampled, computation_delay)
+    m = G.ninputs
+    loops: list[control.TransferFunction | control.StateSpace] = []
     for i in range(m):
         if m == 1:
             Li = G
@@ -264,11 +368,52 @@ def loop_gain(plant: Any, controller: Any, *, minimal: bool = True) -> list[cont
             F = np.eye(m)
             F[i, i] = 0.0
             Li = control.feedback(G, F)[i, i]
+        if sampled:
+            # Kept in state space: the polynomials of a loop sampled fast (poles crowded at z = 1)
+            # lose the digits its margins depend on (module docstring).
+            loops.append(Li)
+            continue
         tf = _snap_origin(control.tf(Li))
         if minimal:
             tf = _snap_origin(control.minreal(tf, verbose=False))
         loops.append(tf)
     return loops
+
+
+def closed_loop_poles(
+    plant: Any, controller: Any, *, sampled: bool | None = None, computation_delay: float = 0.0
+) -> NDArray[np.complex128]:
+    """Poles of the loop closed on every channel: the s-plane, or the z-plane for the sampled loop.
+
+    The eigenvalues of ``(I + G)^-1`` with ``G = G_c P`` as in
+    :func:`loop_gain` (the same plant, controller and sampling rules): the
+    sampled loop is stable when every pole has ``|z| < 1``.
+
+    Parameters
+    ----------
+    plant : RigidBody or control LTI
+        As for :func:`loop_gain`.
+    controller : object with ``K`` (and ``C``), array_like (m, p), or control LTI
+        As for :func:`loop_gain`.
+    sampled : bool, optional
+        As for :func:`loop_gain` (None: sampled when the controller has a period).
+    computation_delay : float
+        Delay [s] from sampling to applying the command, sampled loop only (>= 0).
+
+    Returns
+    -------
+    ndarray of complex
+        The poles, sorted by magnitude: ``s`` [1/s] for the continuous loop,
+        ``z`` [-] for the sampled one (the computation delay's buffer states
+        included).
+    """
+    G, _ = _open_loop(plant, controller, sampled, computation_delay)
+    A, B, C, D = (np.asarray(x, dtype=float) for x in (G.A, G.B, G.C, G.D))
+    m = B.shape[1]
+    if A.shape[0] == 0:
+        return np.zeros(0, dtype=complex)
+    poles = np.linalg.eigvals(A - B @ np.linalg.solve(np.eye(m) + D, C)).astype(complex)
+    return poles[np.argsort(np.abs(poles), kind="stable")]
 
 
 def attitude_closed_loop(body: RigidBody, controller: Any) -> control.StateSpace:
@@ -316,8 +461,13 @@ def attitude_closed_loop(body: RigidBody, controller: Any) -> control.StateSpace
 
 
 @dataclass(frozen=True, eq=False)
-class Margins:
+class Margins(ResultIO):
     """Stability margins of a SISO loop ``L`` (negative unity feedback).
+
+    The toolkit's result protocol: :meth:`summary` (one line),
+    :meth:`plot` (the Bode figure of the loop with these margins marked),
+    ``save(path)`` / ``load(path)`` (``.npz``, the loop kept as its
+    state-space matrices).
 
     Attributes
     ----------
@@ -350,6 +500,9 @@ class Margins:
         the gains at which stability would be *gained*.
     dt : float or None
         Sample time of a discrete loop [s] (None: continuous).
+    loop : dict of ndarray
+        The analysed loop as state-space matrices ``A``, ``B``, ``C``, ``D``
+        (with ``dt``, :attr:`system`); empty when not kept.
     """
 
     gain_margin: float
@@ -362,6 +515,29 @@ class Margins:
     phase_crossovers: NDArray[np.float64]
     stable: bool
     dt: float | None = None
+    loop: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def system(self) -> control.StateSpace:
+        """The analysed loop (continuous, or discrete at :attr:`dt`)."""
+        if not self.loop:
+            raise ValueError("Margins made without their loop (loop = {}) have no system to show")
+        return control.ss(*(np.asarray(self.loop[k], dtype=float) for k in "ABCD"), self.dt or 0)
+
+    def plot(self, label: str | None = None) -> Figure:
+        """Bode plot of the loop with its margins marked (:func:`plot_bode`).
+
+        Parameters
+        ----------
+        label : str, optional
+            Title of the panel (default: the loop's kind, sampled or continuous).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        title = label if label is not None else self.summary().split(":")[0]
+        return plot_bode(self.system, labels=[title])
 
     @property
     def gain_margin_db(self) -> float:
@@ -374,9 +550,10 @@ class Margins:
         return _db(self.gain_margin_lower)
 
     def summary(self) -> str:
-        """One line for figure titles and logs."""
+        """One line for figure titles and logs, naming the loop: sampled (at its period) or continuous."""
         gm = "inf" if math.isinf(self.gain_margin) else f"{self.gain_margin_db:.1f}"
-        text = f"GM = {gm} dB, PM = {self.phase_margin_deg:.1f} deg"
+        kind = f"sampled loop (T = {self.dt:g} s)" if self.dt else "continuous loop"
+        text = f"{kind}: GM = {gm} dB, PM = {self.phase_margin_deg:.1f} deg"
         if math.isfinite(self.gain_crossover):
             text += f" at {self.gain_crossover:.3g} rad/s, DM = {self.delay_margin_s:.3g} s"
         return text if self.stable else text + " (closed loop UNSTABLE)"
@@ -477,7 +654,14 @@ def _assemble(
         phase_crossovers=w_phase,
         stable=stable,
         dt=dt,
+        loop=_matrices(loop),
     )
+
+
+def _matrices(loop: Any) -> dict[str, NDArray[np.float64]]:
+    """The state-space matrices of a SISO loop, to keep with its margins."""
+    ss = control.ss(loop)
+    return {k: np.array(getattr(ss, k), dtype=float) for k in "ABCD"}
 
 
 def _sign_change(f: Any, w: float) -> bool:
@@ -689,7 +873,7 @@ def _hold_integrals(A: NDArray, B: NDArray, t: float) -> tuple[NDArray, NDArray]
 
 
 def sampled_loop(loop: LTI, *, period: float, computation_delay: float = 0.0) -> control.StateSpace:
-    """Exact discrete loop: zero-order hold at the plant input plus a computation delay.
+    """Exact discrete equivalent: zero-order hold at the input plus a computation delay.
 
     The input ``u_k`` computed at ``t_k = k T`` is applied from
     ``t_k + tau_d`` and held for one period. With ``tau_d = m T + tau'``
@@ -698,11 +882,14 @@ def sampled_loop(loop: LTI, *, period: float, computation_delay: float = 0.0) ->
     ``Phi = e^{AT}``, ``Gamma_0 = int_0^{T-tau'} e^{As} ds B`` and
     ``Gamma_1 = e^{A(T-tau')} int_0^{tau'} e^{As} ds B``; past inputs are
     extra states. Without delay this is ``control.c2d(loop, T, 'zoh')``.
+    This is the one home of the hold and delay model: :func:`loop_gain`
+    samples a multi-input plant with it.
 
     Parameters
     ----------
     loop : control LTI
-        Continuous SISO loop (e.g. from :func:`loop_gain`).
+        Continuous system: a SISO loop (e.g. from ``loop_gain(...,
+        sampled=False)``) or a multi-input plant (every input held).
     period : float
         Sample time ``T`` [s].
     computation_delay : float
@@ -711,16 +898,19 @@ def sampled_loop(loop: LTI, *, period: float, computation_delay: float = 0.0) ->
     Returns
     -------
     control.StateSpace
-        Discrete loop with ``dt = period``.
+        Discrete system with ``dt = period``.
     """
-    tf = _siso_tf(loop)
-    if _is_discrete(tf):
-        raise ValueError(f"loop must be continuous to be sampled, got dt = {tf.dt}")
+    if isinstance(loop, (control.StateSpace, control.TransferFunction)) and loop.ninputs * loop.noutputs > 1:
+        ss = control.ss(loop)
+    else:
+        ss = control.ss(_siso_tf(loop))
+    if _is_discrete(ss):
+        raise ValueError(f"loop must be continuous to be sampled, got dt = {ss.dt}")
     T = float(check_positive(period, "period"))
     tau = float(check_positive(computation_delay, "computation_delay", allow_zero=True))
-    ss = control.ss(tf)
     A, B, C, D = (np.asarray(x, dtype=float) for x in (ss.A, ss.B, ss.C, ss.D))
-    n = A.shape[0]
+    n, m = B.shape
+    p = C.shape[0]
     m_int = math.floor(tau / T + 1e-12)
     frac = max(tau - m_int * T, 0.0)
     if frac < 1e-12 * T:
@@ -733,34 +923,35 @@ def sampled_loop(loop: LTI, *, period: float, computation_delay: float = 0.0) ->
     else:
         gamma0, gamma1 = gamma_full, np.zeros_like(gamma_full)
     d = m_int + (1 if frac > 0.0 else 0)  # past inputs kept as states
-    N = n + d
+    N = n + d * m
     Ad = np.zeros((N, N))
-    Bd = np.zeros((N, 1))
-    Cd = np.zeros((1, N))
-    Dd = np.zeros((1, 1))
+    Bd = np.zeros((N, m))
+    Cd = np.zeros((p, N))
+    Dd = np.zeros((p, m))
     Ad[:n, :n] = Phi
-    Cd[0, :n] = C[0]
+    Cd[:, :n] = C
 
-    # Column of the state vector (or input) holding u_{k-j}: buffer b_k = [u_{k-1}, ..., u_{k-d}].
-    def route(j: int, target: NDArray, rows: slice, gain: NDArray) -> None:
+    def past(j: int) -> slice:
+        """Columns of the state vector holding ``u_{k-j}``: buffer ``b_k = [u_{k-1}, ..., u_{k-d}]``."""
+        return slice(n + (j - 1) * m, n + j * m)
+
+    for j, gamma in ((m_int, gamma0), (m_int + 1, gamma1)):
+        if j == m_int + 1 and frac == 0.0:
+            continue
         if j == 0:
-            Bd[rows] += gain
+            Bd[:n] += gamma
         else:
-            target[rows, n + j - 1 : n + j] += gain
-
-    route(m_int, Ad, slice(0, n), gamma0)
-    if frac > 0.0:
-        route(m_int + 1, Ad, slice(0, n), gamma1)
+            Ad[:n, past(j)] += gamma
     # Output feedthrough: y_k = C x_k + D u(kT), u(kT) = u_{k-m-1} if tau' > 0 else u_{k-m}.
     j_out = m_int + 1 if frac > 0.0 else m_int
     if j_out == 0:
-        Dd[0, 0] += D[0, 0]
+        Dd += D
     else:
-        Cd[0, n + j_out - 1] += D[0, 0]
+        Cd[:, past(j_out)] += D
     if d > 0:
-        Bd[n, 0] = 1.0
-        for j in range(1, d):
-            Ad[n + j, n + j - 1] = 1.0
+        Bd[past(1)] = np.eye(m)
+        for j in range(2, d + 1):
+            Ad[past(j), past(j - 1)] = np.eye(m)
     return control.ss(Ad, Bd, Cd, Dd, T)
 
 

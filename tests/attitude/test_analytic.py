@@ -24,6 +24,7 @@ from attitude.analytic import (
     EARTH_ROTATION_RATE,
     SEPARATRIX_TOLERANCE,
     AxisymmetricPrecession,
+    TorqueFreeMotion,
     axisymmetric_precession,
     earth_euler_period,
     flip_period,
@@ -528,3 +529,27 @@ def test_precession_result_save_load_and_plot(tmp_path):
         np.testing.assert_array_equal(getattr(back, name), getattr(res, name))
     assert back.body_precession_rate == res.body_precession_rate
     assert isinstance(res.plot(), Figure)
+
+
+def test_torque_free_motion_has_the_result_protocol(tmp_path):
+    """save/load round-trips bit for bit (JSON floats and .npz arrays), summary() and plot() work."""
+    import dataclasses
+
+    from matplotlib.figure import Figure
+
+    motion = torque_free_motion([[10.0, 1.2, -0.5], [1.2, 12.0, 0.3], [-0.5, 0.3, 8.0]], np.radians([1.0, 0.5, 3.0]))
+    back = TorqueFreeMotion.load(motion.save(tmp_path / "motion"))
+    t = np.linspace(-50.0, 500.0, 37)
+    np.testing.assert_array_equal(back.omega(t), motion.omega(t))
+    assert (back.regime, back.symmetry, back.period) == (motion.regime, motion.symmetry, motion.period)
+    assert f"{motion.regime} regime" in motion.summary() and f"rate period {motion.period:.4g} s" in motion.summary()
+    fig = motion.plot()
+    assert isinstance(fig, Figure) and len(fig.axes) == 2
+    # A constant rate has an infinite period: still saved (JSON Infinity) and plotted.
+    spin = torque_free_motion([1.0, 2.0, 3.0], [0.0, 0.0, 1.0])
+    assert TorqueFreeMotion.load(spin.save(tmp_path / "spin")).period == math.inf
+    assert spin.summary().endswith("constant rates") and isinstance(spin.plot(), Figure)
+    # A file whose regime is not one the closed form knows is refused.
+    bad = dataclasses.replace(motion, regime="wobbly").save(tmp_path / "bad")
+    with pytest.raises(ValueError, match="regime must be major, minor"):
+        TorqueFreeMotion.load(bad)

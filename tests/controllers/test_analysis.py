@@ -7,6 +7,11 @@ What each group checks against:
   ``wn^2 / (s^2 + 2 zeta wn s + wn^2)``, derived by hand; coupled channels against a direct matrix
   computation ``L_i = [(I + G F_i)^-1 G]_ii`` with ``G(jw) = Gc C (jw I - A)^-1 B`` (the
   loop-at-a-time break at the plant input, numpy only).
+* Sampled loop gains (a controller with a period): against python-control's ``sample_system``
+  (zero-order hold) of the plant with the gain applied to the samples, the other channels closed
+  through the same hold, evaluated on the unit circle with numpy (a frame of delay as ``z^-1``);
+  the phase margin lower than the continuous one by ``omega_c T / 2`` (the hold's half-period
+  delay) and a gain margin at the Nyquist frequency that the continuous loop does not have.
 * Margins: three independent computations agree: :func:`controllers.analysis.margins` (built on
   python-control's ``control.stability_margins``), :func:`controllers.analysis.sweep_margins` (its
   own frequency grid refined by ``scipy.optimize.brentq``), and closed forms worked by hand: the
@@ -35,6 +40,7 @@ import scipy.signal
 from matplotlib.figure import Figure
 
 from attitude import RigidBody
+from attitude.linearize import linearize
 from controllers.analysis import (
     Margins,
     SampleTimeStudy,
@@ -49,6 +55,7 @@ from controllers.analysis import (
     sampled_loop,
     sweep_margins,
 )
+from controllers.lqr import bryson_weights, design_lqr
 from controllers.pd import QuaternionPD, RateLimitedPD
 
 DIAGONAL = RigidBody([10.0, 12.0, 8.0])
@@ -79,7 +86,7 @@ def pd_analytic(wn, zeta):
 class TestLoopGain:
     def test_diagonal_inertia_gives_the_pd_double_integrator_per_axis(self):
         pd = QuaternionPD.from_bandwidth(DIAGONAL, wn=WN, zeta=ZETA, period=0.1)
-        for L, wn, zeta in zip(loop_gain(DIAGONAL, pd), WN, ZETA):
+        for L, wn, zeta in zip(loop_gain(DIAGONAL, pd, sampled=False), WN, ZETA):
             # (K/2 + C s) / (I s^2) with K = 2 I wn^2 and C = 2 I zeta wn.
             np.testing.assert_allclose(L.num[0][0], [2 * zeta * wn, wn**2], rtol=1e-12)
             np.testing.assert_array_equal(L.den[0][0], [1.0, 0.0, 0.0])
@@ -87,7 +94,7 @@ class TestLoopGain:
     def test_full_tensor_with_one_bandwidth_decouples_at_the_plant_input(self):
         # G = J (wn^2 + 2 zeta wn s) J^-1 / s^2 is diagonal when wn, zeta are scalars.
         pd = QuaternionPD.from_bandwidth(FULL, wn=0.1, zeta=0.7, period=0.1)
-        for L in loop_gain(FULL, pd):
+        for L in loop_gain(FULL, pd, sampled=False):
             np.testing.assert_allclose(L.num[0][0], [0.14, 0.01], rtol=1e-9)
             np.testing.assert_array_equal(L.den[0][0], [1.0, 0.0, 0.0])
 
@@ -95,7 +102,7 @@ class TestLoopGain:
         # Per-axis bandwidths on a full tensor couple the channels. Independent
         # evaluation: G(jw) = Gc C (jw I - A)^-1 B, then L_i = [(I + G F_i)^-1 G]_ii.
         pd = QuaternionPD.from_bandwidth(FULL, wn=WN, zeta=ZETA, period=0.1)
-        loops = loop_gain(FULL, pd)
+        loops = loop_gain(FULL, pd, sampled=False)
         plant = rigid_body_at_rest(FULL)
         gain = np.hstack([pd.K, pd.C])
         for w in (0.03, 0.15, 0.7):
@@ -120,7 +127,7 @@ class TestLoopGain:
     def test_rate_limited_pd_linear_region_is_the_same_loop(self):
         wl = RateLimitedPD.from_bandwidth(FULL, wn=0.1, zeta=0.7, rate_max=0.01, period=0.1)
         pd = QuaternionPD.from_bandwidth(FULL, wn=0.1, zeta=0.7, period=0.1)
-        for a, b in zip(loop_gain(FULL, wl), loop_gain(FULL, pd)):
+        for a, b in zip(loop_gain(FULL, wl, sampled=False), loop_gain(FULL, pd, sampled=False)):
             np.testing.assert_allclose(a.num[0][0], b.num[0][0], rtol=1e-12)
 
     def test_mismatched_controller_is_rejected(self):
@@ -128,6 +135,113 @@ class TestLoopGain:
             loop_gain(FULL, np.ones((3, 3)))
         with pytest.raises(ValueError, match="plant must be a RigidBody"):
             loop_gain("plant", np.ones((3, 6)))
+
+
+def zoh_loops_by_hand(plant, gain, period, w, delay_frames=0):
+    """Loop-at-a-time loops of a sampled static gain, independently: python-control's ``c2d`` (ZOH).
+
+    ``G(z) = gain C_d (z I - A_d)^-1 B_d z^-delay_frames`` with ``(A_d, B_d, C_d)`` from
+    ``control.sample_system(plant, T, "zoh")``, then ``L_i = [(I + G F_i)^-1 G]_ii`` (numpy only).
+    """
+    d = control.sample_system(plant, period, "zoh")
+    A, B, C = (np.asarray(x, dtype=float) for x in (d.A, d.B, d.C))
+    m = B.shape[1]
+    out = np.empty((m, len(w)), dtype=complex)
+    for k, wk in enumerate(w):
+        z = np.exp(1j * wk * period)
+        G = gain @ C @ np.linalg.solve(z * np.eye(A.shape[0]) - A, B) * z**-delay_frames
+        for i in range(m):
+            F = np.eye(m)
+            F[i, i] = 0.0
+            out[i, k] = np.linalg.solve(np.eye(m) + G @ F, G)[i, i]
+    return out
+
+
+class TestSampledLoopGain:
+    """A controller with a period gives the sampled loop: ZOH on every axis, the gain on the samples."""
+
+    T = 0.5
+    W = np.geomspace(1e-2, 0.99 * math.pi / 0.5, 30)
+
+    def response(self, loop):
+        return np.array([complex(loop(np.exp(1j * w * self.T))) for w in self.W])
+
+    @pytest.mark.parametrize("delay_frames", [0, 1])
+    def test_coupled_pd_loops_match_the_c2d_plant_with_the_discrete_gain(self, delay_frames):
+        # Per-axis bandwidths on a full tensor couple the channels, so the other channels' hold
+        # matters too. Both sides are exact; the solves near z = 1 lose ~eps / (w T)^2 = 1e-11
+        # relative at the lowest frequency, so 1e-9 is rounding with a margin.
+        pd = QuaternionPD.from_bandwidth(FULL, wn=WN, zeta=ZETA, period=self.T)
+        loops = loop_gain(FULL, pd, computation_delay=delay_frames * self.T)
+        expected = zoh_loops_by_hand(rigid_body_at_rest(FULL), np.hstack([pd.K, pd.C]), self.T, self.W, delay_frames)
+        for i, L in enumerate(loops):
+            assert L.dt == self.T
+            np.testing.assert_allclose(self.response(L), expected[i], rtol=1e-9)
+
+    def test_lqr_design_gives_its_sampled_loop(self):
+        plant = linearize(FULL)
+        q_w, r_w = bryson_weights(angle_max=np.radians(2.0), rate_max=np.radians(0.5), torque_max=0.015)
+        lqr = design_lqr(plant, Q=q_w, R=r_w, period=self.T)
+        expected = zoh_loops_by_hand(plant, lqr.K, self.T, self.W)
+        for i, L in enumerate(loop_gain(plant, lqr)):
+            np.testing.assert_allclose(self.response(L), expected[i], rtol=1e-9)
+        # Asked for the continuous loop, the design is its gain matrix K.
+        for a, b in zip(loop_gain(plant, lqr, sampled=False), loop_gain(plant, lqr.K)):
+            np.testing.assert_allclose(a.num[0][0], b.num[0][0], rtol=1e-12)
+
+    def test_discrete_dynamic_controller_sees_the_zoh_plant(self):
+        plant = control.tf([1.0], [10.0, 0.0, 0.0])
+        ctrl = control.tf([2.0, -1.6], [1.0, -0.3], self.T)  # a discrete lead at dt = T
+        (L,) = loop_gain(plant, ctrl)
+        expected = ctrl * control.sample_system(plant, self.T, "zoh")
+        np.testing.assert_allclose(self.response(L), self.response(expected), rtol=1e-9)
+
+    def test_phase_margin_drops_by_half_a_period_of_crossover_and_the_gain_margin_appears(self):
+        # Decoupled PD (diagonal inertia): continuous PM and crossover by hand (pd_analytic).
+        wn, zeta = 0.2, 0.7
+        wc, pm_c = pd_analytic(wn, zeta)
+        period = 0.1 / wc  # omega_c T = 0.1
+        pd = QuaternionPD.from_bandwidth(DIAGONAL, wn=wn, zeta=zeta, period=period)
+        cont = [margins(L) for L in loop_gain(DIAGONAL, pd, sampled=False)]
+        samp = [margins(L) for L in loop_gain(DIAGONAL, pd)]
+        for c, s in zip(cont, samp):
+            assert c.phase_margin_deg == pytest.approx(pm_c, rel=1e-9)
+            assert c.dt is None and s.dt == pytest.approx(period)
+            # The hold is a delay of about T/2: PM_c - PM_s ~ degrees(omega_c T / 2) = 2.86 deg.
+            # Corrections of order omega_c T / 10 (crossover shift, aliasing): 1 % here, 2.5 %
+            # as in the sample-time study above.
+            assert pm_c - s.phase_margin_deg == pytest.approx(math.degrees(wc * period / 2), rel=0.025)
+            # ... and the sampled loop, unlike the continuous one, has a gain margin (at Nyquist).
+            assert math.isinf(c.gain_margin) and math.isfinite(s.gain_margin)
+            assert s.phase_crossover == pytest.approx(math.pi / period)
+            assert s.summary().startswith(f"sampled loop (T = {period:g} s): ")
+            assert c.summary().startswith("continuous loop: ")
+
+    @pytest.mark.parametrize(
+        ("call", "match"),
+        [
+            (lambda: loop_gain(FULL, np.ones((3, 6)), sampled=True), "sampled=True needs a controller with a period"),
+            (
+                lambda: loop_gain(
+                    FULL,
+                    QuaternionPD.from_bandwidth(FULL, wn=0.1, zeta=0.7, period=0.1),
+                    sampled=False,
+                    computation_delay=0.02,
+                ),
+                "computation_delay = 0.02 s needs the sampled loop",
+            ),
+            (
+                lambda: loop_gain(control.tf([1.0], [1.0, 0.0, 0.0]), control.tf([1.0], [1.0], 0.1), sampled=False),
+                "sampled=False needs a continuous controller",
+            ),
+            (lambda: loop_gain(control.tf([1.0], [1.0, 0.0, 0.0], 0.1), 1.0), "plant must be continuous"),
+            (lambda: loop_gain(FULL, np.ones((3, 6)), sampled="yes"), "sampled must be True, False or None"),
+            (lambda: loop_gain(FULL, np.ones((3, 6)), computation_delay=-1.0), "computation_delay must be"),
+        ],
+    )
+    def test_bad_input_is_rejected(self, call, match):
+        with pytest.raises(ValueError, match=match):
+            call()
 
 
 class TestClosedLoop:
@@ -167,7 +281,7 @@ def assert_same_margins(a: Margins, b: Margins, rel=1e-8):
 
 def loops_for_comparison():
     pd = QuaternionPD.from_bandwidth(FULL, wn=WN, zeta=ZETA, period=0.1)
-    coupled = loop_gain(FULL, pd)
+    coupled = loop_gain(FULL, pd, sampled=False)
     return {
         "pd-double-integrator": pd_double_integrator(),
         "classic-type-1": control.tf([2.0], [1.0, 3.0, 2.0, 0.0]),
@@ -177,6 +291,9 @@ def loops_for_comparison():
         "sampled-pd": sampled_loop(pd_double_integrator(), period=0.5),
         "sampled-coupled-with-delay": sampled_loop(coupled[0], period=2.0, computation_delay=1.0),
         "fast-sampled-coupled": sampled_loop(coupled[0], period=0.005 / 0.153),
+        # The sampled MIMO loops of loop_gain (state space, the other channels' modes hidden).
+        "sampled-mimo-with-delay": loop_gain(FULL, pd, computation_delay=0.05)[1],
+        "fast-sampled-mimo": loop_gain(FULL, QuaternionPD.from_bandwidth(FULL, wn=WN, zeta=ZETA, period=0.001))[0],
         "unstable": control.tf([10.0], [1.0, 3.0, 2.0, 0.0]),
     }
 
@@ -352,7 +469,7 @@ class TestSampledLoop:
 class TestFigures:
     def test_bode_has_magnitude_and_phase_per_axis_with_margins(self):
         pd = QuaternionPD.from_bandwidth(FULL, wn=WN, zeta=ZETA, period=0.5)
-        loops = [sampled_loop(L, period=2.0, computation_delay=1.0) for L in loop_gain(FULL, pd)]
+        loops = [sampled_loop(L, period=2.0, computation_delay=1.0) for L in loop_gain(FULL, pd, sampled=False)]
         fig = plot_bode(loops)
         assert isinstance(fig, Figure)
         assert len(fig.axes) == 6
@@ -380,6 +497,31 @@ class TestFigures:
     def test_study_plot(self):
         fig = sample_time_study(pd_double_integrator(), periods=[0.1, 0.5, 1.0]).plot()
         assert isinstance(fig, Figure) and len(fig.axes) == 2
+
+    def test_margins_have_the_result_protocol(self, tmp_path):
+        # save/load keeps every field (and the loop, as state-space matrices) bit for bit; plot()
+        # is the Bode figure of that loop with the same margins marked.
+        pd = QuaternionPD.from_bandwidth(FULL, wn=WN, zeta=ZETA, period=0.5)
+        for loop in (loop_gain(FULL, pd)[1], pd_double_integrator()):
+            m = margins(loop)
+            back = Margins.load(m.save(tmp_path / "margins"))
+            for name in ("gain_margin", "gain_margin_lower", "phase_margin_deg", "delay_margin_s", "stable", "dt"):
+                assert getattr(back, name) == getattr(m, name), name
+            for name in ("gain_crossover", "phase_crossover"):
+                assert math.isnan(getattr(m, name)) or getattr(back, name) == getattr(m, name), name
+            np.testing.assert_array_equal(back.gain_crossovers, m.gain_crossovers)
+            assert back.summary() == m.summary()
+            w = np.array([0.05, 0.3, 1.5])
+            x = np.exp(1j * w * m.dt) if m.dt else 1j * w
+            np.testing.assert_allclose([complex(back.system(v)) for v in x], [complex(loop(v)) for v in x], rtol=1e-9)
+            fig = back.plot(label="PD, y axis")
+            assert isinstance(fig, Figure) and len(fig.axes) == 2
+            assert fig.axes[0].get_title() == "PD, y axis"
+            texts = "\n".join(t.get_text() for ax in fig.axes for t in ax.texts)
+            assert f"PM = {m.phase_margin_deg:.1f} deg" in texts
+        kept_out = Margins(**{**{f: getattr(m, f) for f in m.__dataclass_fields__}, "loop": {}})
+        with pytest.raises(ValueError, match="Margins made without their loop"):
+            kept_out.plot()
 
     def test_bad_figure_input_is_rejected(self):
         with pytest.raises(ValueError, match="labels must have one entry per system"):

@@ -9,8 +9,9 @@
   ``[control.lqr]`` (when the file has it), with its closed-loop poles as
   s-plane equivalents.
 * Loop-at-a-time margins per axis (gain, phase, delay) of the continuous
-  loops and of the sampled loops (zero-order hold at ``control.period_s``,
-  :func:`controllers.analysis.sampled_loop`), with Bode figures.
+  loops and of the sampled loops that fly (zero-order hold at
+  ``control.period_s`` on every axis, :func:`controllers.analysis.loop_gain`),
+  with Bode figures.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from attitude.config import SpacecraftConfig
 from attitude.plain import plain_float as _f
 from attitude.plain import plain_matrix as _mat
 from attitude.plain import plain_vector as _vec
-from controllers.analysis import attitude_closed_loop, loop_gain, margins, plot_bode, plot_step, sampled_loop
+from controllers.analysis import attitude_closed_loop, loop_gain, margins, plot_bode, plot_step
 
 __all__ = ["linear_design"]
 
@@ -73,8 +74,8 @@ def linear_design(config: SpacecraftConfig) -> tuple[dict[str, Any], dict[str, F
     period = c.period_s
     pd = assembly.quaternion_pd(config, body)
     closed = attitude_closed_loop(body, pd)
-    loops = loop_gain(body, pd)
-    sampled = [sampled_loop(loop, period=period) for loop in loops]
+    loops = loop_gain(body, pd, sampled=False)
+    sampled = loop_gain(body, pd)
     sampled_name = f"sampled ({1.0 / period:g} Hz, zero-order hold)"
     rows = [_margin_row("PD", "continuous", a, loop) for a, loop in zip(_AXES, loops)]
     rows += [_margin_row("PD", sampled_name, a, loop) for a, loop in zip(_AXES, sampled)]
@@ -100,8 +101,8 @@ def linear_design(config: SpacecraftConfig) -> tuple[dict[str, Any], dict[str, F
     designed = assembly.lqr(config, body)
     if designed is not None:
         plant, lqr = designed
-        lqr_loops = loop_gain(plant, lqr.K)
-        lqr_sampled = [sampled_loop(loop, period=period) for loop in lqr_loops]
+        lqr_loops = loop_gain(plant, lqr, sampled=False)
+        lqr_sampled = loop_gain(plant, lqr)
         rows += [_margin_row("LQR", "continuous", a, loop) for a, loop in zip(_AXES, lqr_loops)]
         rows += [_margin_row("LQR", sampled_name, a, loop) for a, loop in zip(_AXES, lqr_sampled)]
         out["lqr"] = {
