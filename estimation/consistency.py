@@ -45,6 +45,7 @@ __all__ = [
     "GATE_PROBABILITY",
     "NIS_CAP",
     "SPREAD_WINDOW_FRACTION",
+    "TRANSIENT_FRACTION_MAX",
     "TRANSIENT_RATIO",
     "NisHealth",
     "average_nees",
@@ -480,6 +481,9 @@ def plot_nees(
 #: Ratio of a 3-sigma bound to its level over the last quarter of the run above which the start of the run
 #: counts as the initial transient (:func:`plot_errors_with_bounds` sets its axis limits from after it).
 TRANSIENT_RATIO = 1.5
+#: ... when that transient ends within this fraction of the run; a bound still settling later makes the whole
+#: run the story, drawn in full.
+TRANSIENT_FRACTION_MAX = 0.25
 #: Fraction of the run over which the spread of several runs' errors is pooled (a centred window of steps).
 SPREAD_WINDOW_FRACTION = 0.005
 
@@ -528,8 +532,9 @@ def plot_errors_with_bounds(
 
     The vertical limits show the steady state: where the bound starts more
     than :data:`TRANSIENT_RATIO` times above its level over the last quarter
-    of the run, the limits come from after that initial transient, and the
-    panel says how far the clipped transient goes.
+    of the run and comes down within :data:`TRANSIENT_FRACTION_MAX` of the
+    run, the limits come from after that initial transient, and the panel
+    says how far the clipped transient goes.
 
     Parameters
     ----------
@@ -596,7 +601,7 @@ def plot_errors_with_bounds(
         start = _transient_end(bound)
         with np.errstate(invalid="ignore"):
             reach = np.nanmax(np.stack(drawn), axis=0)
-        if 0 < start < t.size and np.any(np.isfinite(reach[start:])):
+        if 0 < start <= TRANSIENT_FRACTION_MAX * t.size and np.any(np.isfinite(reach[start:])):
             steady = float(np.nanmax(reach[start:]))
             early = float(np.nanmax(reach[:start])) if np.any(np.isfinite(reach[:start])) else 0.0
             if steady > 0.0 and early > TRANSIENT_RATIO * steady:

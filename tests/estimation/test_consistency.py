@@ -325,11 +325,12 @@ class TestPlots:
         level, 3 (1 + 99 exp(-t / 2)) <= 4.5, i.e. t >= 2 ln 198 s (closed
         form); the limits are 1.15 times the bound at the first step from
         there (the errors stay below it). A bound that never leaves its level
-        (the second component) leaves the limits to matplotlib.
+        (the second component), and one that settles only at 8 ln 198 = 42 s,
+        past a quarter of the run (the third), leave the limits to matplotlib.
         """
         t = np.linspace(0.0, 100.0, 501)
         decay = 1.0 + 99.0 * np.exp(-t / 2.0)
-        sig = np.stack([decay, np.ones_like(t)], axis=-1)
+        sig = np.stack([decay, np.ones_like(t), 1.0 + 99.0 * np.exp(-t / 8.0)], axis=-1)
         err = 0.5 * sig * np.sin(t)[:, None]
         fig = plot_errors_with_bounds(t, err, sig, units="deg/h")
         low, high = fig.axes[0].get_ylim()
@@ -340,3 +341,4 @@ class TestPlots:
         notes = [x.get_text() for x in fig.axes[0].texts]
         assert len(notes) == 1 and "initial transient (to ±300 deg/h" in notes[0] and "clipped" in notes[0]
         assert fig.axes[1].get_ylim()[1] >= 3.0 and not fig.axes[1].texts
+        assert fig.axes[2].get_ylim()[1] >= 300.0 and not fig.axes[2].texts
