@@ -717,9 +717,17 @@ def plot_simulation(result: SimulationData) -> Figure:
         axes[k].legend(loc="upper right", ncols=5, fontsize=8)
         k += 1
     if has_rods:
-        for i, name in enumerate("xyz"):
-            axes[k].plot(t, dipole[:, i], color=AXIS_COLORS[i], label=f"$m_{name}$ delivered")
-            axes[k].plot(t, result.dipole_command[:, i], color=AXIS_COLORS[i], ls=":", label=f"$m_{name}$ commanded")
+        for i, name in enumerate("xyz"):  # drawn as the torques: commanded wide and pale under delivered
+            axes[k].plot(
+                t,
+                result.dipole_command[:, i],
+                color=AXIS_COLORS[i],
+                lw=4.0,
+                alpha=0.3,
+                solid_capstyle="butt",
+                label=f"$m_{name}$ commanded",
+            )
+            axes[k].plot(t, dipole[:, i], color=AXIS_COLORS[i], lw=1.0, label=f"$m_{name}$ delivered")
         axes[k].set_ylabel("magnetic dipole [A m$^2$]")
         axes[k].legend(loc="upper right", ncols=3, fontsize=8)
     axes[-1].set_xlabel("time [s]")
