@@ -7,6 +7,7 @@ pyplot global state.
 
 from __future__ import annotations
 
+import math
 import textwrap
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any, Protocol
@@ -48,10 +49,12 @@ class SimulationData(Protocol):
 
 __all__ = [
     "AXIS_COLORS",
+    "LOG_AXIS_DECADES_BELOW",
     "RATE_UNITS",
     "TIME_UNITS",
     "SimulationData",
     "TrajectoryData",
+    "log_axis_floor",
     "plot_flip",
     "plot_mode_timeline",
     "plot_polhodes",
@@ -576,14 +579,50 @@ def plot_flip(
     return fig
 
 
+#: Decades drawn below the small end of the data on a log axis (:func:`log_axis_floor`).
+LOG_AXIS_DECADES_BELOW = 1
+
+
+def log_axis_floor(values: ArrayLike, percentile: float = 1.0) -> float | None:
+    """Lower limit of a log axis chosen from the data (None when no value is positive).
+
+    The power of ten one decade (:data:`LOG_AXIS_DECADES_BELOW`) below the
+    decade holding the ``percentile`` of the positive values: a few
+    isolated tiny values (an exact start, a zero crossing) do not stretch
+    the axis over empty decades, and the small end of the data stays in
+    view.
+
+    Parameters
+    ----------
+    values : array_like
+        The data of the axis (zeros, negatives and NaN ignored).
+    percentile : float
+        Percentile of the positive values that sets the floor [%], in [0, 100].
+
+    Examples
+    --------
+    >>> log_axis_floor([0.0, 3e-3, 0.02, 0.05], percentile=0.0)
+    0.0001
+    """
+    if not 0.0 <= percentile <= 100.0:
+        raise ValueError(f"percentile must lie in [0, 100], got {percentile!r}")
+    v = np.asarray(values, dtype=float).ravel()
+    positive = v[np.isfinite(v) & (v > 0.0)]
+    if positive.size == 0:
+        return None
+    small = float(np.percentile(positive, percentile))
+    return float(10.0 ** (math.floor(math.log10(small)) - LOG_AXIS_DECADES_BELOW))
+
+
 def plot_simulation(result: SimulationData) -> Figure:
     """The standard review figure of a closed-loop run.
 
     Panels: attitude error to the controller's reference [deg] on a log
-    scale, body rates [deg/s], commanded and applied body torques [mN m],
-    wheel speeds [rpm] with their limits when wheels are present, and in
-    orbit the disturbance torques per source [uN m] and the magnetorquers'
-    commanded and delivered dipole [A m^2].
+    scale (its lower limit from the data: :func:`log_axis_floor`), body
+    rates [deg/s], commanded (wide, pale) and applied (thin) body torques
+    [mN m], wheel speeds [rpm] with their limits when wheels are present,
+    and in orbit the disturbance torques per source [uN m] and the
+    magnetorquers' commanded and delivered dipole [A m^2].
 
     Parameters
     ----------
@@ -603,20 +642,42 @@ def plot_simulation(result: SimulationData) -> Figure:
     fig = Figure(figsize=(10, 2.4 * n_panels + 0.8), layout="constrained")
     axes = fig.subplots(n_panels, 1, sharex=True)
     err_deg = np.degrees(result.error_angle)
-    floor = 1e-9  # deg; below this the error is at rounding level for any realistic pointing
-    axes[0].semilogy(t, np.maximum(err_deg, floor), color="black")
+    floor = log_axis_floor(err_deg)
+    if floor is None:  # no positive error to draw on a log scale
+        axes[0].plot(t, err_deg, color="black")
+        axes[0].set_title("error angle to the reference (shortest way)", fontsize=10)
+    else:
+        axes[0].semilogy(t, np.where(err_deg > 0.0, err_deg, np.nan), color="black")
+        axes[0].set_ylim(bottom=floor)
+        below = int(np.sum(err_deg < floor))
+        note = f"; {below} sample(s) below {floor:.0e} deg not shown" if below else ""
+        axes[0].set_title(f"error angle to the reference (shortest way{note})", fontsize=10)
     axes[0].set_ylabel("attitude error [deg]")
-    axes[0].set_title("error angle to the reference (shortest way; shown down to 1e-9 deg)", fontsize=10)
     for i, name in enumerate("xyz"):
         axes[1].plot(t, np.degrees(result.omega[:, i]), color=AXIS_COLORS[i], label=rf"$\omega_{name}$")
     axes[1].plot(t, np.degrees(np.linalg.norm(result.omega, axis=1)), color="black", lw=1.0, label=r"$|\omega|$")
     axes[1].set_ylabel("body rate [deg/s]")
     axes[1].legend(loc="upper right", ncols=4)
+    # Where they agree the commanded torque is a pale band around the applied line; a limit shows as the
+    # band leaving the line.
+    command_mNm, applied_mNm = 1e3 * result.torque_command, 1e3 * result.torque_applied
     for i, name in enumerate("xyz"):
-        axes[2].plot(t, 1e3 * result.torque_applied[:, i], color=AXIS_COLORS[i], label=rf"applied $\tau_{name}$")
         axes[2].plot(
-            t, 1e3 * result.torque_command[:, i], color=AXIS_COLORS[i], ls=":", label=rf"commanded $\tau_{name}$"
+            t,
+            command_mNm[:, i],
+            color=AXIS_COLORS[i],
+            lw=4.0,
+            alpha=0.3,
+            solid_capstyle="butt",
+            label=rf"commanded $\tau_{name}$",
         )
+        axes[2].plot(t, applied_mNm[:, i], color=AXIS_COLORS[i], lw=1.0, label=rf"applied $\tau_{name}$")
+    gap = float(np.max(np.abs(command_mNm - applied_mNm))) if t.size else 0.0
+    if gap <= 1e-9 * (float(np.max(np.abs(command_mNm))) if t.size else 0.0):
+        agreement = "equal to rounding (no limit reached)"
+    else:
+        agreement = f"largest difference {gap:.3g} mN m"
+    axes[2].set_title(f"body torque: commanded (wide, pale) and applied (thin); {agreement}", fontsize=10)
     axes[2].set_ylabel("body torque [mN m]")
     axes[2].legend(loc="upper right", ncols=3, fontsize=8)
     if has_wheels:
@@ -656,9 +717,17 @@ def plot_simulation(result: SimulationData) -> Figure:
         axes[k].legend(loc="upper right", ncols=5, fontsize=8)
         k += 1
     if has_rods:
-        for i, name in enumerate("xyz"):
-            axes[k].plot(t, dipole[:, i], color=AXIS_COLORS[i], label=f"$m_{name}$ delivered")
-            axes[k].plot(t, result.dipole_command[:, i], color=AXIS_COLORS[i], ls=":", label=f"$m_{name}$ commanded")
+        for i, name in enumerate("xyz"):  # drawn as the torques: commanded wide and pale under delivered
+            axes[k].plot(
+                t,
+                result.dipole_command[:, i],
+                color=AXIS_COLORS[i],
+                lw=4.0,
+                alpha=0.3,
+                solid_capstyle="butt",
+                label=f"$m_{name}$ commanded",
+            )
+            axes[k].plot(t, dipole[:, i], color=AXIS_COLORS[i], lw=1.0, label=f"$m_{name}$ delivered")
         axes[k].set_ylabel("magnetic dipole [A m$^2$]")
         axes[k].legend(loc="upper right", ncols=3, fontsize=8)
     axes[-1].set_xlabel("time [s]")

@@ -44,6 +44,9 @@ from attitude.validation import as_float_array, describe
 __all__ = [
     "GATE_PROBABILITY",
     "NIS_CAP",
+    "SPREAD_WINDOW_FRACTION",
+    "TRANSIENT_FRACTION_MAX",
+    "TRANSIENT_RATIO",
     "NisHealth",
     "average_nees",
     "average_nis",
@@ -475,6 +478,39 @@ def plot_nees(
     return fig
 
 
+#: Ratio of a 3-sigma bound to its level over the last quarter of the run above which the start of the run
+#: counts as the initial transient (:func:`plot_errors_with_bounds` sets its axis limits from after it).
+TRANSIENT_RATIO = 1.5
+#: ... when that transient ends within this fraction of the run; a bound still settling later makes the whole
+#: run the story, drawn in full.
+TRANSIENT_FRACTION_MAX = 0.25
+#: Fraction of the run over which the spread of several runs' errors is pooled (a centred window of steps).
+SPREAD_WINDOW_FRACTION = 0.005
+
+
+def _transient_end(bound: NDArray[np.float64]) -> int:
+    """First step from which ``bound`` stays within TRANSIENT_RATIO of its level over the last quarter (0: none)."""
+    finite = np.isfinite(bound)
+    if not np.any(finite[-max(1, bound.size // 4) :]):
+        return 0
+    level = float(np.nanmedian(bound[-max(1, bound.size // 4) :]))
+    above = np.nonzero(~(bound <= TRANSIENT_RATIO * level) & finite)[0]
+    return 0 if above.size == 0 else int(above[-1]) + 1
+
+
+def _pooled_rms(e: NDArray[np.float64], window: int) -> NDArray[np.float64]:
+    """RMS over the runs (axis 0) and a centred window of ``window`` steps, per step and component."""
+    square = np.nanmean(e**2, axis=0)
+    if window <= 1:
+        return np.sqrt(square)
+    kernel = np.ones(window)
+    valid = np.isfinite(square)
+    total = np.apply_along_axis(np.convolve, 0, np.where(valid, square, 0.0), kernel, "same")
+    count = np.apply_along_axis(np.convolve, 0, valid.astype(float), kernel, "same")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.sqrt(total / count)
+
+
 def plot_errors_with_bounds(
     t: ArrayLike,
     errors: ArrayLike,
@@ -487,15 +523,28 @@ def plot_errors_with_bounds(
 ) -> Figure:
     """Estimation errors with their +-3 sigma bounds, one panel per component.
 
+    One run is drawn as a line. With several runs, the first is drawn and
+    the spread of all of them as a band of +-3 times the RMS error over the
+    runs (pooled over a centred window of
+    :data:`SPREAD_WINDOW_FRACTION` of the run), to compare with the filter's
+    +-3 sigma (with per-run sigmas, their RMS over the runs): for a
+    consistent filter the band's edges follow the dashed bounds.
+
+    The vertical limits show the steady state: where the bound starts more
+    than :data:`TRANSIENT_RATIO` times above its level over the last quarter
+    of the run and comes down within :data:`TRANSIENT_FRACTION_MAX` of the
+    run, the limits come from after that initial transient, and the panel
+    says how far the clipped transient goes.
+
     Parameters
     ----------
     t : array_like (n,)
         Time [s].
     errors : array_like (n, k) or (n_runs, n, k)
-        Errors ``x_true - x_est`` in SI units; several runs are drawn thin.
+        Errors ``x_true - x_est`` in SI units.
     sigmas : array_like (n, k) or (n_runs, n, k)
         Standard deviations from the filter covariance (square roots of its
-        diagonal), same units; with runs, each run's bounds are drawn.
+        diagonal), same units.
     labels : sequence of str, optional
         Component names (default ``x1 ... xk``).
     units : str or sequence of str
@@ -530,24 +579,53 @@ def plot_errors_with_bounds(
     if len(unit_list) != k:
         raise ValueError(f"units must be one string or one per component ({k}), got {len(unit_list)}")
     factors = np.broadcast_to(as_float_array(scale, "scale"), (k,))
+    runs = e.shape[0]
+    with np.errstate(invalid="ignore"):
+        sigma = s[0] if s.shape[0] == 1 else np.sqrt(np.nanmean(s**2, axis=0))
+    window = max(1, round(SPREAD_WINDOW_FRACTION * t.size))
+    spread = _pooled_rms(e, window) if runs > 1 else None
     fig = Figure(figsize=(9, 2.2 * k + 0.8), layout="constrained")
     axes = fig.subplots(k, 1, sharex=True, squeeze=False)[:, 0]
-    thin = e.shape[0] > 1
     for i, ax in enumerate(axes):
         f = factors[i]
-        for r in range(e.shape[0]):
-            ax.plot(t, e[r, :, i] * f, lw=0.6 if thin else 1.0, color="tab:blue", alpha=0.5 if thin else 1.0)
-        for r in range(s.shape[0]):
-            bound = 3.0 * s[r, :, i] * f
-            ax.plot(t, bound, color="tab:red", ls="--", lw=0.8, alpha=0.6 if s.shape[0] > 1 else 1.0)
-            ax.plot(t, -bound, color="tab:red", ls="--", lw=0.8, alpha=0.6 if s.shape[0] > 1 else 1.0)
         unit = f" [{unit_list[i]}]" if unit_list[i] else ""
+        bound = 3.0 * sigma[:, i] * abs(f)
+        drawn = [np.abs(e[0, :, i] * f), bound]
+        if spread is not None:
+            band = 3.0 * spread[:, i] * abs(f)
+            ax.fill_between(t, -band, band, color="tab:blue", alpha=0.2, lw=0)
+            drawn.append(band)
+        ax.plot(t, e[0, :, i] * f, lw=0.8, color="tab:blue")
+        ax.plot(t, bound, color="tab:red", ls="--", lw=0.9)
+        ax.plot(t, -bound, color="tab:red", ls="--", lw=0.9)
+        start = _transient_end(bound)
+        with np.errstate(invalid="ignore"):
+            reach = np.nanmax(np.stack(drawn), axis=0)
+        if 0 < start <= TRANSIENT_FRACTION_MAX * t.size and np.any(np.isfinite(reach[start:])):
+            steady = float(np.nanmax(reach[start:]))
+            early = float(np.nanmax(reach[:start])) if np.any(np.isfinite(reach[:start])) else 0.0
+            if steady > 0.0 and early > TRANSIENT_RATIO * steady:
+                ax.set_ylim(-1.15 * steady, 1.15 * steady)
+                ax.text(
+                    0.995,
+                    0.03,
+                    f"initial transient (to ±{early:.3g} {unit_list[i]}, until {t[start] - t[0]:.3g} s) clipped",
+                    transform=ax.transAxes,
+                    ha="right",
+                    va="bottom",
+                    fontsize=7,
+                    color="0.3",
+                    bbox={"facecolor": "white", "alpha": 0.8, "lw": 0},
+                )
         ax.set_ylabel(f"{names[i]}{unit}")
         ax.grid(True, alpha=0.3)
         ax.margins(x=0)
     axes[-1].set_xlabel("time [s]")
-    axes[0].plot([], [], color="tab:blue", label="error" + (f" ({e.shape[0]} runs)" if thin else ""))
-    axes[0].plot([], [], color="tab:red", ls="--", label=r"$\pm 3\sigma$")
-    axes[0].legend(loc="upper right", ncols=2)
+    axes[0].plot([], [], color="tab:blue", lw=0.8, label="error" + (" (run 1)" if runs > 1 else ""))
+    if spread is not None:
+        axes[0].fill_between([], [], [], color="tab:blue", alpha=0.2, lw=0, label=rf"$\pm 3$ RMS error of {runs} runs")
+    sigma_label = r"filter's $\pm 3\sigma$" + (f" (RMS over {s.shape[0]} runs)" if s.shape[0] > 1 else "")
+    axes[0].plot([], [], color="tab:red", ls="--", label=sigma_label)
+    axes[0].legend(loc="upper right", ncols=3, fontsize=8)
     fig.suptitle(title or r"estimation errors with $\pm 3\sigma$ bounds")
     return fig

@@ -997,7 +997,7 @@ class RateEKFResult(ResultIO):
             kind = "errors" if self.omega_true is not None else "nis"
         if kind == "errors":
             d = self.covariance.shape[-1]
-            labels = [f"rate error {a}" for a in "xyz"] + [f"bias error {a}" for a in "xyz"]
+            labels = [f"rate error {a} (body)" for a in "xyz"] + [f"bias error {a} (body)" for a in "xyz"]
             labels = labels[:d]
             return plot_errors_with_bounds(
                 self.t,

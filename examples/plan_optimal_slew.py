@@ -118,8 +118,10 @@ def main() -> None:
     for plan in (free, kept, energy):
         for note in plan.warnings:
             print(f"   warning: {note}")
-    kept.plot().savefig(args.out / "microsat_keep_out_plan.png", dpi=110)
-    energy.plot().savefig(args.out / "microsat_min_energy_plan.png", dpi=110)
+    # The plans used margins: draw the required rate limit and the wheels' full torque beside them.
+    limits = {"rate_max_required": rate_limit, "torque_envelope_available": wheels.torque_envelope()}
+    kept.plot(**limits).savefig(args.out / "microsat_keep_out_plan.png", dpi=110)
+    energy.plot(**limits).savefig(args.out / "microsat_min_energy_plan.png", dpi=110)
 
     # 3. Fly the keep-out plan ------------------------------------------------------------
     # States resampled at the controller rate come from the plan's own torque

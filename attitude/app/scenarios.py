@@ -1090,5 +1090,7 @@ def run_campaign_from_config(
     if out_dir is not None and figures:
         from attitude.montecarlo.plots import save_figures
 
-        save_figures(result, Path(out_dir) / "figures")
+        wheels = assembly.reaction_wheels(config)
+        speed_limit = {"wheel speed limit": wheels.momentum_max / wheels.spin_inertia}  # [rad/s], per wheel
+        save_figures(result, Path(out_dir) / "figures", lines={"wheel_speed": speed_limit})
     return result

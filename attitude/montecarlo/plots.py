@@ -6,13 +6,14 @@ Built with the object-oriented API (no pyplot state), as :mod:`attitude.plotting
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
 from matplotlib.figure import Figure
-from numpy.typing import NDArray
+from matplotlib.ticker import MaxNLocator
+from numpy.typing import ArrayLike, NDArray
 from scipy import stats
 
 from attitude.montecarlo.units import display_unit
@@ -40,7 +41,13 @@ class CampaignData(Protocol):
 
 
 __all__ = [
+    "ENVELOPE_BANDS",
+    "ENVELOPE_REQUIREMENTS",
+    "NEES_DEGREES_OF_FREEDOM",
+    "NORM_BOUNDED_HISTORIES",
+    "PER_COMPONENT_HISTORIES",
     "CampaignData",
+    "chi2_counts",
     "most_influential_parameter",
     "plot_envelope",
     "plot_histograms",
@@ -50,6 +57,23 @@ __all__ = [
 
 #: Percentile bands drawn by :func:`plot_envelope` [%] (outermost first) and the median.
 ENVELOPE_BANDS = ((0.0, 100.0), (5.0, 95.0), (25.0, 75.0))
+#: Degrees of freedom of the built-in NEES metrics (``nees``: the run's time-averaged attitude NEES of
+#: :class:`attitude.app.scenarios.ClosedLoopScenario`): their histogram carries the chi-square density.
+NEES_DEGREES_OF_FREEDOM = {"nees": 3}
+#: The metric whose requirement bounds a time history (the history's largest value over a run, or its
+#: value at the end, is that metric): the envelope draws the requirement's upper bound. It bounds each
+#: component of a vector history (the peak wheel speed: every wheel), except for the histories of
+#: :data:`NORM_BOUNDED_HISTORIES`.
+ENVELOPE_REQUIREMENTS = {
+    "error_angle": "final_pointing_error",
+    "omega": "rate_peak",
+    "wheel_speed": "wheel_speed_peak",
+}
+#: Vector histories whose requirement bounds the norm (the peak rate bounds ``|omega|``), drawn on the norm only.
+NORM_BOUNDED_HISTORIES = frozenset({"omega"})
+#: Vector histories drawn one panel per component by :func:`save_figures` (the norm of four wheel speeds
+#: means nothing against a wheel's speed limit).
+PER_COMPONENT_HISTORIES = frozenset({"wheel_speed"})
 
 
 def _label(name: str) -> str:
@@ -61,7 +85,13 @@ def plot_histograms(result: CampaignData, metrics: Sequence[str] | None = None) 
     """One histogram per metric over the completed runs, with requirement bounds (dashed red).
 
     Non-finite values (a run that never settled has ``settling_time = inf``)
-    are counted in the panel title, not drawn.
+    are counted in the panel title, not drawn. Counts are whole runs (an
+    integer axis). A NEES metric (:data:`NEES_DEGREES_OF_FREEDOM`) carries
+    the chi-square density of its degrees of freedom scaled to the
+    histogram (runs x bin width x density): the distribution of a run whose
+    samples are fully correlated, the one the campaign's NEES band assumes;
+    a time average of independent samples would be narrower about the same
+    mean.
 
     Parameters
     ----------
@@ -84,8 +114,10 @@ def plot_histograms(result: CampaignData, metrics: Sequence[str] | None = None) 
         v = result.metrics[m][ok] * scale
         finite = v[np.isfinite(v)]
         if finite.size:
-            ax.hist(finite, bins=min(50, max(5, int(math.sqrt(finite.size)))), color="tab:blue", alpha=0.8)
+            edges = ax.hist(finite, bins=min(50, max(5, int(math.sqrt(finite.size)))), color="tab:blue", alpha=0.8)[1]
             ax.axvline(float(np.median(finite)), color="black", lw=1, label="median")
+            if m in NEES_DEGREES_OF_FREEDOM:
+                _chi2_reference(ax, finite, edges, NEES_DEGREES_OF_FREEDOM[m])
         for r in result.requirements:
             if r.metric == m:
                 for bound in (r.min, r.max):
@@ -95,10 +127,45 @@ def plot_histograms(result: CampaignData, metrics: Sequence[str] | None = None) 
         ax.set_title(f"{m} ({finite.size} runs{extra})", fontsize=9)
         ax.set_xlabel(_label(m), fontsize=8)
         ax.set_ylabel("runs")
+        ax.yaxis.set_major_locator(MaxNLocator(integer=True))
         if finite.size:
             ax.legend(fontsize=7)
     fig.suptitle(f"Monte Carlo: {result.runs} runs, seed {result.seed}")
     return fig
+
+
+def chi2_counts(x: ArrayLike, dof: int, runs: int, bin_width: float) -> NDArray[np.float64]:
+    """Expected runs per bin of width ``bin_width`` at ``x`` for ``runs`` chi-square(``dof``) draws (scipy.stats.chi2).
+
+    Parameters
+    ----------
+    x : array_like
+        Where to evaluate (the NEES, >= 0).
+    dof : int
+        Degrees of freedom, >= 1.
+    runs : int
+        Number of runs in the histogram.
+    bin_width : float
+        Width of the histogram's bins (same unit as ``x``), > 0.
+    """
+    if int(dof) != dof or dof < 1:
+        raise ValueError(f"dof must be a whole number >= 1, got {dof!r}")
+    if not bin_width > 0.0:
+        raise ValueError(f"bin_width must be > 0, got {bin_width!r}")
+    return runs * bin_width * stats.chi2.pdf(np.asarray(x, dtype=float), int(dof))
+
+
+def _chi2_reference(ax: Any, values: NDArray, edges: NDArray, dof: int) -> None:
+    width = float(np.mean(np.diff(edges)))
+    x = np.linspace(0.0, max(float(edges[-1]), float(stats.chi2.ppf(0.99, dof))), 300)
+    # A run's NEES is a time average: chi-square(dof) if its samples were fully correlated, narrower about the
+    # same mean otherwise; the widest distribution a consistent filter's runs can have.
+    label = f"chi-square {dof} dof (fully correlated run)"
+    ax.plot(x, chi2_counts(x, dof, values.size, width), color="tab:green", lw=1.5, label=label)
+    ax.axvline(
+        float(dof), color="tab:green", ls=":", lw=1, label=f"expected mean {dof} (these runs {np.mean(values):.2f})"
+    )
+    ax.set_ylim(top=1.5 * ax.get_ylim()[1])  # room for the legend above the bars
 
 
 def _stack(result: CampaignData, key: str, component: int | None) -> tuple[NDArray, NDArray, str]:
@@ -120,33 +187,124 @@ def _stack(result: CampaignData, key: str, component: int | None) -> tuple[NDArr
     return t, np.array(series), label
 
 
-def plot_envelope(result: CampaignData, key: str, component: int | None = None) -> Figure:
-    """Percentile bands over the runs of a time history (min-max, 5-95 %, 25-75 %, median).
+def _requirement_bound(result: CampaignData, key: str, norm: bool) -> tuple[str, float] | None:
+    """Label and upper bound [SI] of the requirement on the metric that bounds history ``key`` (None if none).
 
-    Parameters
-    ----------
-    result : CampaignData
-    key : str
-        History name (``"error_angle"``, ``"omega"`` ...).
-    component : int, optional
-        For a vector history, the component to show; default its norm.
+    ``norm``: the envelope shows the norm of a vector history (else a
+    component or a scalar history).
     """
-    t, values, what = _stack(result, key, component)
-    scale, unit = display_unit(key)
-    values = values * scale
-    fig = Figure(figsize=(8, 4.5), layout="constrained")
-    ax = fig.add_subplot(1, 1, 1)
+    if norm != (key in NORM_BOUNDED_HISTORIES):
+        return None
+    metric = ENVELOPE_REQUIREMENTS.get(key)
+    for r in result.requirements:
+        if metric is not None and r.metric == metric and r.max is not None:
+            return f"requirement {r.name} ({metric})", float(r.max)
+    return None
+
+
+def _draw_bands(ax: Any, t: NDArray, values: NDArray) -> None:
     with np.errstate(invalid="ignore"):
         for (lo, hi), alpha in zip(ENVELOPE_BANDS, (0.15, 0.3, 0.45)):
             band = np.nanpercentile(values, [lo, hi], axis=0)
             ax.fill_between(t, band[0], band[1], color="tab:blue", alpha=alpha, lw=0, label=f"{lo:g}-{hi:g} %")
         ax.plot(t, np.nanmedian(values, axis=0), color="black", lw=1.2, label="median")
+
+
+def plot_envelope(
+    result: CampaignData,
+    key: str,
+    component: int | str | None = None,
+    *,
+    lines: Mapping[str, ArrayLike] | None = None,
+) -> Figure:
+    """Percentile bands over the runs of a time history (min-max, 5-95 %, 25-75 %, median), with its limits.
+
+    The upper bound of the requirement on the metric that bounds the
+    history (:data:`ENVELOPE_REQUIREMENTS`: the final pointing error for
+    ``error_angle``, the peak rate for ``|omega|``, the peak wheel speed for
+    each wheel) is drawn dashed red, and ``lines`` add the limits the
+    campaign has no requirement for (a wheel's speed limit).
+
+    Parameters
+    ----------
+    result : CampaignData
+        The campaign.
+    key : str
+        History name (``"error_angle"``, ``"omega"``, ``"wheel_speed"`` ...).
+    component : int, "each" or None
+        For a vector history: the component to show, ``"each"`` for one
+        panel per component, or None for its norm.
+    lines : mapping of str to float or array_like, optional
+        Labelled horizontal limits in the history's SI unit; an array gives
+        one value per component (with ``"each"``). On components they are
+        drawn at plus and minus the value (a limit on the magnitude).
+    """
+    if component == "each":
+        return _plot_envelope_each(result, key, lines or {})
+    if isinstance(component, str):
+        raise ValueError(f"component must be an integer, 'each' or None, got {component!r}")
+    t, values, what = _stack(result, key, component)
+    scale, unit = display_unit(key)
+    values = values * scale
+    fig = Figure(figsize=(8, 4.5), layout="constrained")
+    ax = fig.add_subplot(1, 1, 1)
+    _draw_bands(ax, t, values)
+    vector = np.ndim(next(h[key] for h in result.histories.values() if key in h and "t" in h)) == 2
+    norm = component is None and vector
+    bound = _requirement_bound(result, key, norm)
+    if bound is not None:
+        ax.axhline(bound[1] * scale, color="tab:red", ls="--", lw=1.2, label=bound[0])
+    for label, value in (lines or {}).items():
+        if vector and component is not None:  # a limit on one component's magnitude
+            level = float(np.ravel(np.asarray(value, dtype=float))[component if np.size(value) > 1 else 0])
+            ax.axhline(-level * scale, color="tab:red", ls="-.", lw=1.0)
+        else:
+            level = float(np.max(value))
+        ax.axhline(level * scale, color="tab:red", ls="-.", lw=1.0, label=label)
     ax.set_xlabel("t [s]")
     ax.set_ylabel(f"{what} [{unit}]" if unit else what)
     if key in ("error_angle", "tracking_error", "estimation_error") and np.nanmin(values) > 0:
         ax.set_yscale("log")
     ax.set_title(f"{what}: envelope of {values.shape[0]} runs")
     ax.legend(fontsize=8)
+    return fig
+
+
+def _plot_envelope_each(result: CampaignData, key: str, lines: Mapping[str, ArrayLike]) -> Figure:
+    """One envelope panel per component of a vector history, each with its limits at plus and minus."""
+    first = next((h[key] for h in result.histories.values() if key in h and "t" in h), None)
+    if first is None:
+        raise ValueError(f"no run has a time history {key!r} (run the scenario with histories)")
+    if np.ndim(first) != 2:
+        raise ValueError(f"component='each' needs a vector history; {key!r} has shape {np.shape(first)}")
+    n = int(np.shape(first)[1])
+    scale, unit = display_unit(key)
+    bound = _requirement_bound(result, key, norm=False)
+    fig = Figure(figsize=(8, 1.9 * n + 0.9), layout="constrained")
+    axes = fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
+    for i, ax in enumerate(axes):
+        t, values, what = _stack(result, key, i)
+        _draw_bands(ax, t, values * scale)
+        drawn = [] if bound is None else [(bound[0], bound[1], "--")]
+        for label, value in lines.items():
+            per = np.broadcast_to(np.asarray(value, dtype=float), (n,))
+            drawn.append((label, float(per[i]), "-."))
+        for label, value, style in drawn:
+            for sign in (1.0, -1.0):
+                ax.axhline(sign * value * scale, color="tab:red", ls=style, lw=1.0, label=label if sign > 0 else None)
+        peak = float(np.nanmax(np.abs(values))) * scale
+        note = f"peak |{what}| {peak:.4g} {unit}".rstrip()
+        if drawn:
+            label, value, _ = min(drawn, key=lambda d: d[1])
+            note += f": {100.0 * peak / (value * scale):.3g} % of the {label}"
+        box = {"facecolor": "white", "alpha": 0.8, "lw": 0}
+        ax.text(0.99, 0.75, note, transform=ax.transAxes, ha="right", va="center", fontsize=7, color="0.25", bbox=box)
+        ax.set_ylabel(f"{what} [{unit}]" if unit else what, fontsize=8)
+        ax.grid(True, alpha=0.3)
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center", ncols=5, fontsize=7)
+    axes[-1].set_xlabel("t [s]")
+    runs = sum(1 for h in result.histories.values() if key in h)
+    fig.suptitle(f"{key}: envelope of {runs} runs, one panel per component")
     return fig
 
 
@@ -209,10 +367,13 @@ def most_influential_parameter(result: CampaignData, metric: str) -> str | None:
     return best
 
 
-def save_figures(result: CampaignData, directory: str | Path) -> list[Path]:
+def save_figures(
+    result: CampaignData, directory: str | Path, *, lines: Mapping[str, Mapping[str, ArrayLike]] | None = None
+) -> list[Path]:
     """Histograms, an envelope per history, and per requirement metric a scatter against its most influential parameter.
 
-    Returns the paths written (PNG).
+    Returns the paths written (PNG). The histories of
+    :data:`PER_COMPONENT_HISTORIES` are drawn one panel per component.
 
     Parameters
     ----------
@@ -220,6 +381,9 @@ def save_figures(result: CampaignData, directory: str | Path) -> list[Path]:
         The campaign.
     directory : str or Path
         Folder for the PNG files (created).
+    lines : mapping, optional
+        Per history name, labelled limits for its envelope (:func:`plot_envelope`),
+        e.g. ``{"wheel_speed": {"wheel speed limit": speed_max}}`` [SI].
     """
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
@@ -235,7 +399,8 @@ def save_figures(result: CampaignData, directory: str | Path) -> list[Path]:
     keys = sorted({k for h in result.histories.values() for k in h if k != "t"})
     for key in keys:
         try:
-            save(plot_envelope(result, key), f"envelope_{key}.png")
+            component = "each" if key in PER_COMPONENT_HISTORIES else None
+            save(plot_envelope(result, key, component, lines=(lines or {}).get(key)), f"envelope_{key}.png")
         except ValueError:
             continue
     for metric in dict.fromkeys(r.metric for r in result.requirements):

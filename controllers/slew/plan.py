@@ -11,13 +11,13 @@ from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
 from attitude.integrators import casadi_rk4_step
 from attitude.results import ResultIO
 from attitude.rigid_body import RigidBody
-from attitude.validation import check_positive
+from attitude.validation import check_positive, check_vector, positive_scalar
 from controllers.slew.keep_out import KeepOutCone
 
 if TYPE_CHECKING:
@@ -207,9 +207,33 @@ class SlewPlan(ResultIO):
         info["resampled_dt_s"] = dt
         return replace(self, t=t_new, q=x[:, :4], omega=x[:, 4:], torque=self.torque[k].copy(), info=info)
 
-    def plot(self) -> matplotlib.figure.Figure:
-        """Torque and rate profiles, attitude path and keep-out separation over time."""
-        return plot_plan(self)
+    def plot(
+        self,
+        *,
+        keep_out_half_angle_required: ArrayLike | None = None,
+        rate_max_required: float | None = None,
+        torque_envelope_available: ArrayLike | None = None,
+    ) -> matplotlib.figure.Figure:
+        """Torque and rate profiles, attitude path and keep-out separation over time (:func:`plot_plan`).
+
+        Parameters
+        ----------
+        keep_out_half_angle_required : array_like (m,), optional
+            The cones' half angles as required [rad], one per cone in the
+            plan's order, when the plan kept a margin (planned at wider
+            cones): both are drawn and labelled.
+        rate_max_required : float, optional
+            The required rate limit [rad/s] when the plan used a smaller one.
+        torque_envelope_available : array_like (3,), optional
+            The actuators' full torque per body axis [N m] when the plan used
+            a fraction of it.
+        """
+        return plot_plan(
+            self,
+            keep_out_half_angle_required=keep_out_half_angle_required,
+            rate_max_required=rate_max_required,
+            torque_envelope_available=torque_envelope_available,
+        )
 
 
 def states_between(
@@ -242,31 +266,81 @@ def states_between(
     return out
 
 
-def plot_plan(plan: SlewPlan) -> matplotlib.figure.Figure:
+def plot_plan(
+    plan: SlewPlan,
+    *,
+    keep_out_half_angle_required: ArrayLike | None = None,
+    rate_max_required: float | None = None,
+    torque_envelope_available: ArrayLike | None = None,
+) -> matplotlib.figure.Figure:
     """Torque, rate, attitude and keep-out panels of a plan (:meth:`SlewPlan.plot`).
+
+    Torques are drawn in mN m, the unit of the design report's tables. The
+    limits the planner used are drawn dashed or dotted and labelled
+    "planned"; where the caller gives the required limits (a plan made
+    with margins: wider cones, a fraction of the rate limit or of the
+    wheels' torque), those are drawn too, in red, and the keep-out panel
+    shades the forbidden side of each required cone.
 
     Parameters
     ----------
     plan : SlewPlan
         The plan.
+    keep_out_half_angle_required : array_like (m,), optional
+        The cones' half angles as required [rad], one per cone of the plan,
+        in its order.
+    rate_max_required : float, optional
+        The required rate limit [rad/s].
+    torque_envelope_available : array_like (3,), optional
+        The actuators' full torque per body axis [N m].
     """
     from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
 
     from attitude.plotting import AXIS_COLORS
+
+    cones = plan.keep_out
+    required = None
+    if keep_out_half_angle_required is not None:
+        required = np.atleast_1d(check_positive(keep_out_half_angle_required, "keep_out_half_angle_required"))
+        if required.shape != (len(cones),):
+            raise ValueError(
+                f"keep_out_half_angle_required must give one half angle per cone of the plan ({len(cones)}), "
+                f"got shape {required.shape}"
+            )
+    rate_required = None if rate_max_required is None else positive_scalar(rate_max_required, "rate_max_required")
+    available = None
+    if torque_envelope_available is not None:
+        available = check_positive(
+            check_vector(torque_envelope_available, "torque_envelope_available", 3), "torque_envelope_available"
+        )
 
     fine = plan.resample(plan.duration / 400.0) if plan.t.size < 400 else plan
     fig = Figure(figsize=(11, 7.5), layout="constrained")
     ax = fig.subplots(2, 2, sharex=True)
     for i, name in enumerate("xyz"):
-        ax[0, 0].step(plan.t, plan.torque[:, i], where="post", color=AXIS_COLORS[i], label=rf"$\tau_{name}$")
-        ax[0, 0].axhline(plan.torque_envelope[i], color=AXIS_COLORS[i], ls=":", lw=0.8)
-        ax[0, 0].axhline(-plan.torque_envelope[i], color=AXIS_COLORS[i], ls=":", lw=0.8)
+        ax[0, 0].step(plan.t, 1e3 * plan.torque[:, i], where="post", color=AXIS_COLORS[i], label=rf"$\tau_{name}$")
+        for sign in (1.0, -1.0):
+            ax[0, 0].axhline(sign * 1e3 * plan.torque_envelope[i], color=AXIS_COLORS[i], ls=":", lw=0.9)
+            if available is not None:
+                ax[0, 0].axhline(sign * 1e3 * available[i], color="tab:red", ls="-.", lw=0.8)
         ax[0, 1].plot(fine.t, np.degrees(fine.omega[:, i]), color=AXIS_COLORS[i], label=rf"$\omega_{name}$")
-    ax[0, 0].set_ylabel("torque [N m]")
-    ax[0, 0].set_title("torque (dotted: per-axis limits)")
+    limits = [Line2D([], [], color="0.3", ls=":", lw=0.9, label="planned limit (per axis)")]
+    if available is not None:
+        limits.append(Line2D([], [], color="tab:red", ls="-.", lw=0.8, label="wheels' limit (per axis)"))
+    handles = ax[0, 0].get_legend_handles_labels()[0] + limits
+    top = 1e3 * float(
+        np.max(plan.torque_envelope if available is None else np.maximum(available, plan.torque_envelope))
+    )
+    ax[0, 0].set_ylim(-1.1 * top, 1.7 * top)  # headroom for the legend above the limits
+    ax[0, 0].legend(handles=handles, loc="upper center", fontsize="small", ncols=2)
+    ax[0, 0].set_ylabel("torque [mN m]")
+    ax[0, 0].set_title("torque")
     ax[0, 1].plot(fine.t, np.degrees(np.linalg.norm(fine.omega, axis=1)), color="black", label=r"$|\omega|$")
     if plan.rate_max is not None:
-        ax[0, 1].axhline(math.degrees(plan.rate_max), color="black", ls="--", lw=0.8, label="rate limit")
+        ax[0, 1].axhline(math.degrees(plan.rate_max), color="black", ls="--", lw=0.8, label="planned rate limit")
+    if rate_required is not None:
+        ax[0, 1].axhline(math.degrees(rate_required), color="tab:red", ls="-.", lw=0.8, label="required rate limit")
     ax[0, 1].set_ylabel("body rate [deg/s]")
     ax[0, 1].set_title("body rate")
     for i, name in enumerate("wxyz"):
@@ -276,13 +350,41 @@ def plot_plan(plan: SlewPlan) -> matplotlib.figure.Figure:
     twin.plot(fine.t, to_go, color="0.5", ls="--", label="angle to go")
     twin.set_ylabel("angle to go [deg]")
     ax[1, 0].set_ylabel(r"attitude $q_{BN}$")
-    ax[1, 0].set_title("attitude path")
+    ax[1, 0].set_title("attitude path (grey dashed: angle to go, right axis)")
     sep = fine.separation()
     if sep.shape[1]:
-        for j, cone in enumerate(plan.keep_out):
-            line = ax[1, 1].plot(fine.t, np.degrees(sep[:, j]), label=cone.name or f"cone {j}")[0]
-            ax[1, 1].axhline(math.degrees(cone.half_angle), color=line.get_color(), ls="--", lw=0.8)
-        ax[1, 1].set_title("keep-out separation (dashed: cone half angle)")
+        for j, cone in enumerate(cones):
+            name = cone.name or f"cone {j}"
+            line = ax[1, 1].plot(fine.t, np.degrees(sep[:, j]), label=f"{name}: separation")[0]
+            planned_deg = math.degrees(cone.half_angle)
+            if required is None:
+                ax[1, 1].axhline(
+                    planned_deg,
+                    color=line.get_color(),
+                    ls="--",
+                    lw=0.9,
+                    label=f"{name}: half angle {planned_deg:.4g} deg",
+                )
+                continue
+            required_deg = math.degrees(float(required[j]))
+            ax[1, 1].axhline(
+                planned_deg,
+                color=line.get_color(),
+                ls="--",
+                lw=0.9,
+                label=f"{name}: planned at {planned_deg:.4g} deg (margin {planned_deg - required_deg:.3g} deg)",
+            )
+            ax[1, 1].axhline(
+                required_deg, color="tab:red", ls="-", lw=1.2, label=f"{name}: keep-out limit {required_deg:.4g} deg"
+            )
+            ax[1, 1].axhspan(0.0, required_deg, color="tab:red", alpha=0.08)
+        if required is not None:
+            # The limit in view with a little of the forbidden side, whatever the shading's span.
+            lowest = min(float(np.degrees(np.min(sep))), float(np.degrees(np.min(required))))
+            top = max(float(np.degrees(np.max(sep))), max(math.degrees(c.half_angle) for c in cones))
+            pad = 0.1 * max(top - lowest, 0.5)
+            ax[1, 1].set_ylim(lowest - pad, top + pad)
+        ax[1, 1].set_title("keep-out separation (boresight to direction)")
     else:
         ax[1, 1].text(0.5, 0.5, "no keep-out cones", transform=ax[1, 1].transAxes, ha="center", va="center")
         ax[1, 1].set_title("keep-out separation")
@@ -290,7 +392,7 @@ def plot_plan(plan: SlewPlan) -> matplotlib.figure.Figure:
     for a in ax.ravel():
         a.grid(True, alpha=0.3)
         a.margins(x=0)
-        if a.get_legend_handles_labels()[0]:
+        if a is not ax[0, 0] and a.get_legend_handles_labels()[0]:
             a.legend(loc="best", fontsize="small")
     for a in ax[1]:
         a.set_xlabel("time [s]")

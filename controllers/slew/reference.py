@@ -85,7 +85,7 @@ class EigenaxisSlew(ResultIO):
     inertia: NDArray[np.float64]
 
     def plot(self) -> matplotlib.figure.Figure:
-        """Torque, rate and angle profiles."""
+        """Torque [mN m], rate and angle profiles."""
         from matplotlib.figure import Figure
 
         from attitude.plotting import AXIS_COLORS
@@ -93,9 +93,9 @@ class EigenaxisSlew(ResultIO):
         fig = Figure(figsize=(9, 7), layout="constrained")
         axes = fig.subplots(3, 1, sharex=True)
         for i, name in enumerate("xyz"):
-            axes[0].plot(self.t, self.torque[:, i], color=AXIS_COLORS[i], label=rf"$\tau_{name}$")
+            axes[0].plot(self.t, 1e3 * self.torque[:, i], color=AXIS_COLORS[i], label=rf"$\tau_{name}$")
             axes[1].plot(self.t, np.degrees(self.omega[:, i]), color=AXIS_COLORS[i], label=rf"$\omega_{name}$")
-        axes[0].set_ylabel("torque [N m]")
+        axes[0].set_ylabel("torque [mN m]")
         axes[1].set_ylabel("body rate [deg/s]")
         axes[2].plot(self.t, np.degrees(self.angle), color="black")
         axes[2].set_ylabel("eigenaxis angle [deg]")

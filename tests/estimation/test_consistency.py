@@ -291,8 +291,54 @@ class TestPlots:
         assert fig.axes[2].get_ylabel() == "z [arcsec]"
         runs = plot_errors_with_bounds(t, rng.normal(0, 2, (4, 50, 2)), sig[:, :2], scale=[1.0, 10.0])
         assert len(runs.axes) == 2
-        np.testing.assert_allclose(runs.axes[1].get_lines()[4].get_ydata(), 60.0)  # 4 runs, then +3 sigma * 10
+        # Several runs: run 1's error, then +3 sigma * 10 (the others are in the spread band, not drawn as lines).
+        assert len(runs.axes[1].get_lines()) == 3
+        np.testing.assert_allclose(runs.axes[1].get_lines()[1].get_ydata(), 60.0)
         with pytest.raises(ValueError, match="sigmas must have shape"):
             plot_errors_with_bounds(t, np.zeros((50, 3)), np.zeros((50, 2)))
         with pytest.raises(ValueError, match="labels must name the 3 components"):
             plot_errors_with_bounds(t, np.zeros((50, 3)), sig, ["a"])
+
+    def test_plot_errors_with_bounds_shows_one_run_and_the_spread_of_all(self):
+        """Several runs: one line (run 1) and a band of +-3 RMS over the runs, not a cloud of lines.
+
+        The band's upper edge is checked against the RMS over the runs
+        computed here with numpy (50 steps: the pooling window is one step).
+        """
+        t = np.arange(50.0)
+        rng = np.random.default_rng(7)
+        e = rng.normal(0.0, 2.0, (6, 50, 1))
+        fig = plot_errors_with_bounds(t, e, np.full((50, 1), 2.0), scale=10.0)
+        ax = fig.axes[0]
+        np.testing.assert_array_equal(ax.get_lines()[0].get_ydata(), 10.0 * e[0, :, 0])
+        (band,) = [c for c in ax.collections if len(c.get_paths())]
+        vertices = band.get_paths()[0].vertices
+        upper = np.array([vertices[vertices[:, 0] == tj, 1].max() for tj in t])
+        np.testing.assert_allclose(upper, 3.0 * 10.0 * np.sqrt(np.mean(e[:, :, 0] ** 2, axis=0)), rtol=1e-12)
+        assert "RMS error of 6 runs" in ax.get_legend_handles_labels()[1][1]
+
+    def test_plot_errors_with_bounds_limits_show_the_steady_state(self):
+        """A bound that starts 100 times above its steady level does not set the axis; the clip is noted.
+
+        sigma = 1 + 99 exp(-t / 2 s) over 100 s; the error stays within it.
+        The transient ends where the bound falls to 1.5 times its final
+        level, 3 (1 + 99 exp(-t / 2)) <= 4.5, i.e. t >= 2 ln 198 s (closed
+        form); the limits are 1.15 times the bound at the first step from
+        there (the errors stay below it). A bound that never leaves its level
+        (the second component), and one that settles only at 8 ln 198 = 42 s,
+        past a quarter of the run (the third), leave the limits to matplotlib.
+        """
+        t = np.linspace(0.0, 100.0, 501)
+        decay = 1.0 + 99.0 * np.exp(-t / 2.0)
+        sig = np.stack([decay, np.ones_like(t), 1.0 + 99.0 * np.exp(-t / 8.0)], axis=-1)
+        err = 0.5 * sig * np.sin(t)[:, None]
+        fig = plot_errors_with_bounds(t, err, sig, units="deg/h")
+        low, high = fig.axes[0].get_ylim()
+        start = t[t >= 2.0 * np.log(198.0)][0]
+        steady = 3.0 * (1.0 + 99.0 * np.exp(-start / 2.0))
+        assert (low, high) == pytest.approx((-1.15 * steady, 1.15 * steady), rel=1e-9)
+        assert high < 0.02 * 300.0  # the transient's 3 sigma = 300 no longer sets the axis
+        notes = [x.get_text() for x in fig.axes[0].texts]
+        assert len(notes) == 1 and "initial transient (to ±300 deg/h" in notes[0] and "clipped" in notes[0]
+        assert fig.axes[1].get_ylim()[1] >= 3.0 and not fig.axes[1].texts
+        assert fig.axes[2].get_ylim()[1] >= 300.0 and not fig.axes[2].texts

@@ -204,32 +204,35 @@ def estimation_study(
     return out, figures
 
 
-#: Monte Carlo runs drawn in the MEKF error figure (more only thicken the cloud).
-RUNS_DRAWN = 5
-
-
 def _mekf_error_figure(t: np.ndarray, errors: np.ndarray, sigma: np.ndarray, tracker_every: int) -> Figure:
-    """Errors of the first runs with the 3-sigma envelope: the largest sigma between two tracker updates.
+    """Run 1's errors, the spread of all runs and the 3-sigma envelope: the largest sigma between two tracker updates.
 
     Between updates the attitude sigma saw-tooths (it grows with the gyro
     noise and drops at each update); drawn at every step it fills a band.
     The envelope, the largest sigma within ``tracker_every - 1`` steps either
     side, holds the pre-update value: the bound every error must respect.
+    The attitude error is the MEKF's ``delta_theta`` (``q_true = q_est ⊗
+    exp(delta_theta / 2)``), a small rotation in body axes; the bias error
+    is in body axes too (the gyro's axes as the filter models them).
     """
     n = sigma.shape[0]
     envelope = sigma.copy()
     for shift in range(1, min(tracker_every, n)):
         envelope[: n - shift] = np.maximum(envelope[: n - shift], sigma[shift:])
         envelope[shift:] = np.maximum(envelope[shift:], sigma[: n - shift])
-    runs = min(RUNS_DRAWN, errors.shape[0])
     return plot_errors_with_bounds(
         t,
-        errors[:runs],
+        errors,
         envelope,
-        labels=["δθ1", "δθ2", "δθ3", "δb1", "δb2", "δb3"],
+        labels=[f"δθ{a} (body)" for a in "xyz"] + [f"δb{a} (body)" for a in "xyz"],
         units=["arcsec"] * 3 + ["deg/h"] * 3,
         scale=[1.0 / ARCSEC] * 3 + [1.0 / _DEG_PER_H] * 3,
-        title=rf"MEKF errors of {runs} runs with the $\pm 3\sigma$ envelope (largest between tracker updates)",
+        title=(
+            f"MEKF errors, {errors.shape[0]} runs: attitude as a small rotation in body axes "
+            r"($q_{true} = \hat q \otimes \delta q(\delta\theta)$), gyro bias in body axes"
+            "\n"
+            r"filter's $\pm 3\sigma$: its envelope, the largest between tracker updates"
+        ),
     )
 
 

@@ -496,17 +496,22 @@ def _caption_table() -> dict[str, tuple[str, str]]:
         "lqr_bode_sampled": ("linear", "LQR loop gain of the sampled loop, per axis."),
         "slew_plan": (
             "slews",
-            "Optimal plan: torque, rates, attitude and keep-out separation (dashed: the cone as planned, widened "
-            "by the planning margin).",
+            "Optimal plan: torque [mN m], rates, attitude and keep-out separation; the planned limits (dashed or "
+            "dotted: the cone widened by the planning margin, the planned rate and torque) beside the required ones "
+            "(red).",
         ),
         "slew_comparison": ("slews", "Optimal plan and eigenaxis slew: body rate and keep-out separation."),
         "closed_loop": ("closed_loop", "Flown slew: attitude error, body rates, torques, wheel speeds."),
         "pointing": ("closed_loop", "Pointing error (truth) and knowledge error (MEKF) with the requirement."),
         "mekf_errors": (
             "estimation",
-            "MEKF attitude and gyro-bias errors of the first Monte Carlo runs with the 3-sigma envelope.",
+            "MEKF attitude and gyro-bias errors in body axes: run 1, the spread of all runs (+-3 RMS) and the "
+            "filter's 3-sigma envelope.",
         ),
-        "rate_ekf_errors": ("estimation", "Rate EKF rate and bias errors (run 1) with 3-sigma bounds."),
+        "rate_ekf_errors": (
+            "estimation",
+            "Rate EKF rate and bias errors in body axes (run 1) with 3-sigma bounds; limits from the steady state.",
+        ),
         "mekf_nees": ("estimation", "MEKF: average NEES over the Monte Carlo runs with its 95 % chi-square band."),
         "rate_ekf_nees": ("estimation", "Rate EKF: average NEES with its 95 % chi-square band."),
         "orbit_torques": ("orbit", "Disturbance torques per source over one orbit, nadir hold (log scale)."),

@@ -60,7 +60,13 @@ def slew_figures(study: SlewStudy) -> dict[str, Figure]:
     """
     figures: dict[str, Figure] = {}
     if study.plan is not None:
-        figures["slew_plan"] = study.plan.plot()
+        # The plan's limits carry the planning margins; the required ones are drawn beside them.
+        rate = study.summary["rate_max_deg_per_s"]
+        figures["slew_plan"] = study.plan.plot(
+            keep_out_half_angle_required=[math.radians(c.half_angle_deg) for c in study.cones] or None,
+            rate_max_required=None if rate is None else math.radians(rate),
+            torque_envelope_available=1e-3 * np.asarray(study.summary["torque_envelope_mNm"]) / PLAN_TORQUE_FRACTION,
+        )
     if study.plan is None and study.eigenaxis is None:
         return figures
     # Without a keep-out cone there is no separation to show: one panel (no empty legend).

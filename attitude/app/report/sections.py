@@ -286,7 +286,8 @@ def _linear(results: dict[str, Any]) -> list[Block]:
             Paragraph(
                 f"Discrete LQR at {fmt(period)} s by Bryson's rule: largest acceptable attitude error "
                 f"{_vec(lqr['angle_max_deg'])} deg, rate error {_vec(lqr['rate_max_deg_per_s'])} deg/s and torque "
-                f"{_vec(lqr['torque_max_Nm'])} N m per axis. Closed-loop poles as s-plane equivalents; the "
+                f"{_vec([1e3 * v for v in lqr['torque_max_Nm']])} mN m per axis. Closed-loop poles as s-plane "
+                "equivalents; the "
                 f"slowest decays at {fmt(lqr['slowest_decay_rate_per_s'])} 1/s."
             )
         )

@@ -13,7 +13,9 @@ What each group checks against:
   Schaub and Junkins, *Analytical Mechanics of Space Systems*, ch. 4).
 * Protocols and bookkeeping: multirate scheduling (sensors, estimator and controller called at the
   ticks their periods imply), reproducibility at a fixed seed, save/load bit for bit, the review
-  figure's panels and wheel-speed limits (``h_max / J``), the duration rounded up to a tick.
+  figure's panels and wheel-speed limits (``h_max / J``), its log error axis starting near the data
+  (not at a fixed floor) and its commanded and applied torques told apart where a limit acts, the
+  duration rounded up to a tick.
 * Divergence: a sampled rate loop with gain ``C dt / I`` far beyond 2 (the stability limit of the
   discrete rate loop ``w_{k+1} = (1 - C dt / I) w_k``) is reported with the time.
 * Bad input: errors name the argument, the rule and the value (DESIGN.md).
@@ -181,6 +183,42 @@ def test_review_figure_has_the_standard_panels():
     assert labels == ["attitude error [deg]", "body rate [deg/s]", "body torque [mN m]", "wheel speed [rpm]"]
     # The wheel speed limits (0.8 N m s / 0.005 kg m^2 = 160 rad/s = 1528 rpm) are drawn.
     assert result.info["wheel_speed_limit_rpm"][0] == pytest.approx(160.0 * 60 / (2 * np.pi))
+
+
+def test_review_figure_log_axis_starts_near_the_data():
+    """The error axis starts at most two decades below the data's small end, not at a fixed 1e-9 deg.
+
+    Checked against the plotted data: a run that starts exactly on the
+    reference (error 0 at t = 0) and drifts off under a constant torque must
+    not stretch the axis down by its zero sample; the lower limit lies
+    between a hundredth of the 1st percentile of the positive errors and
+    that percentile (one decade below its decade: log_axis_floor).
+    """
+    result = simulate(BODY, TARGET, np.zeros(3), 20.0, controller=pd(), wheels=WHEELS, disturbance=[1e-4, 0.0, 0.0])
+    err_deg = np.degrees(result.error_angle)
+    assert err_deg[0] == 0.0  # the exact start a fixed floor used to clamp to 1e-9 deg
+    small = np.percentile(err_deg[err_deg > 0], 1.0)
+    bottom = result.plot().axes[0].get_ylim()[0]
+    assert 1e-2 * small <= bottom <= small
+
+
+def test_review_figure_shows_commanded_and_applied_torque_apart_when_limited():
+    """Commanded torque drawn wide and pale under the thin applied torque; a limit is named in the title.
+
+    Wheels of 5 mN m cannot deliver the PD's command for a 30 deg error
+    (2 I wn^2 theta ~ 60 mN m), so the title reports the largest
+    |commanded - applied| of the run's arrays, in mN m.
+    """
+    weak = ReactionWheels.pyramid(spin_inertia=0.005, torque_max=0.005, momentum_max=0.8)
+    result = simulate(BODY, quat.identity(), np.zeros(3), 10.0, controller=pd(), wheels=weak)
+    ax = result.plot().axes[2]
+    commanded = [ln for ln in ax.get_lines() if ln.get_label().startswith("commanded")]
+    applied = [ln for ln in ax.get_lines() if ln.get_label().startswith("applied")]
+    assert len(commanded) == len(applied) == 3
+    assert all(c.get_linewidth() > 2 * a.get_linewidth() and c.get_alpha() < 1 for c, a in zip(commanded, applied))
+    gap = 1e3 * np.max(np.abs(result.torque_command - result.torque_applied))
+    assert gap > 10.0  # saturated by tens of mN m
+    assert f"largest difference {gap:.3g} mN m" in ax.get_title()
 
 
 class TestMoreBadInput:

@@ -598,6 +598,42 @@ class TestResults:
         assert "(enters the keep-out cone)" in smallsat_cone.plot().get_suptitle()
         assert "enters" not in benchmark_plan.plot().get_suptitle()
 
+    def test_plot_labels_the_required_limits_beside_the_planned_ones(self, smallsat_cone):
+        """A plan made with margins: the figure draws both the required and the planned limits, labelled.
+
+        Checked against the inputs: the keep-out panel has a horizontal line
+        at the required half angle (labelled a keep-out limit) and one at the
+        plan's own (labelled planned, with the margin), the rate panel the
+        required rate, and the torques are drawn in mN m (the design tables'
+        unit): 1e3 times the plan's N m values.
+        """
+        planned = float(smallsat_cone.keep_out_half_angle[0])
+        required = planned - math.radians(0.5)
+        fig = smallsat_cone.plot(
+            keep_out_half_angle_required=[required],
+            rate_max_required=RATE_MAX / 0.85,
+            torque_envelope_available=smallsat_cone.torque_envelope / 0.8,
+        )
+        ax_torque, ax_rate, _, ax_keep = fig.axes[:4]
+
+        def level(ax, text):
+            lines = [ln for ln in ax.get_lines() if text in ln.get_label()]
+            assert len(lines) == 1, [ln.get_label() for ln in ax.get_lines()]
+            return float(lines[0].get_ydata()[0]), lines[0].get_label()
+
+        # Exact: the lines are drawn at the given angles converted to degrees.
+        assert level(ax_keep, "keep-out limit")[0] == pytest.approx(math.degrees(required), rel=1e-12)
+        y, label = level(ax_keep, "planned at")
+        assert y == pytest.approx(math.degrees(planned), rel=1e-12)
+        assert "margin 0.5 deg" in label
+        assert level(ax_rate, "required rate limit")[0] == pytest.approx(math.degrees(RATE_MAX / 0.85), rel=1e-12)
+        assert level(ax_rate, "planned rate limit")[0] == pytest.approx(math.degrees(RATE_MAX), rel=1e-12)
+        assert ax_torque.get_ylabel() == "torque [mN m]"
+        tau_x = next(ln for ln in ax_torque.get_lines() if ln.get_label() == r"$\tau_x$")
+        np.testing.assert_allclose(tau_x.get_ydata(), 1e3 * smallsat_cone.torque[:, 0], rtol=1e-12)
+        with pytest.raises(ValueError, match=r"keep_out_half_angle_required.*one half angle per cone"):
+            smallsat_cone.plot(keep_out_half_angle_required=[required, required])
+
 
 class TestFailures:
     def test_unconverged_plan_raises_with_ipopt_status(self):
