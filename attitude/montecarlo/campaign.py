@@ -5,8 +5,8 @@ its parameters are drawn, :mod:`attitude.montecarlo.dispersions`), a number
 of runs, a master seed and the *requirements* each run must meet.
 :func:`run_campaign` executes it and returns a :class:`CampaignResult`
 (:mod:`attitude.montecarlo.results`): a tidy table with one row per run
-(index, seed, status, dispersed parameters, metrics, pass/fail per
-requirement), statistics (percentiles and the success probability the
+(index, seed and spawn key, status, dispersed parameters, metrics, pass/fail
+per requirement; saved in review units named in the columns), statistics (percentiles and the success probability the
 campaign proves, :mod:`attitude.montecarlo.statistics`), optional time
 histories and figures.
 
