@@ -406,6 +406,12 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
             "--guidance plan: the file's montecarlo.initial_attitude is 'uniform_so3', but a planned slew starts "
             "from the file's start attitude; disperse the attitude about the start, or use --guidance eigenaxis"
         )
+    if args.replay is not None:
+        return _replay_montecarlo(args, config, out)
+    if args.force:
+        raise UsageError(
+            "--force: only with --replay (a campaign resumes its checkpoint, or starts afresh with --fresh)"
+        )
     _progress(f"Monte Carlo campaign of {config.name}: results in {out}/")
     if args.guidance == "plan":
         _progress(f"planning the slew ({args.nodes} intervals, once, on the nominal spacecraft) ...")
@@ -456,6 +462,63 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
         raise KeyboardInterrupt
     # Signed off only when every run completed (no error, nothing left undone) and met every requirement.
     return EXIT_PASS if bool(np.all(result.status == "ok")) and bool(np.all(result.passed)) else EXIT_FAIL
+
+
+def _replay_montecarlo(args: argparse.Namespace, config: SpacecraftConfig, out: Path) -> int:
+    """``attitude montecarlo FILE --replay RUN``: one run of the campaign again, alone, with its figures."""
+    from attitude.app.scenarios import ScenarioError, replay_from_config
+    from attitude.montecarlo.results import RunReplay
+    from controllers.slew.problem import SlewPlanningError
+
+    if args.scheduler is not None or args.workers is not None or args.fresh:
+        flag = "--scheduler" if args.scheduler is not None else "--workers" if args.workers is not None else "--fresh"
+        raise UsageError(f"{flag}: not with --replay (the run is flown alone, in this process, with no checkpoint)")
+    folder = out / f"replay_run{args.replay}"
+    if folder.exists() and not folder.is_dir():
+        raise UsageError(f"--out {out}: {folder} exists and is not a folder")
+    existing = [str(folder / name) for name in RunReplay.FILES if (folder / name).exists()]
+    if existing and not args.force:
+        raise UsageError(f"--out {out}: would overwrite {', '.join(existing)}; use --force to replace them")
+    path = "the vectorised path" if args.vectorized else "the per-run engine"
+    _progress(f"Replaying run {args.replay} of the Monte Carlo campaign of {config.name} on {path}: files in {folder}/")
+    try:
+        replay = replay_from_config(
+            config,
+            args.replay,
+            args.runs,
+            vectorized=args.vectorized,
+            seed=args.seed,
+            duration=args.duration_s,
+            keep_out=not args.no_keep_out,
+            guidance=args.guidance,
+            nodes=args.nodes,
+            environment=args.environment,
+        )
+    except ScenarioError as exc:
+        flag = f"--duration-s {args.duration_s:g}: " if str(exc).startswith("duration") else ""
+        if "environment" in str(exc) and not flag:
+            flag = "--environment: " if args.environment else ""
+        raise UsageError(f"{flag}{exc}") from None
+    except SlewPlanningError as exc:
+        print(f"attitude montecarlo: {exc}", file=sys.stderr)
+        return EXIT_FAIL
+    except ValueError as exc:
+        if str(exc).startswith("run must be"):
+            hint = "" if args.runs is not None else " (the file's montecarlo.runs; give --runs as the campaign did)"
+            raise UsageError(f"--replay {args.replay}: {exc}{hint}") from None
+        raise
+    try:
+        paths = replay.save(folder)
+    except OSError as exc:
+        raise UsageError(f"--out {out}: {exc}") from None
+    if args.json:
+        from attitude.app.report.writer import dumps_json
+
+        sys.stdout.write(dumps_json(replay.to_dict()))
+    else:
+        print(replay.summary())
+        print(f"Files: {', '.join(str(p) for p in paths)}")
+    return EXIT_PASS if replay.passed else EXIT_FAIL
 
 
 # ---------------------------------------------------------------------------
@@ -610,7 +673,11 @@ def build_parser() -> argparse.ArgumentParser:
             "settling time is when the error to the target enters the pointing accuracy for good, required\n"
             "within time_max_s + settling_time_s. Seeds come from one master seed, so a campaign is\n"
             "reproducible whatever the number of workers. Writes the per-run table (CSV), statistics, time\n"
-            "histories (npz), a checkpoint (an interrupted campaign resumes) and figures to --out. Exit code\n"
+            "histories (npz), a checkpoint (an interrupted campaign resumes) and figures to --out. The table's\n"
+            "metrics and parameters are in the summary's units, named in the column (final_pointing_error_deg,\n"
+            "wheel_speed_peak_rpm; campaign.json holds the schema), and each row's seed and spawn_key rebuild\n"
+            "that run's generator: numpy.random.default_rng(numpy.random.SeedSequence(seed, spawn_key=...)).\n"
+            "--replay RUN flies one run again alone, with the same options, and draws its figures. Exit code\n"
             "0 when every completed run meets every requirement; 1 also when the slew cannot be planned.\n\n"
             "On a Dask cluster: start `dask scheduler` on one machine and `dask worker tcp://HOST:8786` on\n"
             "each of the others (with this package installed), then pass --scheduler tcp://HOST:8786."
@@ -671,7 +738,18 @@ def build_parser() -> argparse.ArgumentParser:
         help="fly the file's [orbit], [environment] and [surface]: the disturbance torques act on every run, with "
         "the surface dispersions of [montecarlo] (drag_scale, residual_dipole, centre_of_pressure_offset)",
     )
-    p.add_argument("--json", action="store_true", help="print the statistics as JSON")
+    p.add_argument(
+        "--replay",
+        type=_count(0),
+        default=None,
+        metavar="RUN",
+        help="fly run RUN of the campaign again, alone, with its history at every tick (give the campaign's "
+        "options: --runs, --seed, --guidance, --vectorized, --environment, --duration-s ...); prints its metrics "
+        "and verdicts and writes replay.json, history.npz and its figures to DIR/replay_runRUN; exit code 0 when "
+        "it meets every requirement",
+    )
+    p.add_argument("--force", action="store_true", help="with --replay: replace the files of an earlier replay")
+    p.add_argument("--json", action="store_true", help="print the statistics (with --replay: the run) as JSON")
     p.set_defaults(run=_cmd_montecarlo)
 
     p = sub.add_parser(

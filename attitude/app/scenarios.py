@@ -25,7 +25,11 @@ estimators; :mod:`attitude.montecarlo.campaign` never does (a scenario is any ca
     :func:`attitude.simulation.batch.simulate_batch`.
 :func:`run_campaign_from_config`
     What ``attitude montecarlo FILE`` calls: the campaign of the file's
-    ``[montecarlo]`` table, written with its figures to an output directory.
+    ``[montecarlo]`` table (:func:`campaign_from_config`), written with its
+    figures to an output directory.
+:func:`replay_from_config`
+    What ``attitude montecarlo FILE --replay RUN`` calls: one run of that
+    campaign flown again alone, with its history at every tick.
 
 In orbit (``environment=True``, ``attitude montecarlo --environment``) both
 scenarios fly the file's ``[orbit]``, ``[environment]`` and ``[surface]``
@@ -77,7 +81,7 @@ from attitude.environment.orbit_environment import OrbitEnvironment
 from attitude.montecarlo.campaign import Campaign, run_campaign, usable_cpus
 from attitude.montecarlo.dispersions import dispersions_from_config
 from attitude.montecarlo.executors import RunOutput
-from attitude.montecarlo.results import CampaignResult, Requirement
+from attitude.montecarlo.results import CampaignResult, Requirement, RunReplay
 from attitude.rigid_body import RigidBody
 from attitude.rng import NormalStreams
 from attitude.sensors import Gyro, GyroBatch
@@ -97,6 +101,8 @@ __all__ = [
     "ClosedLoopScenario",
     "PDWheelsScenario",
     "ScenarioError",
+    "campaign_from_config",
+    "replay_from_config",
     "requirements_from_config",
     "run_campaign_from_config",
     "surface_parameters",
@@ -955,6 +961,164 @@ class PDWheelsScenario:
         return outputs
 
 
+def campaign_from_config(
+    config: SpacecraftConfig | str | Path,
+    runs: int | None = None,
+    *,
+    seed: int | None = None,
+    duration: float = 600.0,
+    history_stride: int | None = 10,
+    keep_out: bool = True,
+    guidance: str = "plan",
+    nodes: int = PLAN_NODES,
+    consider_misalignment: bool = False,
+    environment: bool = False,
+) -> Campaign:
+    """The campaign of a spacecraft file, not yet run: what :func:`run_campaign_from_config` runs.
+
+    The scenario (:class:`ClosedLoopScenario`, its slew planned here), the
+    file's dispersions, the run count, the seed and the requirements.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig or path
+        The spacecraft (its ``[montecarlo]`` table gives the runs, the seed
+        and the dispersions; without one, nothing is dispersed).
+    runs : int, optional
+        Overrides ``montecarlo.runs``.
+    seed : int, optional
+        Overrides ``montecarlo.seed`` (None and no table: drawn and recorded).
+    duration : float
+        Simulated time per run [s] (:func:`run_campaign_from_config`).
+    history_stride : int, optional
+        Keep time histories every this many ticks (1: every tick; None: none).
+    keep_out : bool
+        Count the keep-out cones as requirements.
+    guidance : {"plan", "eigenaxis"}
+        What the closed loop flies (:class:`ClosedLoopScenario`).
+    nodes : int
+        Planner intervals of the planned guidance.
+    consider_misalignment : bool
+        Inflate the MEKF's tracker covariance by the tracker-misalignment dispersion.
+    environment : bool
+        Fly the file's orbit environment with the surface dispersions (:func:`run_campaign_from_config`).
+    """
+    if not isinstance(config, SpacecraftConfig):
+        config = load_config(config)
+    mc = config.montecarlo
+    dispersions = {}
+    if mc is not None:
+        if not environment:
+            declared = [name for name in SURFACE_DISPERSIONS if getattr(mc, name) is not None]
+            if declared:
+                raise ScenarioError(
+                    f"montecarlo.{declared[0]} disperses the surface flown along the orbit, but the campaign does not "
+                    "fly the environment: pass environment=True (attitude montecarlo --environment) or remove "
+                    f"the key{'s' if len(declared) > 1 else ''} {', '.join('montecarlo.' + n for n in declared)}"
+                )
+        nominal = assembly.rigid_body(config).inertia
+        surface = assembly.surface(config)
+        dispersions = dispersions_from_config(
+            mc,
+            nominal,
+            config.requirements.slew.q_start(),
+            residual_dipole_Am2=np.zeros(3) if surface is None else surface.residual_dipole_Am2,
+        )
+    n = runs if runs is not None else (mc.runs if mc is not None else None)
+    if n is None:
+        raise ValueError("runs must be given when the spacecraft file has no [montecarlo] table")
+    scenario = ClosedLoopScenario(
+        config,
+        duration=duration,
+        history_stride=history_stride,
+        guidance=guidance,
+        nodes=nodes,
+        consider_misalignment=consider_misalignment,
+        environment=environment,
+    )
+    return Campaign(
+        scenario,
+        dispersions,
+        runs=n,
+        seed=seed if seed is not None else (mc.seed if mc is not None else None),
+        requirements=requirements_from_config(config, keep_out=keep_out),
+        input_file=(config.source, config.source_sha256) if config.source else None,
+    )
+
+
+def replay_from_config(
+    config: SpacecraftConfig | str | Path,
+    run: int,
+    runs: int | None = None,
+    *,
+    vectorized: bool = False,
+    seed: int | None = None,
+    duration: float = 600.0,
+    keep_out: bool = True,
+    guidance: str = "plan",
+    nodes: int = PLAN_NODES,
+    consider_misalignment: bool = False,
+    environment: bool = False,
+) -> RunReplay:
+    """One run of a file's campaign flown again, alone, with its history at every tick (``--replay``).
+
+    The campaign is :func:`campaign_from_config`'s with the same arguments
+    (give those the campaign was run with), so the run has the same
+    parameters and the same generator: with ``vectorized`` as the campaign's,
+    its metrics are that run's row bit for bit (a vectorised run's arithmetic
+    does not depend on the other runs of its batch); on the other path they
+    agree to rounding (README, "Monte Carlo campaigns").
+
+    Parameters
+    ----------
+    config : SpacecraftConfig or path
+        The spacecraft file.
+    run : int
+        The run's index, ``0 <= run < runs``.
+    runs : int, optional
+        The campaign's run count (default ``montecarlo.runs``): the run must be one of them.
+    vectorized : bool
+        Fly it as a vectorised campaign did (``run_batch`` on a batch of one).
+    seed : int, optional
+        The campaign's master seed (default ``montecarlo.seed``).
+    duration : float
+        Simulated time [s], the campaign's.
+    keep_out : bool
+        Count the keep-out cones as requirements, as the campaign did.
+    guidance : {"plan", "eigenaxis"}
+        What the closed loop flies, as in the campaign.
+    nodes : int
+        Planner intervals of the planned guidance, as in the campaign.
+    consider_misalignment : bool
+        As in the campaign (:class:`ClosedLoopScenario`).
+    environment : bool
+        As in the campaign: fly the file's orbit environment.
+
+    Returns
+    -------
+    RunReplay
+        With ``info["wheel_speed_limit"]``, each wheel's speed at its largest momentum [rad/s], for the figures.
+    """
+    if not isinstance(config, SpacecraftConfig):
+        config = load_config(config)
+    campaign = campaign_from_config(
+        config,
+        runs,
+        seed=seed,
+        duration=duration,
+        history_stride=1,
+        keep_out=keep_out,
+        guidance=guidance,
+        nodes=nodes,
+        consider_misalignment=consider_misalignment,
+        environment=environment,
+    )
+    replay = campaign.replay(run, vectorized=vectorized)
+    wheels = assembly.reaction_wheels(config)
+    replay.info["wheel_speed_limit"] = (np.asarray(wheels.momentum_max) / np.asarray(wheels.spin_inertia)).tolist()
+    return replay
+
+
 def run_campaign_from_config(
     config: SpacecraftConfig | str | Path,
     runs: int | None = None,
@@ -1030,47 +1194,19 @@ def run_campaign_from_config(
         disperses the surface is refused (ScenarioError naming the key)
         rather than drawing values nobody flies.
     """
-    if not isinstance(config, SpacecraftConfig):
-        config = load_config(config)
-    mc = config.montecarlo
-    dispersions = {}
-    if mc is not None:
-        if not environment:
-            declared = [name for name in SURFACE_DISPERSIONS if getattr(mc, name) is not None]
-            if declared:
-                raise ScenarioError(
-                    f"montecarlo.{declared[0]} disperses the surface flown along the orbit, but the campaign does not "
-                    "fly the environment: pass environment=True (attitude montecarlo --environment) or remove "
-                    f"the key{'s' if len(declared) > 1 else ''} {', '.join('montecarlo.' + n for n in declared)}"
-                )
-        nominal = assembly.rigid_body(config).inertia
-        surface = assembly.surface(config)
-        dispersions = dispersions_from_config(
-            mc,
-            nominal,
-            config.requirements.slew.q_start(),
-            residual_dipole_Am2=np.zeros(3) if surface is None else surface.residual_dipole_Am2,
-        )
-    n = runs if runs is not None else (mc.runs if mc is not None else None)
-    if n is None:
-        raise ValueError("runs must be given when the spacecraft file has no [montecarlo] table")
-    scenario = ClosedLoopScenario(
+    campaign = campaign_from_config(
         config,
+        runs,
+        seed=seed,
         duration=duration,
         history_stride=history_stride,
+        keep_out=keep_out,
         guidance=guidance,
         nodes=nodes,
         consider_misalignment=consider_misalignment,
         environment=environment,
     )
-    campaign = Campaign(
-        scenario,
-        dispersions,
-        runs=n,
-        seed=seed if seed is not None else (mc.seed if mc is not None else None),
-        requirements=requirements_from_config(config, keep_out=keep_out),
-        input_file=(config.source, config.source_sha256) if config.source else None,
-    )
+    n = campaign.runs
     runs_per_task = None
     if vectorized:
         # Several batches per worker (every core busy; a progress bar and checkpoints that move), but

@@ -16,9 +16,10 @@ from attitude.montecarlo.dispersions import (
     parameter_columns,
     run_seed_sequence,
     scenario_generator,
+    scenario_spawn_key,
 )
 from attitude.montecarlo.executors import RunOutput
-from attitude.montecarlo.results import CampaignResult, Requirement
+from attitude.montecarlo.results import CampaignResult, Requirement, RunReplay
 from attitude.montecarlo.statistics import (
     DEFAULT_PERCENTILES,
     percentiles,
@@ -41,6 +42,7 @@ __all__ = [
     "RelativeScale",
     "Requirement",
     "RunOutput",
+    "RunReplay",
     "Uniform",
     "dispersions_from_config",
     "draw_parameters",
@@ -51,6 +53,7 @@ __all__ = [
     "run_seed_sequence",
     "runs_for_zero_failures",
     "scenario_generator",
+    "scenario_spawn_key",
     "success_lower_bound",
     "success_statement",
     "usable_cpus",

@@ -5,8 +5,8 @@ its parameters are drawn, :mod:`attitude.montecarlo.dispersions`), a number
 of runs, a master seed and the *requirements* each run must meet.
 :func:`run_campaign` executes it and returns a :class:`CampaignResult`
 (:mod:`attitude.montecarlo.results`): a tidy table with one row per run
-(index, seed, status, dispersed parameters, metrics, pass/fail per
-requirement), statistics (percentiles and the success probability the
+(index, seed and spawn key, status, dispersed parameters, metrics, pass/fail
+per requirement; saved in review units named in the columns), statistics (percentiles and the success probability the
 campaign proves, :mod:`attitude.montecarlo.statistics`), optional time
 histories and figures.
 
@@ -98,7 +98,7 @@ from attitude.montecarlo.executors import (
     run_serial,
 )
 from attitude.montecarlo.identity import UnidentifiableScenario, scenario_identity
-from attitude.montecarlo.results import CampaignResult, Requirement, check_metric_name
+from attitude.montecarlo.results import CampaignResult, Requirement, RunReplay, check_metric_name
 from attitude.results import provenance
 
 #: Most runs a campaign may have. What a run costs the parent process until the table is written: its
@@ -204,16 +204,50 @@ class Campaign:
         """
         return scenario_generator(self.seed, run)
 
-    def replay(self, run: int) -> RunOutput:
-        """Run one run again in this process (exceptions propagate: for debugging a failed run).
+    def replay(self, run: int, *, vectorized: bool = False) -> RunReplay:
+        """Run one run again, alone, in this process (exceptions propagate: for debugging a failed run).
+
+        The run's parameters and generator depend on the seed and ``run``
+        only, so the replay is that run of the campaign: bit for bit on the
+        path the campaign took (``vectorized`` as the campaign's; each run's
+        arithmetic in a batch is independent of the other runs), to rounding
+        on the other (module docstring).
 
         Parameters
         ----------
         run : int
             Run index, ``0 <= run < runs``.
+        vectorized : bool, optional
+            Fly it through the scenario's ``run_batch`` (a batch of one), as a
+            ``vectorized=True`` campaign did.
+
+        Returns
+        -------
+        RunReplay
+            Its parameters, metrics, history and verdicts (``metrics`` and
+            ``history`` as the scenario's :class:`RunOutput`).
         """
-        out = self.scenario(self.parameters(run), self.generator(run))
-        return out if isinstance(out, RunOutput) else RunOutput(dict(out))
+        if isinstance(run, bool) or not isinstance(run, (int, np.integer)) or not 0 <= run < self.runs:
+            raise ValueError(f"run must be an integer with 0 <= run < runs = {self.runs}, got {run!r}")
+        if vectorized and not callable(getattr(self.scenario, "run_batch", None)):
+            raise ValueError("vectorized=True needs a scenario with run_batch(params_list, rngs)")
+        run = int(run)
+        params = self.parameters(run)
+        if vectorized:
+            out = self.scenario.run_batch([params], [self.generator(run)])[0]
+        else:
+            out = self.scenario(params, self.generator(run))
+        out = out if isinstance(out, RunOutput) else RunOutput(dict(out))
+        return RunReplay(
+            run=run,
+            seed=self.seed,
+            parameters=dict(zip(parameter_columns(self.dispersions), flatten_parameters(self.dispersions, params))),
+            metrics={k: float(v) for k, v in out.metrics.items()},
+            history=out.history,
+            requirements=tuple(self.requirements),
+            error=out.error,
+            info={"vectorized": bool(vectorized)},
+        )
 
     def fingerprint(self, vectorized: bool = False) -> str:
         """A hash of what determines the results: seed, dispersions, scenario and mode.

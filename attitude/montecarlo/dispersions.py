@@ -29,7 +29,13 @@ from 1,000 to 2,000 runs keeps the first 1,000. Below it:
   not change the values drawn for the others (common random numbers when two
   designs are compared);
 * the scenario gets a generator on ``spawn_key = (i, 1)`` for its own noise
-  (sensor noise ...) (:func:`scenario_generator`).
+  (sensor noise ...) (:func:`scenario_generator`, :func:`scenario_spawn_key`).
+
+The campaign's table holds, on each row, the master seed (``seed``) and the
+spawn key of that run's scenario generator (``spawn_key``, e.g. ``(12, 1)``):
+``numpy.random.default_rng(numpy.random.SeedSequence(seed,
+spawn_key=(12, 1)))`` is the generator run 12 received, and the row's
+dispersed values are the draws from ``spawn_key = (12, 0, crc32(name))``.
 """
 
 from __future__ import annotations
@@ -61,6 +67,7 @@ __all__ = [
     "parameter_columns",
     "run_seed_sequence",
     "scenario_generator",
+    "scenario_spawn_key",
 ]
 
 
@@ -91,8 +98,25 @@ def _name_key(name: str) -> int:
     return zlib.crc32(name.encode("utf-8"))
 
 
+def scenario_spawn_key(run: int) -> tuple[int, int]:
+    """The spawn key of the generator handed to the scenario of run ``run``: ``(run, 1)``.
+
+    With the campaign seed it rebuilds that generator with numpy alone,
+    ``numpy.random.default_rng(numpy.random.SeedSequence(seed, spawn_key=key))``
+    (the ``seed`` and ``spawn_key`` columns of the campaign's table).
+
+    Parameters
+    ----------
+    run : int
+        Run index, >= 0.
+    """
+    if isinstance(run, bool) or not isinstance(run, (int, np.integer)) or run < 0:
+        raise ValueError(f"run must be a non-negative integer, got {run!r}")
+    return (int(run), 1)
+
+
 def scenario_generator(seed: int, run: int) -> np.random.Generator:
-    """The generator handed to the scenario of run ``run`` (``spawn_key = (run, 1)``).
+    """The generator handed to the scenario of run ``run`` (``spawn_key = (run, 1)``: :func:`scenario_spawn_key`).
 
     Parameters
     ----------
@@ -101,7 +125,7 @@ def scenario_generator(seed: int, run: int) -> np.random.Generator:
     run : int
         Run index, >= 0.
     """
-    return np.random.default_rng(np.random.SeedSequence(_check_seed(seed), spawn_key=(int(run), 1)))
+    return np.random.default_rng(np.random.SeedSequence(_check_seed(seed), spawn_key=scenario_spawn_key(run)))
 
 
 def draw_parameters(dispersions: Mapping[str, Dispersion], seed: int, run: int) -> dict[str, Any]:

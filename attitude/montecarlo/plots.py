@@ -17,6 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import stats
 
 from attitude.montecarlo.units import display_unit
+from attitude.plotting import AXIS_COLORS
 
 
 class CampaignData(Protocol):
@@ -51,9 +52,13 @@ __all__ = [
     "most_influential_parameter",
     "plot_envelope",
     "plot_histograms",
+    "plot_run",
     "plot_scatter",
     "save_figures",
 ]
+
+#: Colours of the wheels in :func:`plot_run` (no red: red is the limit).
+_WHEEL_COLORS = ("tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:brown", "tab:olive", "tab:cyan")
 
 #: Percentile bands drawn by :func:`plot_envelope` [%] (outermost first) and the median.
 ENVELOPE_BANDS = ((0.0, 100.0), (5.0, 95.0), (25.0, 75.0))
@@ -409,3 +414,119 @@ def save_figures(
             if parameter is not None:
                 save(plot_scatter(result, metric, parameter), f"scatter_{metric}.png")
     return paths
+
+
+def _requirement(requirements: Sequence[Any], metric: str) -> Any:
+    """The first requirement on ``metric`` (None if none)."""
+    return next((r for r in requirements if r.metric == metric), None)
+
+
+def plot_run(
+    history: dict[str, NDArray[Any]],
+    requirements: Sequence[Any] = (),
+    *,
+    metrics: dict[str, float] | None = None,
+    title: str = "",
+    wheel_speed_limit: Sequence[float] | None = None,
+) -> dict[str, Figure]:
+    """The figures of one run: pointing error to the target, body rates, wheel speeds (review units).
+
+    ``pointing_error``: the error angle to the target attitude [deg] (log
+    scale) with the requirement on ``final_pointing_error`` (the accuracy),
+    the time by which ``settling_time`` must be reached and the run's own
+    settling time. ``rates``: the body rates and their norm [deg/s] with the
+    requirement on ``rate_peak``. ``wheel_speeds``: each wheel's speed
+    relative to the body [rpm] with its limit (``+-`` the speed at which it
+    holds its largest momentum). A figure whose history is missing is left out.
+
+    Parameters
+    ----------
+    history : dict of ndarray
+        ``t`` [s], ``error_angle`` (n,) [rad] to the target, ``omega`` (n, 3)
+        [rad/s], ``wheel_speed`` (n, n_wheels) [rad/s].
+    requirements : sequence of Requirement, optional
+        The campaign's requirements (those on ``final_pointing_error``,
+        ``settling_time`` and ``rate_peak`` are drawn, in SI).
+    metrics : dict of float, optional
+        The run's metrics, SI (its ``settling_time`` [s] is marked).
+    title : str, optional
+        What the run is (``"run 12 of the campaign, seed 12345"``), above each figure.
+    wheel_speed_limit : sequence of float, optional
+        Each wheel's speed limit [rad/s] (``momentum_max / spin_inertia``).
+
+    Returns
+    -------
+    dict of str to Figure
+        ``pointing_error``, ``rates``, ``wheel_speeds`` (those with a history).
+    """
+    t = np.asarray(history["t"], dtype=float)
+    metrics = metrics or {}
+    figures: dict[str, Figure] = {}
+    deg = 180.0 / math.pi
+
+    def new(what: str) -> Any:
+        fig = Figure(figsize=(9, 4.2), layout="constrained")
+        ax = fig.add_subplot(1, 1, 1)
+        ax.set_title(f"{title}: {what}" if title else what, fontsize=10)
+        ax.set_xlabel("t [s]")
+        ax.grid(True, alpha=0.3)
+        ax.set_xlim(t[0], t[-1])
+        return fig, ax
+
+    def legend(ax: Any) -> None:  # beside the axes: nothing drawn is hidden under it
+        ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
+
+    if "error_angle" in history:
+        fig, ax = new("pointing error to the target attitude")
+        error = np.asarray(history["error_angle"], dtype=float) * deg
+        ax.semilogy(t, np.where(error > 0.0, error, np.nan), color="black", lw=1.0, label="error to the target")
+        pointing = _requirement(requirements, "final_pointing_error")
+        if pointing is not None and pointing.max is not None:
+            accuracy = pointing.max * deg
+            ax.axhline(accuracy, color="tab:red", ls="--", lw=1.2, label=f"{pointing.name}: {accuracy:.4g} deg")
+        settling = _requirement(requirements, "settling_time")
+        if settling is not None and settling.max is not None:
+            label = f"{settling.name}: settled by {settling.max:.4g} s"
+            if settling.max <= t[-1]:
+                ax.axvline(settling.max, color="tab:red", ls=":", lw=1.5, label=label)
+            else:  # after the end of the run: named, not drawn (the axis keeps the run's time)
+                ax.plot([], [], " ", label=f"{label} (after this run's end)")
+        settled = metrics.get("settling_time")
+        if settled is not None:
+            if math.isfinite(settled):
+                ax.axvline(settled, color="tab:green", ls="-.", lw=1.2, label=f"settled at {settled:.4g} s")
+            else:
+                ax.plot([], [], " ", label="never settled")
+        ax.set_ylabel("error to the target [deg]")
+        legend(ax)
+        figures["pointing_error"] = fig
+    if "omega" in history:
+        fig, ax = new("body rates")
+        omega = np.asarray(history["omega"], dtype=float) * deg
+        for i, name in enumerate("xyz"):
+            ax.plot(t, omega[:, i], color=AXIS_COLORS[i], lw=1.0, label=rf"$\omega_{name}$")
+        ax.plot(t, np.linalg.norm(omega, axis=1), color="black", lw=1.0, label=r"$|\omega|$")
+        rate = _requirement(requirements, "rate_peak")
+        if rate is not None and rate.max is not None:
+            limit = rate.max * deg
+            ax.axhline(
+                limit, color="tab:red", ls="--", lw=1.2, label=rf"{rate.name}: $|\omega|$ at most {limit:.4g} deg/s"
+            )
+        ax.set_ylabel("body rate [deg/s]")
+        legend(ax)
+        figures["rates"] = fig
+    speeds = np.asarray(history.get("wheel_speed", np.zeros((t.size, 0))), dtype=float)
+    if speeds.ndim == 2 and speeds.shape[1] > 0:
+        fig, ax = new("wheel speeds relative to the body")
+        rpm = speeds * 30.0 / math.pi
+        for i in range(rpm.shape[1]):
+            ax.plot(t, rpm[:, i], color=_WHEEL_COLORS[i % len(_WHEEL_COLORS)], lw=1.0, label=f"wheel {i + 1}")
+        if wheel_speed_limit is not None:
+            limits = sorted({round(float(v) * 30.0 / math.pi, 9) for v in np.atleast_1d(wheel_speed_limit)})
+            for limit in limits:
+                ax.axhline(limit, color="tab:red", ls="--", lw=1.2, label=f"limit +-{limit:.4g} rpm")
+                ax.axhline(-limit, color="tab:red", ls="--", lw=1.2)
+        ax.set_ylabel("wheel speed [rpm]")
+        legend(ax)
+        figures["wheel_speeds"] = fig
+    return figures

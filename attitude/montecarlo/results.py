@@ -3,16 +3,39 @@
 Files written by :meth:`CampaignResult.save` into the output directory:
 
 ================== ==========================================================
-``results.csv``     the tidy table, standard-library :mod:`csv`; floats are
-                    written with ``repr`` so they load back bit for bit
+``results.csv``     the tidy table, standard-library :mod:`csv`, one row per
+                    run (columns below)
 ``results.parquet`` the same table, only when ``pyarrow`` is installed (it
                     is not a dependency)
-``campaign.json``   seed, column roles, requirements, executor details
-``statistics.json`` percentiles per metric and the success bounds
-``summary.txt``     the statistics in words
+``campaign.json``   seed, the column schema (``"columns"``), requirements,
+                    executor details and provenance
+``statistics.json`` percentiles per metric (SI) and the success bounds
+``summary.txt``     the statistics in words (review units)
 ``histories.npz``   time histories (``run000012/t``, ``run000012/error_angle``
                     ...), when the scenario returned them
 ================== ==========================================================
+
+The table's columns: ``run``; ``seed`` (the master seed) and ``spawn_key``
+(``"(12, 1)"``): ``numpy.random.default_rng(numpy.random.SeedSequence(seed,
+spawn_key=(12, 1)))`` is the very generator run 12's scenario received
+(:func:`attitude.montecarlo.dispersions.scenario_spawn_key`); ``status`` and
+``error``; the dispersed parameters and the metrics; ``pass.<requirement>``
+and ``pass``; ``attempts``, ``cpu_s`` and ``wall_s``. A parameter or metric
+is written in the review unit :meth:`CampaignResult.summary` prints, named
+in its column (:func:`attitude.montecarlo.units.table_column`):
+``final_pointing_error_deg``, ``wheel_speed_peak_rpm``, ``inertia.xx_kg_m2``;
+a dimensionless one keeps its name (``nees``); a user's metric of unknown
+unit keeps its name and its value as the scenario returned it (SI by the
+scenario protocol). ``campaign.json`` ``"columns"`` gives each column's role,
+quantity, unit, SI unit and ``scale_from_si`` (column value = scale * SI
+value; unit ``null`` for an unknown one). In memory everything stays SI and
+named as the scenario named it (``result.metrics["final_pointing_error"]``
+[rad], requirements on ``"final_pointing_error"``).
+
+Each scaled value is written with the fewest digits (17 or a few more) from
+which :meth:`CampaignResult.load` gets the SI value back bit for bit: it
+divides the exact decimal by the scale in 60-digit arithmetic. A spreadsheet
+reading the column as a float sees the review value to the last digit.
 
 Why ``.npz`` and not netCDF: the histories are a handful of arrays per run
 with a time axis; numpy reads and writes them with no new dependency
@@ -29,24 +52,52 @@ import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from decimal import Context, Decimal
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
-from attitude.montecarlo.units import display_unit
+from attitude.montecarlo.dispersions import scenario_spawn_key
+from attitude.montecarlo.statistics import DEFAULT_PERCENTILES, percentiles, success_lower_bound, success_statement
+from attitude.montecarlo.units import display_unit, quantity_of_column, table_column
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
-from attitude.montecarlo.statistics import DEFAULT_PERCENTILES, percentiles, success_lower_bound, success_statement
 
-__all__ = ["EXECUTION_COLUMNS", "RESERVED_COLUMNS", "CampaignResult", "Requirement", "check_metric_name"]
+__all__ = [
+    "EXECUTION_COLUMNS",
+    "RESERVED_COLUMNS",
+    "CampaignResult",
+    "Requirement",
+    "RunReplay",
+    "check_metric_name",
+]
 
 #: Columns that describe how a run executed (they vary from one execution to another).
 EXECUTION_COLUMNS = ("attempts", "cpu_s", "wall_s")
 #: Columns of every table that are not metrics (and ``pass.<requirement>``): no metric may take these names.
-RESERVED_COLUMNS = ("run", "seed", "status", "error", "pass", *EXECUTION_COLUMNS)
+RESERVED_COLUMNS = ("run", "seed", "spawn_key", "status", "error", "pass", *EXECUTION_COLUMNS)
+#: What the schema (``campaign.json`` ``"columns"``) says of the columns that are neither metrics nor parameters.
+_FIXED_COLUMNS: dict[str, dict[str, Any]] = {
+    "run": {"role": "run", "meaning": "run index, from 0"},
+    "seed": {"role": "seed", "meaning": "the campaign's master seed (numpy SeedSequence entropy)"},
+    "spawn_key": {
+        "role": "seed",
+        "meaning": "spawn key of the generator the run's scenario received: "
+        "numpy.random.default_rng(numpy.random.SeedSequence(seed, spawn_key=spawn_key))",
+    },
+    "status": {"role": "status", "meaning": "ok, error (the run raised, diverged or its worker died) or not run"},
+    "error": {"role": "status", "meaning": "the exception of a failed run, empty otherwise"},
+    "pass": {"role": "requirement", "meaning": "the run completed and met every requirement"},
+    "attempts": {"role": "execution", "unit": "1", "meaning": "attempts the run took (worker deaths retried)"},
+    "cpu_s": {"role": "execution", "unit": "s", "meaning": "CPU time of the run in its worker"},
+    "wall_s": {"role": "execution", "unit": "s", "meaning": "wall-clock time of the run in its worker"},
+}
+#: Arithmetic of the exact unit conversion of the table (module docstring): the product of two doubles has at
+#: most 34 significant digits, and 60 leave the quotient of a 40-digit text by a double far inside half an ulp.
+_EXACT = Context(prec=60)
 
 
 def check_metric_name(name: str, parameters: Mapping[str, Sequence[str]] | None = None, what: str = "metric") -> None:
@@ -69,6 +120,11 @@ def check_metric_name(name: str, parameters: Mapping[str, Sequence[str]] | None 
         reason = f"it names a column of every table ({', '.join(RESERVED_COLUMNS)})"
     elif name.startswith("pass."):
         reason = "names starting with 'pass.' are the requirement columns (pass.<requirement>)"
+    elif (quantity := quantity_of_column(name)) is not None:
+        reason = (
+            f"it is the table column of {quantity!r} in {table_column(quantity).unit} "
+            f"(attitude.montecarlo.units); return {quantity!r}, in SI, instead"
+        )
     else:
         reason = ""
         for dispersion, columns in (parameters or {}).items():
@@ -143,19 +199,41 @@ class Requirement:
             parts.append(f"<= {self.max:g}")
         return " ".join(parts)
 
+    def review_rule(self) -> str:
+        """The rule in the metric's review unit, as the summary prints it (``final_pointing_error <= 0.05 deg``)."""
+        scale, unit = display_unit(self.metric)
+        parts = [self.metric]
+        if self.min is not None:
+            parts.insert(0, f"{scale * self.min:.4g} {unit} <=".replace("  ", " "))
+        if self.max is not None:
+            parts.append(f"<= {scale * self.max:.4g} {unit}".rstrip())
+        return " ".join(parts)
+
 
 @dataclass
 class CampaignResult:
     """Outcome of :func:`attitude.montecarlo.campaign.run_campaign`.
 
+    The toolkit's result protocol, as :class:`attitude.simulation.engine.SimulationResult`'s:
+    :meth:`summary` (text, review units), :meth:`plot` (the main figure: one
+    histogram per metric with its requirement bounds; :meth:`plot_envelope`,
+    :meth:`plot_scatter` and :func:`attitude.montecarlo.plots.save_figures`
+    for the others), :meth:`save` and :meth:`load`. A campaign is a table and
+    its histories, so it is saved to a directory (CSV, JSON, ``.npz``: module
+    docstring) rather than one ``.npz`` file.
+
     Attributes
     ----------
     seed : int
-        Master seed: run ``i`` is reproduced by ``SeedSequence(seed).spawn(runs)[i]``.
+        Master seed: run ``i``'s scenario draws from
+        ``default_rng(SeedSequence(seed, spawn_key=(i, 1)))`` (the table's
+        ``seed`` and ``spawn_key`` columns), its parameters from
+        ``SeedSequence(seed, spawn_key=(i, 0, crc32(name)))``
+        (:mod:`attitude.montecarlo.dispersions`).
     parameters : dict of ndarray (runs,)
         Dispersed parameters, one column per scalar (``inertia.xx`` ...), SI.
     metrics : dict of ndarray (runs,)
-        One column per metric (NaN where a run has no value).
+        One column per metric (NaN where a run has no value), SI.
     status : ndarray (runs,) of str
         ``"ok"``, ``"error"`` (the scenario raised, diverged or its worker
         died) or ``"not run"`` (interrupted campaign).
@@ -210,10 +288,17 @@ class CampaignResult:
         return ok
 
     def table(self) -> dict[str, NDArray[Any]]:
-        """The tidy table: column name -> array (one row per run), in file order."""
+        """The tidy table in memory: column name -> array (one row per run), SI, named as inside.
+
+        The columns of ``results.csv`` in file order, but with the metrics and
+        parameters under their own names and in SI (``final_pointing_error``
+        [rad]); the file names them with their review unit and holds review
+        values (:meth:`file_columns`, module docstring).
+        """
         cols: dict[str, NDArray[Any]] = {
             "run": np.arange(self.runs),
             "seed": np.full(self.runs, self.seed, dtype=object),
+            "spawn_key": np.array([repr(scenario_spawn_key(r)) for r in range(self.runs)], dtype=object),
             "status": self.status,
             "error": self.errors,
         }
@@ -233,8 +318,48 @@ class CampaignResult:
         cols["wall_s"] = self.wall_s
         return cols
 
+    def file_columns(self) -> dict[str, dict[str, Any]]:
+        """The schema of the saved table: file column -> its role, quantity, unit and scale from SI, in file order.
+
+        A metric or parameter column is named and scaled by
+        :func:`attitude.montecarlo.units.table_column` (the summary's review
+        unit); the others are described in words. This is ``campaign.json``
+        ``"columns"``.
+
+        Raises
+        ------
+        ValueError
+            When two quantities would share a column (a metric named like
+            another's column, e.g. ``settling_time_s`` beside ``settling_time``).
+        """
+        schema: dict[str, dict[str, Any]] = {}
+        quantity_of: dict[str, str] = {}
+        roles = {**dict.fromkeys(self.parameters, "parameter"), **dict.fromkeys(self.metrics, "metric")}
+        for name in self.table():
+            role = roles.get(name)
+            if role is None:
+                if name.startswith("pass."):
+                    entry = {"role": "requirement", "meaning": f"the run met requirement {name[5:]!r}"}
+                else:
+                    entry = dict(_FIXED_COLUMNS[name])
+                schema[name] = entry
+                quantity_of[name] = name
+                continue
+            column = table_column(name)
+            if column.column in quantity_of:
+                raise ValueError(
+                    f"{role}s: {name!r} would be written as the column {column.column!r}, which holds "
+                    f"{quantity_of[column.column]!r}; rename the metric"
+                )
+            schema[column.column] = column.schema(role)
+            quantity_of[column.column] = name
+        return schema
+
     def to_csv(self, path: str | Path) -> Path:
-        """Write the tidy table as CSV (floats via ``repr``: exact round trip).
+        """Write the tidy table as CSV, metrics and parameters in review units (module docstring).
+
+        Values load back bit for bit (:meth:`load`, with the schema that
+        :meth:`save` writes beside it).
 
         Parameters
         ----------
@@ -242,16 +367,23 @@ class CampaignResult:
             Destination CSV file.
         """
         path = Path(path)
-        cols = self.table()
+        cols = list(self.table().values())
+        schema = self.file_columns()
+        scales = [entry.get("scale_from_si") for entry in schema.values()]
         with path.open("w", newline="") as f:
             writer = csv.writer(f)
-            writer.writerow(cols)
+            writer.writerow(schema)
             for i in range(self.runs):
-                writer.writerow([_cell(c[i]) for c in cols.values()])
+                writer.writerow(
+                    [_cell(c[i]) if scale is None else _review_text(c[i], scale) for c, scale in zip(cols, scales)]
+                )
         return path
 
     def to_parquet(self, path: str | Path) -> Path | None:
         """Write the table as Parquet if ``pyarrow`` is installed; return None otherwise.
+
+        The columns and review units of the CSV (to rounding: a float cannot
+        hold the CSV's extra digits).
 
         Parameters
         ----------
@@ -263,7 +395,10 @@ class CampaignResult:
             import pyarrow.parquet as pq
         except ImportError:
             return None
-        cols = {k: (v.astype(str) if v.dtype == object else v) for k, v in self.table().items()}
+        cols = {}
+        for (column, entry), v in zip(self.file_columns().items(), self.table().values()):
+            scale = entry.get("scale_from_si")
+            cols[column] = v.astype(str) if v.dtype == object else (v if scale is None else v * scale)
         pq.write_table(pa.table(cols), Path(path))
         return Path(path)
 
@@ -331,15 +466,8 @@ class CampaignResult:
                 f"max {scale * st['max']:.4g} ({int(st['nonfinite'])} non-finite)"
             )
         for r in self.requirements:
-            scale, unit = display_unit(r.metric)
-            parts = [r.metric]
-            if r.min is not None:
-                parts.insert(0, f"{scale * r.min:.4g} {unit} <=".replace("  ", " "))
-            if r.max is not None:
-                parts.append(f"<= {scale * r.max:.4g} {unit}".rstrip())
-            rule = " ".join(parts)
             counts = s["requirements"][r.name]  # over the runs that ran (all of them unless interrupted)
-            lines.append(f"  requirement {r.name} ({rule}): {counts['passed']}/{counts['runs']} passed")
+            lines.append(f"  requirement {r.name} ({r.review_rule()}): {counts['passed']}/{counts['runs']} passed")
         lines.append("  " + s["success"]["statement"])
         first_errors = [f"    run {i}: {self.errors[i]}" for i in np.nonzero(self.status == "error")[0][:5]]
         if first_errors:
@@ -350,6 +478,14 @@ class CampaignResult:
         return "\n".join(lines)
 
     # -- figures ------------------------------------------------------------------
+
+    def plot(self) -> Figure:
+        """The campaign's main figure: one histogram per metric with its requirement bounds (review units).
+
+        The same figure as :meth:`plot_histograms` with every metric
+        (``figures/histograms.png`` of ``attitude montecarlo``).
+        """
+        return self.plot_histograms()
 
     def plot_histograms(self, metrics: Sequence[str] | None = None) -> Figure:
         """One histogram per metric, with the requirement bounds (:mod:`attitude.montecarlo.plots`).
@@ -409,6 +545,7 @@ class CampaignResult:
             "seed": self.seed,
             "parameters": list(self.parameters),
             "metrics": list(self.metrics),
+            "columns": self.file_columns(),
             "requirements": [
                 {"metric": r.metric, "max": r.max, "min": r.min, "name": r.name} for r in self.requirements
             ],
@@ -435,9 +572,20 @@ class CampaignResult:
         meta = json.loads((out / "campaign.json").read_text())
         with (out / "results.csv").open(newline="") as f:
             rows = list(csv.DictReader(f))
+        # Quantity -> (its column, the scale from SI). A campaign saved before the schema existed has SI
+        # columns named as the quantities.
+        columns = {
+            entry["quantity"]: (name, entry["scale_from_si"])
+            for name, entry in meta.get("columns", {}).items()
+            if entry["role"] in ("metric", "parameter")
+        }
 
         def column(name: str, kind: type = float) -> NDArray[Any]:
             return np.array([kind(r[name]) for r in rows]) if rows else np.zeros(0)
+
+        def quantity(name: str) -> NDArray[Any]:
+            file_column, scale = columns.get(name, (name, 1.0))
+            return np.array([_si_value(r[file_column], scale) for r in rows]) if rows else np.zeros(0)
 
         histories: dict[int, dict[str, NDArray[Any]]] = {}
         if (out / "histories.npz").exists():
@@ -447,8 +595,8 @@ class CampaignResult:
                     histories.setdefault(int(run[3:]), {})[name] = np.array(data[key])
         return cls(
             seed=int(meta["seed"]),
-            parameters={c: column(c) for c in meta["parameters"]},
-            metrics={c: column(c) for c in meta["metrics"]},
+            parameters={c: quantity(c) for c in meta["parameters"]},
+            metrics={c: quantity(c) for c in meta["metrics"]},
             status=np.array([r["status"] for r in rows], dtype=object),
             errors=np.array([r["error"] for r in rows], dtype=object),
             attempts=column("attempts", int),
@@ -460,12 +608,198 @@ class CampaignResult:
         )
 
 
+@dataclass
+class RunReplay:
+    """One run of a campaign flown again, alone (:meth:`attitude.montecarlo.campaign.Campaign.replay`).
+
+    What ``attitude montecarlo FILE --replay RUN`` prints and writes: the
+    run's dispersed parameters, its metrics and its pass or fail per
+    requirement (:meth:`summary`), its figures (:meth:`figures`) and its
+    files (:meth:`save`). Its ``metrics``, ``history`` and ``error`` are
+    those of the :class:`attitude.montecarlo.executors.RunOutput` the
+    scenario returned.
+
+    Attributes
+    ----------
+    run : int
+        Run index in the campaign.
+    seed : int
+        The campaign's master seed.
+    parameters : dict of float
+        The run's dispersed parameters, one per table column (``inertia.xx`` ...), SI.
+    metrics : dict of float
+        The run's metrics, SI (empty when it failed).
+    history : dict of ndarray or None
+        Its time histories (``t`` [s] and series whose first axis is time), when the scenario kept them.
+    requirements : tuple of Requirement
+        The campaign's requirements.
+    error : str or None
+        Why the run failed (the scenario returned an error, e.g. a diverged batch run); None when it ran.
+    info : dict
+        How it was flown (``vectorized``) and what the figures need (``wheel_speed_limit`` [rad/s] per wheel).
+    """
+
+    run: int
+    seed: int
+    parameters: dict[str, float]
+    metrics: dict[str, float]
+    history: dict[str, NDArray[Any]] | None = None
+    requirements: tuple[Requirement, ...] = ()
+    error: str | None = None
+    info: dict[str, Any] = field(default_factory=dict)
+
+    #: Files :meth:`save` may write (the figures only with their histories).
+    FILES: ClassVar[tuple[str, ...]] = (
+        "replay.json",
+        "history.npz",
+        "pointing_error.png",
+        "rates.png",
+        "wheel_speeds.png",
+    )
+
+    @property
+    def spawn_key(self) -> tuple[int, int]:
+        """The spawn key of the run's scenario generator (the table's ``spawn_key``)."""
+        return scenario_spawn_key(self.run)
+
+    def requirement_passed(self, requirement: Requirement) -> bool:
+        """Whether the run met one requirement (a failed run, or one without the metric, did not).
+
+        Parameters
+        ----------
+        requirement : Requirement
+            The pass/fail rule.
+        """
+        if self.error:
+            return False
+        return bool(requirement.passed([self.metrics.get(requirement.metric, math.nan)])[0])
+
+    @property
+    def passed(self) -> bool:
+        """The run completed and met every requirement."""
+        return not self.error and all(self.requirement_passed(r) for r in self.requirements)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The replay as plain values: SI values, the review-unit table row, the verdicts (``replay.json``)."""
+        row = {}
+        for name, value in {**self.parameters, **self.metrics}.items():
+            column = table_column(name)
+            row[column.column] = float(value) * column.scale
+        return {
+            "run": self.run,
+            "seed": self.seed,
+            "spawn_key": list(self.spawn_key),
+            "path": "vectorised" if self.info.get("vectorized") else "per-run",
+            "status": "error" if self.error else "ok",
+            "error": self.error or "",
+            "parameters": {k: float(v) for k, v in self.parameters.items()},
+            "metrics": {k: float(v) for k, v in self.metrics.items()},
+            "row": row,
+            "requirements": {
+                r.name: {"rule": r.review_rule(), "passed": self.requirement_passed(r)} for r in self.requirements
+            },
+            "passed": self.passed,
+        }
+
+    def summary(self) -> str:
+        """The run in a few lines: how it was flown, its parameters, metrics and verdicts (review units)."""
+        path = "the vectorised path" if self.info.get("vectorized") else "the per-run engine"
+        lines = [f"Replay of run {self.run} (seed {self.seed}, spawn_key {self.spawn_key}), flown alone on {path}"]
+        groups: dict[str, list[str]] = {}
+        for name, value in self.parameters.items():
+            quantity, _, component = name.partition(".")
+            scale, unit = display_unit(name)
+            label = f"{quantity} [{unit}]" if unit else quantity
+            groups.setdefault(label, []).append(f"{component} {scale * value:.6g}".lstrip())
+        for label, values in groups.items():
+            lines.append(f"  {label}: {', '.join(values)}")
+        if self.error:
+            lines.append(f"  the run failed: {self.error}")
+        for name, value in self.metrics.items():
+            scale, unit = display_unit(name)
+            lines.append(f"  {name}: {scale * value:.6g} {unit}".rstrip())
+        for r in self.requirements:
+            verdict = "PASS" if self.requirement_passed(r) else "FAIL"
+            value = self.metrics.get(r.metric, math.nan)
+            scale, unit = display_unit(r.metric)
+            seen = f"{scale * value:.6g} {unit}".rstrip()
+            lines.append(f"  requirement {r.name} ({r.review_rule()}): {verdict} ({seen})")
+        missed = [r.name for r in self.requirements if not self.requirement_passed(r)]
+        verdict = "PASS" if self.passed else "FAIL" + (f" ({', '.join(missed)})" if missed else "")
+        lines.append(f"  run {self.run}: {verdict}")
+        return "\n".join(lines)
+
+    def figures(self) -> dict[str, Figure]:
+        """Pointing error to the target, rates and wheel speeds (:func:`attitude.montecarlo.plots.plot_run`)."""
+        from attitude.montecarlo.plots import plot_run
+
+        if not self.history or "t" not in self.history:
+            return {}
+        return plot_run(
+            self.history,
+            self.requirements,
+            metrics=self.metrics,
+            title=f"run {self.run} (seed {self.seed})",
+            wheel_speed_limit=self.info.get("wheel_speed_limit"),
+        )
+
+    def save(self, out_dir: str | Path) -> list[Path]:
+        """Write ``replay.json``, ``history.npz`` and the figures (``<name>.png``) into ``out_dir``; return the paths.
+
+        Parameters
+        ----------
+        out_dir : str or Path
+            Output directory (created); files of the same names in it are replaced.
+        """
+        out = Path(out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        paths = [out / "replay.json"]
+        paths[0].write_text(json.dumps(_jsonable(self.to_dict()), indent=2) + "\n")
+        if self.history:
+            np.savez_compressed(out / "history.npz", **self.history)
+            paths.append(out / "history.npz")
+        for name, fig in self.figures().items():
+            fig.savefig(out / f"{name}.png", dpi=110)
+            paths.append(out / f"{name}.png")
+        return paths
+
+
 def _cell(value: Any) -> str:
     if isinstance(value, (bool, np.bool_)):
         return str(bool(value))
     if isinstance(value, (float, np.floating)):
         return repr(float(value))
     return str(value)
+
+
+def _same_float(a: float, b: float) -> bool:
+    """Bit for bit: NaN is NaN, and -0.0 is not 0.0."""
+    if math.isnan(a) or math.isnan(b):
+        return math.isnan(a) and math.isnan(b)
+    return a == b and math.copysign(1.0, a) == math.copysign(1.0, b)
+
+
+def _review_text(value: Any, scale: float) -> str:
+    """``scale * value`` as the shortest text from which :func:`_si_value` gives ``value`` back bit for bit."""
+    value = float(value)
+    if scale == 1.0 or not math.isfinite(value) or value == 0.0:
+        return repr(value * scale)
+    text = repr(value * scale)
+    if _same_float(_si_value(text, scale), value):
+        return text
+    exact = _EXACT.multiply(Decimal(value), Decimal(scale))  # both doubles are exact decimals: an exact product
+    for digits in range(17, 41):
+        text = format(_EXACT.plus(exact).normalize(Context(prec=digits)), "g")
+        if _same_float(_si_value(text, scale), value):
+            return text
+    raise AssertionError(f"no decimal text of {value!r} * {scale!r} converts back")  # 40 digits always do
+
+
+def _si_value(text: str, scale: float) -> float:
+    """The SI value of a review-unit cell: the exact decimal divided by ``scale``, rounded once."""
+    if scale == 1.0:
+        return float(text)
+    return float(_EXACT.divide(Decimal(text), Decimal(scale)))
 
 
 def _jsonable(value: Any) -> Any:

@@ -347,7 +347,7 @@ class TestCampaign:
         loaded = CampaignResult.load(tmp_path)
         assert_tables_identical(result, loaded)
         header = (tmp_path / "results.csv").read_text().splitlines()[0].split(",")
-        assert header[:4] == ["run", "seed", "status", "error"] and "pass.y" in header and "q.w" in header
+        assert header[:5] == ["run", "seed", "spawn_key", "status", "error"] and "pass.y" in header and "q.w" in header
 
     def test_progress_bar_goes_to_stderr(self, capsys):
         run_campaign(Campaign(Quadratic(), X, runs=3, seed=1), workers=1, progress=True)
@@ -666,7 +666,7 @@ class StopsAtOnce(Quadratic):
 
 
 class TestReservedMetricNames:
-    @pytest.mark.parametrize("name", ["run", "seed", "status", "error", "pass", "cpu_s", "q", "q.w", "x"])
+    @pytest.mark.parametrize("name", ["run", "seed", "spawn_key", "status", "error", "pass", "cpu_s", "q", "q.w", "x"])
     def test_a_metric_named_like_a_column_fails_its_run_and_the_table_loads(self, name, tmp_path):
         dispersions = {"x": Normal(0.0, 1.0), "q": RandomAttitude()}
         result = run_campaign(Campaign(ReturnsMetric(name), dispersions, runs=3, seed=5), workers=1, out_dir=tmp_path)
