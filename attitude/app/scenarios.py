@@ -124,14 +124,12 @@ def requirements_from_config(config: SpacecraftConfig, *, keep_out: bool = True)
 
     Built by :func:`attitude.app.assembly.monte_carlo_requirements`.
 
-    ``pointing``: final pointing error to the target <= pointing accuracy;
-    ``settling``: settling time (arrival at the target within the pointing
-    accuracy for good, from the start of the run) <= slew max time +
-    settling time: the slew and its settling within their combined allowed
-    time (the design report, on its one nominal flight, is stricter: the
-    arrival within ``time_max_s`` and the settling after the planned slew
-    within ``settling_time_s``); ``rate``: peak rate <= the slew rate
-    limit (when given); ``keep_out.<name>``: margin >= 0 for each keep-out
+    The design's rows on the same windows (:mod:`attitude.simulation.slew_windows`):
+    ``slew_time``: settling time (the flown slew time) <= ``slew.time_max_s``;
+    ``settling``: settling after the end of the planned slew <= ``settling_time_s``;
+    ``pointing``: largest error to the target over the hold <= the pointing
+    accuracy; ``rate``: peak rate <= the slew rate limit (when given);
+    ``keep_out.<name>``: margin >= 0 for each keep-out
     cone. ``keep_out=False`` leaves the cones out, for a guidance that does
     not plan around them (``ClosedLoopScenario(guidance="eigenaxis")``).
 
@@ -1097,7 +1095,9 @@ def replay_from_config(
     Returns
     -------
     RunReplay
-        With ``info["wheel_speed_limit"]``, each wheel's speed at its largest momentum [rad/s], for the figures.
+        With ``info["wheel_speed_limit"]``, each wheel's speed at its largest momentum [rad/s], and
+        ``info["windows"]``, the requirements' windows [s] (end of the slew, start and end of the hold), for
+        the figures.
     """
     if not isinstance(config, SpacecraftConfig):
         config = load_config(config)
@@ -1116,6 +1116,8 @@ def replay_from_config(
     replay = campaign.replay(run, vectorized=vectorized)
     wheels = assembly.reaction_wheels(config)
     replay.info["wheel_speed_limit"] = (np.asarray(wheels.momentum_max) / np.asarray(wheels.spin_inertia)).tolist()
+    w = campaign.scenario.windows
+    replay.info["windows"] = {"slew_end_s": w.slew_end_s, "hold_start_s": w.hold_start_s, "hold_end_s": w.hold_end_s}
     return replay
 
 

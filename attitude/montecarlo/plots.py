@@ -428,13 +428,16 @@ def plot_run(
     metrics: dict[str, float] | None = None,
     title: str = "",
     wheel_speed_limit: Sequence[float] | None = None,
+    windows: dict[str, float] | None = None,
 ) -> dict[str, Figure]:
     """The figures of one run: pointing error to the target, body rates, wheel speeds (review units).
 
     ``pointing_error``: the error angle to the target attitude [deg] (log
-    scale) with the requirement on ``final_pointing_error`` (the accuracy),
-    the time by which ``settling_time`` must be reached and the run's own
-    settling time. ``rates``: the body rates and their norm [deg/s] with the
+    scale) with the pointing accuracy (the requirement on
+    ``pointing_error_hold``, else on ``final_pointing_error``), the time by
+    which ``settling_time`` must be reached, the run's own settling time
+    and, with ``windows``, the settling allowance and the hold shaded.
+    ``rates``: the body rates and their norm [deg/s] with the
     requirement on ``rate_peak``. ``wheel_speeds``: each wheel's speed
     relative to the body [rpm] with its limit (``+-`` the speed at which it
     holds its largest momentum). A figure whose history is missing is left out.
@@ -453,6 +456,9 @@ def plot_run(
         What the run is (``"run 12 of the campaign, seed 12345"``), above each figure.
     wheel_speed_limit : sequence of float, optional
         Each wheel's speed limit [rad/s] (``momentum_max / spin_inertia``).
+    windows : dict of float, optional
+        The requirements' windows [s]: ``slew_end_s``, ``hold_start_s``, ``hold_end_s``
+        (:class:`attitude.simulation.slew_windows.SlewWindows`).
 
     Returns
     -------
@@ -480,7 +486,20 @@ def plot_run(
         fig, ax = new("pointing error to the target attitude")
         error = np.asarray(history["error_angle"], dtype=float) * deg
         ax.semilogy(t, np.where(error > 0.0, error, np.nan), color="black", lw=1.0, label="error to the target")
-        pointing = _requirement(requirements, "final_pointing_error")
+        pointing = _requirement(requirements, "pointing_error_hold") or _requirement(
+            requirements, "final_pointing_error"
+        )
+        if windows is not None:
+            ax.axvspan(
+                windows["slew_end_s"], windows["hold_start_s"], color="tab:orange", alpha=0.10, label="settling allowed"
+            )
+            ax.axvspan(
+                windows["hold_start_s"],
+                windows["hold_end_s"],
+                color="tab:green",
+                alpha=0.12,
+                label="hold: pointing judged",
+            )
         if pointing is not None and pointing.max is not None:
             accuracy = pointing.max * deg
             ax.axhline(accuracy, color="tab:red", ls="--", lw=1.2, label=f"{pointing.name}: {accuracy:.4g} deg")

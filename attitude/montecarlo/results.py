@@ -741,6 +741,7 @@ class RunReplay:
             metrics=self.metrics,
             title=f"run {self.run} (seed {self.seed})",
             wheel_speed_limit=self.info.get("wheel_speed_limit"),
+            windows=self.info.get("windows"),
         )
 
     def save(self, out_dir: str | Path) -> list[Path]:

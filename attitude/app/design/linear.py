@@ -27,6 +27,7 @@ from attitude.plain import plain_float as _f
 from attitude.plain import plain_matrix as _mat
 from attitude.plain import plain_vector as _vec
 from controllers.analysis import attitude_closed_loop, loop_gain, margins, plot_bode, plot_step
+from controllers.diagnostics import mismatch_findings
 
 __all__ = ["linear_design"]
 
@@ -116,4 +117,15 @@ def linear_design(config: SpacecraftConfig) -> tuple[dict[str, Any], dict[str, F
         figures["lqr_bode_sampled"] = plot_bode(
             lqr_sampled, labels=[f"LQR, {a} axis, {1.0 / period:g} Hz ZOH" for a in _AXES]
         )
+    # Controllers that do not fit their sample rate or the requirements' bandwidth, in words (issue 12).
+    findings = mismatch_findings(
+        body=body,
+        pd=pd,
+        lqr=None if designed is None else designed[1],
+        settling_time=config.requirements.settling_time_s,
+        damping=c.damping,
+    )
+    out["findings"] = [
+        {"id": f.id, "message": f.message, "figures": {k: _f(v) for k, v in f.figures.items()}} for f in findings
+    ]
     return out, figures

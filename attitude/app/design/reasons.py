@@ -35,6 +35,24 @@ def _no_flight(results: Mapping[str, Any]) -> str:
     return f"nothing was flown: {error}" if error else "nothing was flown: the slew could not be planned"
 
 
+def _cause(results: Mapping[str, Any]) -> str:
+    """A likely cause of a flown row's failure, from the other sections: an unstable or mismatched loop, saturation."""
+    findings = ((results.get("linear") or {}).get("findings")) or []
+    unstable = [f["message"] for f in findings if f["id"].endswith("unstable")]
+    if unstable:
+        return f"; likely cause: {unstable[0]}"
+    flight = results.get("closed_loop") or {}
+    fraction = flight.get("torque_saturated_fraction")
+    if fraction is not None and fraction > 0.05:
+        return (
+            f"; the wheels cut the commanded torque on {100 * fraction:.3g} % of the ticks (command peak "
+            f"{_g(flight['torque_command_peak_mNm'])} mN m, applied {_g(flight['torque_applied_peak_mNm'])} mN m)"
+        )
+    if findings:
+        return f"; see also: {findings[0]['message']}"
+    return ""
+
+
 def _slew_time(row: Mapping[str, Any], results: Mapping[str, Any]) -> str:
     flight = results.get("closed_loop")
     plan = (results.get("slews") or {}).get("plan")
@@ -46,11 +64,11 @@ def _slew_time(row: Mapping[str, Any], results: Mapping[str, Any]) -> str:
     if math.isinf(float(row["achieved"])):
         return (
             "the error to the target never stays within the pointing accuracy "
-            f"({_g(flight['pointing_error_end_deg'])} deg at the end){planned}"
+            f"({_g(flight['pointing_error_end_deg'])} deg at the end){planned}{_cause(results)}"
         )
     return (
         f"the error to the target stays within the pointing accuracy only from {_g(row['achieved'])} s, "
-        f"{_g(row['required'])} s allowed{planned}"
+        f"{_g(row['required'])} s allowed{planned}{_cause(results)}"
     )
 
 
@@ -60,7 +78,7 @@ def _settling(row: Mapping[str, Any], results: Mapping[str, Any]) -> str:
         return _no_flight(results)
     return (
         f"the error to the target stays within the accuracy only {_g(row['achieved'])} s after the slew ended at "
-        f"{_g(flight['slew_end_s'])} s, {_g(row['required'])} s allowed"
+        f"{_g(flight['slew_end_s'])} s, {_g(row['required'])} s allowed{_cause(results)}"
     )
 
 
@@ -73,7 +91,7 @@ def _pointing(row: Mapping[str, Any], results: Mapping[str, Any]) -> str:
     return (
         f"the error to the target reached {_g(row['achieved'])} deg{when} in the hold "
         f"({_g(flight['pointing_window_start_s'])} to {_g(flight['pointing_window_end_s'])} s), "
-        f"{_g(row['required'])} deg allowed"
+        f"{_g(row['required'])} deg allowed{_cause(results)}"
     )
 
 

@@ -261,6 +261,7 @@ def fly_slew(
         "wheel_momentum_peak_Nms": _f(np.max(np.abs(r.h_wheels))),
         "wheel_momentum_limit_Nms": _f(np.min(wheels.momentum_max)),
         "motor_torque_peak_mNm": _f(1e3 * np.max(np.abs(r.motor_torque))),
+        **_saturation(r),
         "motor_torque_limit_mNm": _f(1e3 * np.min(wheels.torque_max)),
         "separation_min_deg": {k.name: _f(np.degrees(np.min(k.separation(r.q)))) for k in study.cones},
         "tracker_updates": None if updates is None else int(np.nanmax(updates)),
@@ -273,6 +274,28 @@ def fly_slew(
         },
     }
     return out, {"closed_loop": r.plot(), "pointing": _pointing_figure(r, out, accuracy, knowledge, to_target)}, r
+
+
+def _saturation(r: SimulationResult) -> dict[str, Any]:
+    """Commanded against applied torque: how often and how far the wheels cut the command.
+
+    A tick is saturated when the applied body torque differs from the command by more than 1e-9 of the
+    command's size (the allocation is exact to rounding otherwise).
+    """
+    command = np.linalg.norm(r.torque_command, axis=-1)
+    gap = np.linalg.norm(r.torque_command - r.torque_applied, axis=-1)
+    saturated = gap > 1e-9 * np.maximum(command, 1e-12)
+    applied = np.linalg.norm(r.torque_applied, axis=-1)
+    peak_ratio = float(np.max(command) / np.max(applied)) if np.max(applied) > 0.0 else math.inf
+    speed = np.max(np.abs(r.wheel_speed)) if r.wheel_speed.size else 0.0
+    limit = np.min(np.asarray(r.info.get("wheel_speed_limit_rpm", [np.inf]), dtype=float)) * math.pi / 30.0
+    return {
+        "torque_saturated_fraction": _f(float(np.mean(saturated))),
+        "torque_command_peak_mNm": _f(1e3 * float(np.max(command))),
+        "torque_applied_peak_mNm": _f(1e3 * float(np.max(applied))),
+        "torque_command_to_applied_peak_ratio": _f(peak_ratio),
+        "wheel_speed_margin_percent": _f(100.0 * (1.0 - speed / limit) if math.isfinite(limit) else math.nan),
+    }
 
 
 def _blinded_samples(tracker: Any, r: SimulationResult) -> int:

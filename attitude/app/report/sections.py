@@ -12,7 +12,17 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["Block", "Figure", "Heading", "Paragraph", "Table", "build_blocks", "fmt", "requirement_rows"]
+__all__ = [
+    "Block",
+    "Figure",
+    "Heading",
+    "Paragraph",
+    "Table",
+    "build_blocks",
+    "diagnostics_lines",
+    "fmt",
+    "requirement_rows",
+]
 
 SECTIONS = (
     ("body", "1. The body"),
@@ -269,7 +279,12 @@ def _linear(results: dict[str, Any]) -> list[Block]:
             f"Controller sample period {fmt(period)} s ({fmt(lin['rate_Hz'])} Hz). Quaternion-feedback PD from "
             f"the natural frequency {fmt(pd['bandwidth_rad_per_s'])} rad/s and damping {fmt(pd['damping'])}: "
             "K = 2 I wn^2 and C = 2 I zeta wn with the full inertia tensor (the factor 2 because the error "
-            "quaternion's vector part is half the angle), plus gyroscopic compensation."
+            "quaternion's vector part is half the angle), plus gyroscopic compensation. "
+            + (
+                "Mismatch checks (bandwidth against the sample rate, the sampled loops' stability, LQR poles against "
+                "the bandwidth the settling time needs): "
+                + (" ".join(f["message"] + "." for f in lin.get("findings") or []) or "none found.")
+            )
         ),
         _t(
             ["row", "K x [N m]", "K y [N m]", "K z [N m]", "C x [N m s]", "C y [N m s]", "C z [N m s]"],
@@ -485,6 +500,14 @@ def _closed_loop(results: dict[str, Any]) -> list[Block]:
     for name, sep in f["separation_min_deg"].items():
         rows.append([f"smallest separation '{name}' [deg]", fmt(sep)])
     rows += [
+        [
+            "ticks on which the wheels cut the commanded torque [%]",
+            fmt(100.0 * f.get("torque_saturated_fraction", 0.0)),
+        ],
+        [
+            "peak commanded / applied body torque [mN m]",
+            f"{fmt(f.get('torque_command_peak_mNm'))} / {fmt(f.get('torque_applied_peak_mNm'))}",
+        ],
         ["peak wheel speed [rpm]", f"{fmt(f['wheel_speed_peak_rpm'])} (limit {fmt(f['wheel_speed_limit_rpm'])})"],
         [
             "peak wheel momentum [N m s]",
@@ -894,6 +917,27 @@ def _dispersed(d: dict[str, Any] | None) -> list[Block]:
     return [Paragraph(text)]
 
 
+def diagnostics_lines(results: dict[str, Any]) -> list[str]:
+    """Mismatch findings and the closed loop's saturation, one line each (shown whatever the verdict).
+
+    Parameters
+    ----------
+    results : mapping
+        The JSON-ready results of the design.
+    """
+    lines = [f"Mismatch: {f['message']}" for f in ((results.get("linear") or {}).get("findings") or [])]
+    flight = results.get("closed_loop")
+    if flight is not None and "torque_saturated_fraction" in flight:
+        f = flight
+        lines.append(
+            f"Saturation (closed loop): the wheels cut the command on {100 * f['torque_saturated_fraction']:.3g} % "
+            f"of the ticks; command peak {f['torque_command_peak_mNm']:.4g} mN m, applied "
+            f"{f['torque_applied_peak_mNm']:.4g} mN m (ratio {f['torque_command_to_applied_peak_ratio']:.3g}); "
+            f"wheel speed margin {f['wheel_speed_margin_percent']:.3g} % of the limit"
+        )
+    return lines
+
+
 def _reasons(rows: list[dict[str, Any]]) -> list[Block]:
     """One line per failing row saying why (:func:`attitude.app.design.reasons.failure_reason`)."""
     lines = [f"{r['id']}: {r['reason']}" for r in rows if not r["pass"] and r.get("reason")]
@@ -926,6 +970,7 @@ def _requirements(results: dict[str, Any]) -> list[Block]:
         ),
         _t(header, requirement_rows(results["checks"]), "Advisory checks"),
         *_reasons(results["checks"]),
+        *[Paragraph(line + ".") for line in diagnostics_lines(results)],
     ]
 
 

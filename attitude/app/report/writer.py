@@ -30,7 +30,16 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from attitude.app.report.sections import Block, Figure, Heading, Paragraph, Table, build_blocks, requirement_rows
+from attitude.app.report.sections import (
+    Block,
+    Figure,
+    Heading,
+    Paragraph,
+    Table,
+    build_blocks,
+    diagnostics_lines,
+    requirement_rows,
+)
 from attitude.config import config_to_toml
 
 if TYPE_CHECKING:
@@ -129,6 +138,7 @@ def requirements_text(results: Mapping[str, Any]) -> str:
         for r in results["requirements"]:
             if not r["pass"]:
                 lines.append(f"  FAIL {r['id']}: {r.get('reason') or 'no reason recorded'}")
+    lines += diagnostics_lines(results)
     return "\n".join(lines)
 
 
