@@ -165,7 +165,11 @@ def test_report_folder(report):
     text = requirements_text(results)
     for row in results["requirements"]:
         assert row["requirement"] in text and row["requirement"] in md
-    assert text.splitlines()[-1].startswith("Verdict: PASS" if results["verdict"]["pass"] else "Verdict: FAIL")
+    verdict_line = next(line for line in text.splitlines() if line.startswith("Verdict: "))
+    assert verdict_line.startswith("Verdict: PASS" if results["verdict"]["pass"] else "Verdict: FAIL")
+    # After the verdict: the FAIL reasons, then the diagnostics (mismatch findings, saturation), nothing else.
+    tail = text.splitlines()[text.splitlines().index(verdict_line) + 1 :]
+    assert all(line.startswith(("  FAIL ", "Mismatch: ", "Saturation (closed loop): ")) for line in tail), tail
     # Each embedded image is the PNG in figures/, byte for byte.
     embedded = re.findall(r'<figure id="fig-([\w]+)"><img src="data:image/png;base64,([A-Za-z0-9+/=]+)"', html)
     assert sorted(name for name, _ in embedded) == sorted(results["figures"])
