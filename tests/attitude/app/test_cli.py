@@ -797,3 +797,27 @@ def test_montecarlo_ctrl_c_in_the_run_loop_exits_130_and_resumes(tmp_path, monke
     assert len(lines) == 1 + 1  # the header and the one run that completed before Ctrl-C
     assert main(["montecarlo", *args, "--out", str(b)]) in (0, 1)
     assert campaign_table(b) == campaign_table(a)
+
+
+def test_an_over_aggressive_bandwidth_fails_and_every_fail_line_says_why(tmp_path):
+    """Issue 12: wn = 20 rad/s at T = 0.1 s (wn T = 2, above the PD's sampled stability limit min(4 zeta, 1/zeta)
+    = 1.43 at zeta = 0.7, Jury's test: controllers.diagnostics) fails, and each FAIL line names a reason; the flown
+    rows name the unstable sampled loop as the likely cause, and the saturation line shows the wheels cutting it."""
+    path = tmp_path / "aggressive.toml"
+    run_attitude("init", str(path), cwd=tmp_path)
+    path.write_text(path.read_text().replace("bandwidth_rad_per_s = 0.2 ", "bandwidth_rad_per_s = 20.0"))
+    proc = run_attitude("design", str(path), "--quick", "--out", str(tmp_path / "out"), cwd=tmp_path)
+    assert proc.returncode == 1, proc.stderr[-2000:]
+    results = json.loads((tmp_path / "out" / "results.json").read_text())
+    failed = results["verdict"]["failed"]
+    assert {"settling_time", "pointing_accuracy"} <= set(failed)
+    lines = proc.stdout.splitlines()
+    for rid in failed:
+        line = next(x for x in lines if x.startswith(f"  FAIL {rid}: "))
+        assert len(line) > len(f"  FAIL {rid}: ") + 20, line
+    for rid in ("settling_time", "pointing_accuracy"):
+        line = next(x for x in lines if x.startswith(f"  FAIL {rid}: "))
+        assert "likely cause: sampled PD loop unstable: wn 20 rad/s" in line, line
+    assert any(x.startswith("Mismatch: sampled PD loop unstable") for x in lines)
+    saturation = next(x for x in lines if x.startswith("Saturation (closed loop): "))
+    assert float(saturation.split("command on ")[1].split(" %")[0]) > 50.0
