@@ -468,6 +468,9 @@ class CampaignResult:
         for r in self.requirements:
             counts = s["requirements"][r.name]  # over the runs that ran (all of them unless interrupted)
             lines.append(f"  requirement {r.name} ({r.review_rule()}): {counts['passed']}/{counts['runs']} passed")
+            reason = self.failure_reason(r)
+            if reason:
+                lines.append(f"    FAIL {r.name}: {reason}")
         lines.append("  " + s["success"]["statement"])
         first_errors = [f"    run {i}: {self.errors[i]}" for i in np.nonzero(self.status == "error")[0][:5]]
         if first_errors:
@@ -476,6 +479,36 @@ class CampaignResult:
         if self.info.get("interrupted"):
             lines.append("  (interrupted: the completed runs are kept; run again with the same out_dir to resume)")
         return "\n".join(lines)
+
+    def failure_reason(self, requirement: Requirement) -> str | None:
+        """Why ``requirement`` failed, in one line: how many runs, the worst one and its value (None: no failure).
+
+        Runs that ended in an error are counted apart (their message is in the table).
+
+        Parameters
+        ----------
+        requirement : Requirement
+            One of the campaign's requirements.
+        """
+        ok = self.status == "ok"
+        failed = ok & ~self.requirement_passed(requirement)
+        if not np.any(failed):
+            return None
+        values = self.metrics.get(requirement.metric, np.full(self.runs, np.nan))
+        scale, unit = display_unit(requirement.metric)
+        # The worst run: the furthest past its bound (a missing or NaN value first).
+        high = math.inf if requirement.max is None else requirement.max
+        low = -math.inf if requirement.min is None else requirement.min
+        with np.errstate(invalid="ignore"):
+            excess = np.where(np.isnan(values), np.inf, np.maximum(values - high, low - values))
+        worst = int(np.flatnonzero(failed)[np.argmax(excess[failed])])
+        value = float(values[worst])
+        seen = "no value" if math.isnan(value) else f"{scale * value:.4g} {unit}".rstrip()
+        return (
+            f"{int(np.sum(failed))} of {int(np.sum(ok))} runs; the worst, run {worst}, has {requirement.metric} = "
+            f"{seen} ({requirement.review_rule()}); fly it again at full rate with `attitude montecarlo ... "
+            f"--replay {worst}` or Campaign.replay({worst})"
+        )
 
     # -- figures ------------------------------------------------------------------
 

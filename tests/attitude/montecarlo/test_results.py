@@ -289,3 +289,38 @@ class TestResultProtocol:
         assert replay.passed == bool(result.passed[7])
         with pytest.raises(ValueError, match=r"run must be an integer with 0 <= run < runs = 12, got 12"):
             campaign.replay(12)
+
+
+class _Values:
+    """A scenario whose metric is the run's parameter ``x`` as drawn: the failing runs are known in advance."""
+
+    fingerprint = "test_results._Values"
+
+    def __call__(self, params, rng):
+        return {"offset": float(params["x"]), "settle": 1.0}
+
+
+def test_a_failing_requirement_says_how_many_runs_and_names_the_worst():
+    # Issue 12: failures explain themselves. The worst run is the one furthest past the bound, found here with
+    # numpy on the drawn values; the line names it, its value in review units and how to replay it.
+    campaign = Campaign(
+        _Values(),
+        {"x": Normal(0.0, math.radians(0.05))},
+        runs=40,
+        seed=3,
+        requirements=[
+            Requirement("offset", max=math.radians(0.05), name="pointing"),
+            Requirement("settle", max=2.0, name="settling"),
+        ],
+    )
+    result = run_campaign(campaign, workers=1)
+    drawn = np.array([campaign.parameters(i)["x"] for i in range(40)])
+    over = drawn > math.radians(0.05)
+    assert over.any()  # with this seed some runs fail (about 16 % of a normal's draws exceed 1 sigma)
+    worst = int(np.argmax(drawn))
+    line = result.failure_reason(campaign.requirements[0])
+    assert line.startswith(f"{int(over.sum())} of 40 runs; the worst, run {worst}, has offset = ")
+    assert f"--replay {worst}" in line and f"Campaign.replay({worst})" in line
+    assert result.failure_reason(campaign.requirements[1]) is None
+    text = result.summary()
+    assert f"    FAIL pointing: {line}" in text and "FAIL settling" not in text
