@@ -449,6 +449,8 @@ class ClosedLoopScenario:
         self._reference: ReferenceTrajectory | None = None
         self._feedforward: ReferenceTrajectory | None = None
         self.slew_end: float | None = None
+        #: The planned slew (None with guidance="eigenaxis").
+        self.study: SlewStudy | None = None
         self.plan_separation_min: dict[str, float] = {}
         self.plan_summary: dict[str, Any] | None = None
         if guidance == "plan":
@@ -467,6 +469,7 @@ class ClosedLoopScenario:
         """Plan (or take) the slew on the nominal spacecraft and keep numpy copies of it."""
         if study is None:
             study = plan_slews(self.config, nodes=self.nodes)
+        self.study = study
         plan = study.plan
         if plan is None:
             raise SlewPlanningError(
@@ -486,6 +489,12 @@ class ClosedLoopScenario:
         separations = np.atleast_1d(plan.separation_min)
         self.plan_separation_min = {cone.name: float(s) for cone, s in zip(study.cones, separations)}
         self.plan_summary = study.summary
+
+    def __getstate__(self) -> dict[str, Any]:
+        # Only numpy copies of the plan travel to the workers, not the planner's objects (the study).
+        state = dict(self.__dict__)
+        state["study"] = None
+        return state
 
     @property
     def fingerprint(self) -> str:
@@ -964,13 +973,14 @@ def campaign_from_config(
     runs: int | None = None,
     *,
     seed: int | None = None,
-    duration: float = 600.0,
+    duration: float | None = None,
     history_stride: int | None = 10,
     keep_out: bool = True,
     guidance: str = "plan",
     nodes: int = PLAN_NODES,
     consider_misalignment: bool = False,
     environment: bool = False,
+    study: SlewStudy | None = None,
 ) -> Campaign:
     """The campaign of a spacecraft file, not yet run: what :func:`run_campaign_from_config` runs.
 
@@ -986,8 +996,8 @@ def campaign_from_config(
         Overrides ``montecarlo.runs``.
     seed : int, optional
         Overrides ``montecarlo.seed`` (None and no table: drawn and recorded).
-    duration : float
-        Simulated time per run [s] (:func:`run_campaign_from_config`).
+    duration : float, optional
+        Simulated time per run [s] (:func:`run_campaign_from_config`; default: to the end of the hold).
     history_stride : int, optional
         Keep time histories every this many ticks (1: every tick; None: none).
     keep_out : bool
@@ -1000,6 +1010,8 @@ def campaign_from_config(
         Inflate the MEKF's tracker covariance by the tracker-misalignment dispersion.
     environment : bool
         Fly the file's orbit environment with the surface dispersions (:func:`run_campaign_from_config`).
+    study : SlewStudy, optional
+        The slew already planned for this file and ``nodes`` (:attr:`ClosedLoopScenario.study`); None plans it.
     """
     if not isinstance(config, SpacecraftConfig):
         config = load_config(config)
@@ -1033,6 +1045,7 @@ def campaign_from_config(
         nodes=nodes,
         consider_misalignment=consider_misalignment,
         environment=environment,
+        study=study,
     )
     return Campaign(
         scenario,
@@ -1051,7 +1064,7 @@ def replay_from_config(
     *,
     vectorized: bool = False,
     seed: int | None = None,
-    duration: float = 600.0,
+    duration: float | None = None,
     keep_out: bool = True,
     guidance: str = "plan",
     nodes: int = PLAN_NODES,
@@ -1119,6 +1132,10 @@ def replay_from_config(
     w = campaign.scenario.windows
     replay.info["windows"] = {"slew_end_s": w.slew_end_s, "hold_start_s": w.hold_start_s, "hold_end_s": w.hold_end_s}
     return replay
+
+
+#: Failing runs flown again at every tick for the envelope figures of :func:`run_campaign_from_config`.
+FAILING_RUNS_REPLAYED = 3
 
 
 def run_campaign_from_config(
@@ -1196,6 +1213,8 @@ def run_campaign_from_config(
         disperses the surface is refused (ScenarioError naming the key)
         rather than drawing values nobody flies.
     """
+    if not isinstance(config, SpacecraftConfig):
+        config = load_config(config)
     campaign = campaign_from_config(
         config,
         runs,
@@ -1230,5 +1249,28 @@ def run_campaign_from_config(
 
         wheels = assembly.reaction_wheels(config)
         speed_limit = {"wheel speed limit": wheels.momentum_max / wheels.spin_inertia}  # [rad/s], per wheel
-        save_figures(result, Path(out_dir) / "figures", lines={"wheel_speed": speed_limit})
+        # The failing runs' excursions at every tick (the table's histories are thinned): flown again alone.
+        failing = np.flatnonzero((np.asarray(result.status) == "ok") & ~np.asarray(result.passed))
+        overlays = {}
+        if failing.size and history_stride not in (None, 1):
+            full = campaign_from_config(
+                config,
+                runs,
+                seed=seed,
+                duration=duration,
+                history_stride=1,
+                keep_out=keep_out,
+                guidance=guidance,
+                nodes=nodes,
+                consider_misalignment=consider_misalignment,
+                environment=environment,
+                study=campaign.scenario.study,
+            )
+            for run in failing[:FAILING_RUNS_REPLAYED]:
+                overlays[int(run)] = full.replay(int(run), vectorized=vectorized).history
+        w = campaign.scenario.windows
+        windows = {"slew_end_s": w.slew_end_s, "hold_start_s": w.hold_start_s, "hold_end_s": w.hold_end_s}
+        save_figures(
+            result, Path(out_dir) / "figures", lines={"wheel_speed": speed_limit}, overlays=overlays, windows=windows
+        )
     return result

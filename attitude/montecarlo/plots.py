@@ -65,14 +65,15 @@ ENVELOPE_BANDS = ((0.0, 100.0), (5.0, 95.0), (25.0, 75.0))
 #: Degrees of freedom of the built-in NEES metrics (``nees``: the run's time-averaged attitude NEES of
 #: :class:`attitude.app.scenarios.ClosedLoopScenario`): their histogram carries the chi-square density.
 NEES_DEGREES_OF_FREEDOM = {"nees": 3}
-#: The metric whose requirement bounds a time history (the history's largest value over a run, or its
-#: value at the end, is that metric): the envelope draws the requirement's upper bound. It bounds each
+#: The metrics whose requirement bounds a time history (the history's largest value over a run or over
+#: the hold, or its value at the end, is that metric; the first with a requirement is drawn): the envelope
+#: draws the requirement's upper bound. It bounds each
 #: component of a vector history (the peak wheel speed: every wheel), except for the histories of
 #: :data:`NORM_BOUNDED_HISTORIES`.
 ENVELOPE_REQUIREMENTS = {
-    "error_angle": "final_pointing_error",
-    "omega": "rate_peak",
-    "wheel_speed": "wheel_speed_peak",
+    "error_angle": ("pointing_error_hold", "final_pointing_error"),
+    "omega": ("rate_peak",),
+    "wheel_speed": ("wheel_speed_peak",),
 }
 #: Vector histories whose requirement bounds the norm (the peak rate bounds ``|omega|``), drawn on the norm only.
 NORM_BOUNDED_HISTORIES = frozenset({"omega"})
@@ -200,10 +201,10 @@ def _requirement_bound(result: CampaignData, key: str, norm: bool) -> tuple[str,
     """
     if norm != (key in NORM_BOUNDED_HISTORIES):
         return None
-    metric = ENVELOPE_REQUIREMENTS.get(key)
-    for r in result.requirements:
-        if metric is not None and r.metric == metric and r.max is not None:
-            return f"requirement {r.name} ({metric})", float(r.max)
+    for metric in ENVELOPE_REQUIREMENTS.get(key, ()):
+        for r in result.requirements:
+            if r.metric == metric and r.max is not None:
+                return f"requirement {r.name} ({metric})", float(r.max)
     return None
 
 
@@ -221,6 +222,8 @@ def plot_envelope(
     component: int | str | None = None,
     *,
     lines: Mapping[str, ArrayLike] | None = None,
+    overlays: Mapping[int, Mapping[str, ArrayLike]] | None = None,
+    windows: Mapping[str, float] | None = None,
 ) -> Figure:
     """Percentile bands over the runs of a time history (min-max, 5-95 %, 25-75 %, median), with its limits.
 
@@ -243,6 +246,12 @@ def plot_envelope(
         Labelled horizontal limits in the history's SI unit; an array gives
         one value per component (with ``"each"``). On components they are
         drawn at plus and minus the value (a limit on the magnitude).
+    overlays : mapping of int to mapping, optional
+        Runs drawn as lines over the bands, by run number: each a history with ``t`` and ``key`` (for
+        instance a failing run flown again at every tick, whose excursion the thinned bands can miss).
+    windows : mapping of str to float, optional
+        The requirements' windows [s] (``slew_end_s``, ``hold_start_s``, ``hold_end_s``): on the error
+        histories the settling allowance and the hold are shaded (the pointing requirement holds over the hold).
     """
     if component == "each":
         return _plot_envelope_each(result, key, lines or {})
@@ -266,6 +275,15 @@ def plot_envelope(
         else:
             level = float(np.max(value))
         ax.axhline(level * scale, color="tab:red", ls="-.", lw=1.0, label=label)
+    if windows is not None and key in ("error_angle", "tracking_error"):
+        ax.axvspan(windows["slew_end_s"], windows["hold_start_s"], color="tab:orange", alpha=0.08, label="settling")
+        ax.axvspan(windows["hold_start_s"], windows["hold_end_s"], color="tab:green", alpha=0.08, label="hold")
+    for run, history in (overlays or {}).items():
+        if key in history and "t" in history:
+            y = np.asarray(history[key], dtype=float)
+            if y.ndim == 2:
+                y = np.linalg.norm(y, axis=1) if component is None else y[:, component]
+            ax.plot(history["t"], y * scale, lw=0.8, label=f"run {run} (fails; every tick)")
     ax.set_xlabel("t [s]")
     ax.set_ylabel(f"{what} [{unit}]" if unit else what)
     if key in ("error_angle", "tracking_error", "estimation_error") and np.nanmin(values) > 0:
@@ -373,7 +391,12 @@ def most_influential_parameter(result: CampaignData, metric: str) -> str | None:
 
 
 def save_figures(
-    result: CampaignData, directory: str | Path, *, lines: Mapping[str, Mapping[str, ArrayLike]] | None = None
+    result: CampaignData,
+    directory: str | Path,
+    *,
+    lines: Mapping[str, Mapping[str, ArrayLike]] | None = None,
+    overlays: Mapping[int, Mapping[str, ArrayLike]] | None = None,
+    windows: Mapping[str, float] | None = None,
 ) -> list[Path]:
     """Histograms, an envelope per history, and per requirement metric a scatter against its most influential parameter.
 
@@ -389,6 +412,10 @@ def save_figures(
     lines : mapping, optional
         Per history name, labelled limits for its envelope (:func:`plot_envelope`),
         e.g. ``{"wheel_speed": {"wheel speed limit": speed_max}}`` [SI].
+    overlays : mapping of int to mapping, optional
+        Runs drawn as lines on the envelopes of scalar histories (:func:`plot_envelope`), by run number.
+    windows : mapping of str to float, optional
+        The requirements' windows [s], shaded on the error envelopes (:func:`plot_envelope`).
     """
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
@@ -405,7 +432,9 @@ def save_figures(
     for key in keys:
         try:
             component = "each" if key in PER_COMPONENT_HISTORIES else None
-            save(plot_envelope(result, key, component, lines=(lines or {}).get(key)), f"envelope_{key}.png")
+            drawn = None if component == "each" else overlays
+            fig = plot_envelope(result, key, component, lines=(lines or {}).get(key), overlays=drawn, windows=windows)
+            save(fig, f"envelope_{key}.png")
         except ValueError:
             continue
     for metric in dict.fromkeys(r.metric for r in result.requirements):

@@ -363,7 +363,7 @@ def test_the_cli_replays_a_run_as_its_row_of_the_campaign(tmp_path, capsys):
     from attitude.montecarlo.results import CampaignResult, RunReplay
 
     out = tmp_path / "mc"
-    argv = ["montecarlo", "--runs", "3", "--duration-s", "100", "--nodes", "30", "--out", str(out)]
+    argv = ["montecarlo", "--runs", "3", "--nodes", "30", "--out", str(out)]
     main([*argv, "--workers", "1", "--json"])
     campaign = CampaignResult.load(out)
     capsys.readouterr()
@@ -386,7 +386,8 @@ def test_the_cli_replays_a_run_as_its_row_of_the_campaign(tmp_path, capsys):
     # Full rate: the history has every control tick (10 Hz) of the 100 s, not the campaign's every tenth.
     history = np.load(out / "replay_run2" / "history.npz")
     np.testing.assert_allclose(np.diff(history["t"]), CONFIG.control.period_s, rtol=1e-9)
-    assert history["t"][-1] == pytest.approx(100.0)
+    # Each run lasts to the end of the requirements' hold (the 30-node plan's slew, settling and hold).
+    assert history["t"][-1] == pytest.approx(ClosedLoopScenario(CONFIG, nodes=30).duration)
     np.testing.assert_array_equal(campaign.histories[2]["t"], history["t"][::10])
     np.testing.assert_array_equal(campaign.histories[2]["error_angle"], history["error_angle"][::10])
     for name in RunReplay.FILES:
@@ -412,7 +413,7 @@ def test_a_vectorised_campaigns_run_replays_bit_for_bit_and_agrees_with_the_per_
     from attitude.montecarlo.results import CampaignResult
 
     out = tmp_path / "mc"
-    argv = ["montecarlo", "--runs", "3", "--duration-s", "100", "--nodes", "30", "--out", str(out)]
+    argv = ["montecarlo", "--runs", "3", "--nodes", "30", "--out", str(out)]
     main([*argv, "--vectorized", "--workers", "1", "--json"])
     campaign = CampaignResult.load(out)
     main([*argv, "--vectorized", "--replay", "1", "--json"])
