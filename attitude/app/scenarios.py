@@ -62,7 +62,7 @@ these are the definitions those scenarios always had.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -310,6 +310,11 @@ class ClosedLoopScenario:
     environment : bool
         Fly the file's orbit environment (module docstring; default False:
         empty inertial space, as before). Needs an ``[orbit]`` table.
+    plan_progress : bool or None
+        A progress bar over the planner's starts while the slew is planned
+        here (``progress`` of :func:`controllers.slew.planner.plan_slew`;
+        default False; None: when stderr is a terminal). Not part of the
+        scenario: it is not kept.
 
     Notes
     -----
@@ -401,6 +406,7 @@ class ClosedLoopScenario:
         study: SlewStudy | None = None,
         consider_misalignment: bool = False,
         environment: bool = False,
+        plan_progress: bool | None = False,
     ) -> None:
         if guidance not in GUIDANCES:
             raise ScenarioError(f"guidance must be one of {', '.join(map(repr, GUIDANCES))}, got {guidance!r}")
@@ -445,7 +451,7 @@ class ClosedLoopScenario:
         self.plan_separation_min: dict[str, float] = {}
         self.plan_summary: dict[str, Any] | None = None
         if guidance == "plan":
-            self._plan(study)
+            self._plan(study, plan_progress)
             needed = self.slew_end + req.settling_time_s
             if duration < needed:
                 raise ScenarioError(
@@ -453,10 +459,10 @@ class ClosedLoopScenario:
                     f"({req.settling_time_s:g} s), at least {needed:.4g} s; got {duration:g} s"
                 )
 
-    def _plan(self, study: SlewStudy | None) -> None:
+    def _plan(self, study: SlewStudy | None, progress: bool | None = False) -> None:
         """Plan (or take) the slew on the nominal spacecraft and keep numpy copies of it."""
         if study is None:
-            study = plan_slews(self.config, nodes=self.nodes)
+            study = plan_slews(self.config, nodes=self.nodes, progress=progress)
         plan = study.plan
         if plan is None:
             raise SlewPlanningError(
@@ -573,7 +579,12 @@ class ClosedLoopScenario:
         extra = {"error_angle": to_target, "tracking_error": result.error_angle, "estimation_error": est_error}
         return RunOutput(metrics, _history(result, self.history_stride, extra))
 
-    def run_batch(self, params_list: Sequence[Mapping[str, Any]], rngs: Sequence[Any]) -> list[RunOutput]:
+    def run_batch(
+        self,
+        params_list: Sequence[Mapping[str, Any]],
+        rngs: Sequence[Any],
+        progress: Callable[[float], None] | None = None,
+    ) -> list[RunOutput]:
         """All runs at once (``run_campaign(..., vectorized=True)``): the same runs as :meth:`__call__`.
 
         The truth, the sensors, the MEKF and the control law advance as
@@ -589,9 +600,16 @@ class ClosedLoopScenario:
             The dispersed parameters of each run.
         rngs : sequence of numpy.random.Generator
             The generator of each run.
+        progress : callable, optional
+            ``progress(fraction)`` of the batch simulated, for the campaign's progress bar.
         """
         if self._reference is None:
-            return [self(p, r) for p, r in zip(params_list, rngs)]
+            outputs = []
+            for i, (p, r) in enumerate(zip(params_list, rngs)):
+                outputs.append(self(p, r))
+                if progress is not None:
+                    progress((i + 1) / len(params_list))
+            return outputs
         n = len(params_list)
         body = RigidBody(_stacked(params_list, "inertia", self._nominal.inertia))
         q0 = _stacked(params_list, "initial_attitude", self._q_start)
@@ -619,6 +637,7 @@ class ClosedLoopScenario:
             observer=recorder,
             environment=self._environment,
             surface_parameters=surface,
+            progress=progress,
         )
         return recorder.outputs(
             out["diverged_at"],
@@ -909,7 +928,12 @@ class PDWheelsScenario:
         )
         return RunOutput(closed_loop_metrics(result, self.pointing_threshold), _history(result, self.history_stride))
 
-    def run_batch(self, params_list: Sequence[Mapping[str, Any]], rngs: Sequence[Any]) -> list[RunOutput]:
+    def run_batch(
+        self,
+        params_list: Sequence[Mapping[str, Any]],
+        rngs: Sequence[Any],
+        progress: Callable[[float], None] | None = None,
+    ) -> list[RunOutput]:
         """All runs at once (``run_campaign(..., vectorized=True)``): the same runs as :meth:`__call__`.
 
         Parameters
@@ -918,6 +942,8 @@ class PDWheelsScenario:
             The dispersed parameters of each run.
         rngs : sequence of numpy.random.Generator
             The generator of each run.
+        progress : callable, optional
+            ``progress(fraction)`` of the batch simulated, for the campaign's progress bar.
         """
         initial = [self.initial_state(p) for p in params_list]
         result = simulate_batch(
@@ -935,6 +961,7 @@ class PDWheelsScenario:
                 if self.environment is None
                 else np.stack([surface_parameters(self.environment, p) for p in params_list])
             ),
+            progress=progress,
         )
         outputs = []
         for i in range(len(params_list)):
@@ -995,7 +1022,9 @@ def run_campaign_from_config(
     history_stride : int, optional
         Keep time histories every this many ticks (default 10: 1 s at 10 Hz).
     progress : bool, optional
-        Progress bar on stderr (default: when stderr is a terminal).
+        Progress bars on stderr: the planner's starts and the campaign's runs
+        (:func:`attitude.montecarlo.campaign.run_campaign`; default: when
+        stderr is a terminal; False: none).
     figures : bool
         Save ``figures/*.png`` into ``out_dir``.
     keep_out : bool
@@ -1057,6 +1086,7 @@ def run_campaign_from_config(
         nodes=nodes,
         consider_misalignment=consider_misalignment,
         environment=environment,
+        plan_progress=progress,
     )
     campaign = Campaign(
         scenario,
