@@ -24,6 +24,7 @@ import pytest
 
 import attitude.app.design.run as design_run
 import attitude.app.report.writer as report_writer
+import attitude.progress
 from attitude.app.cli import main
 from attitude.app.design.run import STEPS
 
@@ -128,6 +129,7 @@ def test_montecarlo_bar_on_a_terminal_and_quiet(monkeypatch, capsys, tmp_path):
 
 
 def test_slew_planner_bar_on_a_terminal_and_quiet(monkeypatch, capsys):
+    monkeypatch.setattr(attitude.progress, "REFRESH_PERIOD_S", 0.0)  # every update drawn: a frame per start
     args = ["slew", "--nodes", "20", "--json"]
     stderr = Terminal()
     monkeypatch.setattr(sys, "stderr", stderr)

@@ -40,6 +40,7 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
+import attitude.progress
 from attitude import RigidBody
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
@@ -184,6 +185,7 @@ class TestMultiStart:
             def isatty(self) -> bool:
                 return True
 
+        monkeypatch.setattr(attitude.progress, "REFRESH_PERIOD_S", 0.0)  # every update drawn: a frame per start
         quiet = plan_slew(UNIT, Q_ID, Q_180X, starts=2, **self.kwargs)
         stderr = Terminal()
         monkeypatch.setattr(sys, "stderr", stderr)
