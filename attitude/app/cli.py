@@ -179,7 +179,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
     options = DesignOptions(quick=args.quick, spin_rate_deg_per_s=args.spin_rate_deg_per_s, seed=args.seed)
     start = time.perf_counter()
     _progress(f"attitude design: {config.name} ({config.source}) -> {args.out}/", args.quiet)
-    # A bar over the steps, the current step's label after it (the status lines are written above it),
+    # A bar over the steps, the current step's name after it (the status lines are written above it),
     # from the first step on: a file refused before any step leaves no empty bar behind its error.
     bar = None
 
@@ -187,7 +187,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
         nonlocal bar
         if bar is None:
             bar = progress_bar(STEPS, desc="attitude design", unit="step", enabled=_bars(args))
-        bar.set_postfix_str(label, refresh=False)
+        bar.set_postfix_str(label.split(":")[0], refresh=False)  # the step's name; the status line has the rest
         bar.update(number - 1 - bar.n)
 
     try:
