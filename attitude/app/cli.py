@@ -12,8 +12,11 @@ Exit codes
     130: interrupted (Ctrl-C): one line with the command that starts the
     work again (a Monte Carlo campaign resumes from its checkpoint).
 
-Progress of long steps goes to stderr; results go to stdout (with
-``--json``, stdout holds only the JSON document).
+Progress goes to stderr: one status line per long step, and, when stderr is
+a terminal, progress bars with an ETA (tqdm: the design's steps, the slew
+planner's starts, a campaign's runs). ``--quiet`` silences both; errors are
+still printed. Results go to stdout (with ``--json``, stdout holds only the
+JSON document; ``--json`` does not change stderr).
 """
 
 from __future__ import annotations
@@ -52,6 +55,10 @@ _FILE_HELP = "spacecraft file (TOML); default: the built-in 12U CubeSat (write i
 _EPILOG = """\
 exit codes: 0 all requirements pass, 1 a requirement fails, 2 bad input
 (the message names the file and the key), 130 interrupted (Ctrl-C).
+
+progress: status lines on stderr, and progress bars with an ETA when stderr
+is a terminal; --quiet (design, slew, momentum, montecarlo) silences both
+(errors are still printed).
 
 examples:
   attitude init my_sat.toml              # a commented starting point
@@ -106,8 +113,26 @@ def _nodes(text: str) -> int:
     return value
 
 
-def _progress(message: str) -> None:
-    print(message, file=sys.stderr, flush=True)
+#: Help of ``--quiet`` (design, slew, momentum, montecarlo).
+_QUIET_HELP = (
+    "print no progress on stderr: neither the status lines nor the progress bars (errors are still printed; "
+    "without --quiet the bars are drawn only when stderr is a terminal)"
+)
+
+
+def _progress(message: str, quiet: bool = False) -> None:
+    """One status line on stderr, written above any progress bar being drawn; nothing when ``quiet``."""
+    if quiet:
+        return
+    from tqdm import tqdm
+
+    tqdm.write(message, file=sys.stderr)
+    sys.stderr.flush()
+
+
+def _bars(args: argparse.Namespace) -> bool | None:
+    """The ``progress`` of the progress bars: False with ``--quiet``, else None (drawn on a terminal only)."""
+    return False if args.quiet else None
 
 
 def _load(file: str | None) -> SpacecraftConfig:
@@ -143,8 +168,9 @@ def _check_report_folder(out: Path, input_file: str | None, force: bool) -> None
 
 
 def _cmd_design(args: argparse.Namespace) -> int:
-    from attitude.app.design.run import DesignOptions, run_design
+    from attitude.app.design.run import STEPS, DesignOptions, run_design
     from attitude.app.report.writer import dumps_json, requirements_text, write_report
+    from attitude.progress import progress_bar
 
     if args.out.exists() and not args.out.is_dir():
         raise UsageError(f"--out {args.out}: exists and is not a folder")
@@ -152,14 +178,32 @@ def _cmd_design(args: argparse.Namespace) -> int:
     config = _load(args.file)
     options = DesignOptions(quick=args.quick, spin_rate_deg_per_s=args.spin_rate_deg_per_s, seed=args.seed)
     start = time.perf_counter()
-    _progress(f"attitude design: {config.name} ({config.source}) -> {args.out}/")
-    result = run_design(config, options, progress=_progress)
-    _progress("writing the report ...")
+    _progress(f"attitude design: {config.name} ({config.source}) -> {args.out}/", args.quiet)
+    # A bar over the steps, the current step's name after it (the status lines are written above it),
+    # from the first step on: a file refused before any step leaves no empty bar behind its error.
+    bar = None
+
+    def on_step(number: int, label: str) -> None:
+        nonlocal bar
+        if bar is None:
+            bar = progress_bar(STEPS, desc="attitude design", unit="step", enabled=_bars(args))
+        bar.set_postfix_str(label.split(":")[0], refresh=False)  # the step's name; the status line has the rest
+        bar.update(number - 1 - bar.n)
+
+    try:
+        result = run_design(config, options, progress=lambda m: _progress(m, args.quiet), on_step=on_step)
+        if bar is not None:
+            bar.set_postfix_str("done", refresh=False)
+            bar.update(STEPS - bar.n)
+    finally:
+        if bar is not None:
+            bar.close()
+    _progress("writing the report ...", args.quiet)
     try:
         paths = write_report(result, args.out)
     except OSError as exc:
         raise UsageError(f"--out {args.out}: cannot write the report: {exc}") from exc
-    _progress(f"report written in {time.perf_counter() - start:.1f} s: {paths['report_html']}")
+    _progress(f"report written in {time.perf_counter() - start:.1f} s: {paths['report_html']}", args.quiet)
     if args.json:
         sys.stdout.write(dumps_json(result.results))
     else:
@@ -229,8 +273,10 @@ def _cmd_slew(args: argparse.Namespace) -> int:
         config = with_slew(config, args.to)
     if args.duration_s is not None and args.objective != "energy":
         raise UsageError("--duration-s is only for --objective energy (minimum time chooses its own duration)")
-    _progress(f"planning the slew ({args.objective}, {args.nodes} intervals) ...")
-    study = plan_slews(config, nodes=args.nodes, objective=args.objective, duration_s=args.duration_s)
+    _progress(f"planning the slew ({args.objective}, {args.nodes} intervals) ...", args.quiet)
+    study = plan_slews(
+        config, nodes=args.nodes, objective=args.objective, duration_s=args.duration_s, progress=_bars(args)
+    )
     results = {
         "spacecraft": {"name": config.name, "description": config.description, "source": config.source},
         "slews": study.summary,
@@ -347,8 +393,8 @@ def _cmd_momentum(args: argparse.Namespace) -> int:
         existing = [str(p) for p in targets if p.exists()]
         if existing and not args.force:
             raise UsageError(f"--out {args.out}: would overwrite {', '.join(existing)}; use --force to replace them")
-    _progress(f"attitude momentum: {config.name}, {args.orbits or ('the file' + chr(39) + 's')} orbits ...")
-    budget = momentum_budget(config, args.orbits)
+    _progress(f"attitude momentum: {config.name}, {args.orbits or ('the file' + chr(39) + 's')} orbits ...", args.quiet)
+    budget = momentum_budget(config, args.orbits, progress=_bars(args))
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)
         for name, fig in momentum_figures(budget).items():
@@ -412,9 +458,9 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
         raise UsageError(
             "--force: only with --replay (a campaign resumes its checkpoint, or starts afresh with --fresh)"
         )
-    _progress(f"Monte Carlo campaign of {config.name}: results in {out}/")
+    _progress(f"Monte Carlo campaign of {config.name}: results in {out}/", args.quiet)
     if args.guidance == "plan":
-        _progress(f"planning the slew ({args.nodes} intervals, once, on the nominal spacecraft) ...")
+        _progress(f"planning the slew ({args.nodes} intervals, once, on the nominal spacecraft) ...", args.quiet)
     try:
         result = run_campaign_from_config(
             config,
@@ -424,7 +470,7 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
             out_dir=out,
             seed=args.seed,
             duration=args.duration_s,
-            progress=False if args.json else None,  # None: a bar when stderr is a terminal
+            progress=_bars(args),  # the planner's and the runs' bars
             keep_out=not args.no_keep_out,
             guidance=args.guidance,
             nodes=args.nodes,
@@ -480,7 +526,10 @@ def _replay_montecarlo(args: argparse.Namespace, config: SpacecraftConfig, out: 
     if existing and not args.force:
         raise UsageError(f"--out {out}: would overwrite {', '.join(existing)}; use --force to replace them")
     path = "the vectorised path" if args.vectorized else "the per-run engine"
-    _progress(f"Replaying run {args.replay} of the Monte Carlo campaign of {config.name} on {path}: files in {folder}/")
+    _progress(
+        f"Replaying run {args.replay} of the Monte Carlo campaign of {config.name} on {path}: files in {folder}/",
+        args.quiet,
+    )
     try:
         replay = replay_from_config(
             config,
@@ -595,6 +644,7 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="RATE",
         help="reference spin rate of the torque-free analysis [deg/s] (default: %(default)s)",
     )
+    p.add_argument("--quiet", action="store_true", help=_QUIET_HELP)
     p.set_defaults(run=_cmd_design)
 
     p = sub.add_parser(
@@ -632,6 +682,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--nodes", type=_nodes, default=60, help="planner intervals, at least 4 (default: %(default)s)")
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
+    p.add_argument("--quiet", action="store_true", help=_QUIET_HELP)
     p.set_defaults(run=_cmd_slew)
 
     p = sub.add_parser(
@@ -750,6 +801,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--force", action="store_true", help="with --replay: replace the files of an earlier replay")
     p.add_argument("--json", action="store_true", help="print the statistics (with --replay: the run) as JSON")
+    p.add_argument("--quiet", action="store_true", help=_QUIET_HELP)
     p.set_defaults(run=_cmd_montecarlo)
 
     p = sub.add_parser(
@@ -776,6 +828,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, default=None, metavar="DIR", help="write the two figures (PNG) into DIR")
     p.add_argument("--force", action="store_true", help="replace figures already in DIR")
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
+    p.add_argument("--quiet", action="store_true", help=_QUIET_HELP)
     p.set_defaults(run=_cmd_momentum)
 
     p = sub.add_parser(

@@ -66,7 +66,7 @@ these are the definitions those scenarios always had.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -317,6 +317,11 @@ class ClosedLoopScenario:
     environment : bool
         Fly the file's orbit environment (module docstring; default False:
         empty inertial space, as before). Needs an ``[orbit]`` table.
+    plan_progress : bool or None
+        A progress bar over the planner's starts while the slew is planned
+        here (``progress`` of :func:`controllers.slew.planner.plan_slew`;
+        default False; None: when stderr is a terminal). Not part of the
+        scenario: it is not kept.
 
     Notes
     -----
@@ -408,6 +413,7 @@ class ClosedLoopScenario:
         study: SlewStudy | None = None,
         consider_misalignment: bool = False,
         environment: bool = False,
+        plan_progress: bool | None = False,
     ) -> None:
         if guidance not in GUIDANCES:
             raise ScenarioError(f"guidance must be one of {', '.join(map(repr, GUIDANCES))}, got {guidance!r}")
@@ -454,7 +460,7 @@ class ClosedLoopScenario:
         self.plan_separation_min: dict[str, float] = {}
         self.plan_summary: dict[str, Any] | None = None
         if guidance == "plan":
-            self._plan(study)
+            self._plan(study, plan_progress)
         #: When the requirements are judged: the planned slew's end, or the allowed slew time (eigenaxis).
         self.windows = assembly.slew_windows(config, self.slew_end)
         if duration is None:
@@ -465,10 +471,10 @@ class ClosedLoopScenario:
             raise ScenarioError(str(exc)) from None
         self.duration = duration
 
-    def _plan(self, study: SlewStudy | None) -> None:
+    def _plan(self, study: SlewStudy | None, progress: bool | None = False) -> None:
         """Plan (or take) the slew on the nominal spacecraft and keep numpy copies of it."""
         if study is None:
-            study = plan_slews(self.config, nodes=self.nodes)
+            study = plan_slews(self.config, nodes=self.nodes, progress=progress)
         self.study = study
         plan = study.plan
         if plan is None:
@@ -591,7 +597,12 @@ class ClosedLoopScenario:
         extra = {"error_angle": to_target, "tracking_error": result.error_angle, "estimation_error": est_error}
         return RunOutput(metrics, _history(result, self.history_stride, extra))
 
-    def run_batch(self, params_list: Sequence[Mapping[str, Any]], rngs: Sequence[Any]) -> list[RunOutput]:
+    def run_batch(
+        self,
+        params_list: Sequence[Mapping[str, Any]],
+        rngs: Sequence[Any],
+        progress: Callable[[float], None] | None = None,
+    ) -> list[RunOutput]:
         """All runs at once (``run_campaign(..., vectorized=True)``): the same runs as :meth:`__call__`.
 
         The truth, the sensors, the MEKF and the control law advance as
@@ -607,9 +618,16 @@ class ClosedLoopScenario:
             The dispersed parameters of each run.
         rngs : sequence of numpy.random.Generator
             The generator of each run.
+        progress : callable, optional
+            ``progress(fraction)`` of the batch simulated, for the campaign's progress bar.
         """
         if self._reference is None:
-            return [self(p, r) for p, r in zip(params_list, rngs)]
+            outputs = []
+            for i, (p, r) in enumerate(zip(params_list, rngs)):
+                outputs.append(self(p, r))
+                if progress is not None:
+                    progress((i + 1) / len(params_list))
+            return outputs
         n = len(params_list)
         body = RigidBody(_stacked(params_list, "inertia", self._nominal.inertia))
         q0 = _stacked(params_list, "initial_attitude", self._q_start)
@@ -637,6 +655,7 @@ class ClosedLoopScenario:
             observer=recorder,
             environment=self._environment,
             surface_parameters=surface,
+            progress=progress,
         )
         return recorder.outputs(
             out["diverged_at"],
@@ -925,7 +944,12 @@ class PDWheelsScenario:
         )
         return RunOutput(closed_loop_metrics(result, self.pointing_threshold), _history(result, self.history_stride))
 
-    def run_batch(self, params_list: Sequence[Mapping[str, Any]], rngs: Sequence[Any]) -> list[RunOutput]:
+    def run_batch(
+        self,
+        params_list: Sequence[Mapping[str, Any]],
+        rngs: Sequence[Any],
+        progress: Callable[[float], None] | None = None,
+    ) -> list[RunOutput]:
         """All runs at once (``run_campaign(..., vectorized=True)``): the same runs as :meth:`__call__`.
 
         Parameters
@@ -934,6 +958,8 @@ class PDWheelsScenario:
             The dispersed parameters of each run.
         rngs : sequence of numpy.random.Generator
             The generator of each run.
+        progress : callable, optional
+            ``progress(fraction)`` of the batch simulated, for the campaign's progress bar.
         """
         initial = [self.initial_state(p) for p in params_list]
         result = simulate_batch(
@@ -951,6 +977,7 @@ class PDWheelsScenario:
                 if self.environment is None
                 else np.stack([surface_parameters(self.environment, p) for p in params_list])
             ),
+            progress=progress,
         )
         outputs = []
         for i in range(len(params_list)):
@@ -981,6 +1008,7 @@ def campaign_from_config(
     consider_misalignment: bool = False,
     environment: bool = False,
     study: SlewStudy | None = None,
+    plan_progress: bool | None = False,
 ) -> Campaign:
     """The campaign of a spacecraft file, not yet run: what :func:`run_campaign_from_config` runs.
 
@@ -1012,6 +1040,8 @@ def campaign_from_config(
         Fly the file's orbit environment with the surface dispersions (:func:`run_campaign_from_config`).
     study : SlewStudy, optional
         The slew already planned for this file and ``nodes`` (:attr:`ClosedLoopScenario.study`); None plans it.
+    plan_progress : bool or None
+        A bar over the planner's starts (:class:`ClosedLoopScenario`; None: when stderr is a terminal).
     """
     if not isinstance(config, SpacecraftConfig):
         config = load_config(config)
@@ -1046,6 +1076,7 @@ def campaign_from_config(
         consider_misalignment=consider_misalignment,
         environment=environment,
         study=study,
+        plan_progress=plan_progress,
     )
     return Campaign(
         scenario,
@@ -1183,7 +1214,9 @@ def run_campaign_from_config(
     history_stride : int, optional
         Keep time histories every this many ticks (default 10: 1 s at 10 Hz).
     progress : bool, optional
-        Progress bar on stderr (default: when stderr is a terminal).
+        Progress bars on stderr: the planner's starts and the campaign's runs
+        (:func:`attitude.montecarlo.campaign.run_campaign`; default: when
+        stderr is a terminal; False: none).
     figures : bool
         Save ``figures/*.png`` into ``out_dir``.
     keep_out : bool
@@ -1226,6 +1259,7 @@ def run_campaign_from_config(
         nodes=nodes,
         consider_misalignment=consider_misalignment,
         environment=environment,
+        plan_progress=progress,
     )
     n = campaign.runs
     runs_per_task = None

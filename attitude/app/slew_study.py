@@ -118,6 +118,7 @@ def plan_slews(
     nodes: int = 60,
     objective: str = "time",
     duration_s: float | None = None,
+    progress: bool | None = False,
 ) -> SlewStudy:
     """Section 3: the required slew, optimal (with cones and rate limit) and eigenaxis.
 
@@ -131,6 +132,10 @@ def plan_slews(
         Minimum time, or minimum ``integral |tau|^2 dt`` over ``duration_s``.
     duration_s : float, optional
         Slew time for "energy" [s] (default ``requirements.slew.time_max_s``).
+    progress : bool or None
+        A progress bar over the planner's :data:`PLAN_STARTS` starts on stderr
+        (default False; None: when stderr is a terminal; ``progress`` of
+        :func:`controllers.slew.planner.plan_slew`).
     """
     body = assembly.rigid_body(config)
     req = config.requirements
@@ -213,7 +218,7 @@ def plan_slews(
             }
             if objective == "energy":
                 kwargs["duration"] = slew.time_max_s if duration_s is None else duration_s
-            plan = plan_slew(body, q0, qf, objective=objective, starts=PLAN_STARTS, **kwargs)
+            plan = plan_slew(body, q0, qf, objective=objective, starts=PLAN_STARTS, progress=progress, **kwargs)
         except (SlewPlanningError, ValueError) as exc:
             error = (error + "; " if error else "") + f"{type(exc).__name__}: {exc}"
     if plan is not None:

@@ -35,6 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 from attitude import quaternion as quat
 from attitude.environment.orbit_environment import OrbitEnvironment
 from attitude.environment.torques import magnetic_torque_components
+from attitude.progress import Throttle
 from attitude.rigid_body import RigidBody
 from attitude.validation import as_float_array, check_vector
 
@@ -102,6 +103,7 @@ def held_attitude_momentum(
     h_wheels0_B: ArrayLike = (0.0, 0.0, 0.0),
     dipole_law: DipoleLaw | None = None,
     parameters: ArrayLike | None = None,
+    progress: Callable[[float], None] | None = None,
 ) -> MomentumBuildUp:
     """Wheel momentum while the attitude is held on a reference (module docstring).
 
@@ -126,6 +128,10 @@ def held_attitude_momentum(
         ``k dt <= 0.5`` keeps RK4 within 3e-4 per step (it goes unstable near 2.8).
     parameters : array_like (7,), optional
         Surface parameters (:meth:`OrbitEnvironment.surface_parameters`).
+    progress : callable, optional
+        ``progress(fraction)`` of the unloading integration done (with a
+        ``dipole_law``: the long part), at most every
+        :data:`attitude.progress.REFRESH_PERIOD_S` (:class:`attitude.progress.Throttle`).
 
     Returns
     -------
@@ -178,7 +184,10 @@ def held_attitude_momentum(
     dipole = np.zeros((n, 3))
     tau_mag = np.zeros((n, 3))
     H[0] = H0
+    report = None if progress is None else Throttle(progress, n - 1)
     for k in range(n - 1):
+        if report is not None:
+            report(k)
         j = 2 * k
         k1, dipole[k], tau_mag[k] = rate(H[k], j)
         k2 = rate(H[k] + 0.5 * dt * k1, j + 1)[0]

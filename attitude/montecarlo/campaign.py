@@ -21,7 +21,12 @@ Scenario protocol (duck-typed; this module never imports ``controllers`` or
 ``scenario.run_batch(params_list, rngs) -> list[RunOutput]`` (optional)
     All runs of a batch at once (``vectorized=True``): one batched numpy
     state for all runs (:func:`attitude.simulation.batch.simulate_batch`).
-    A run that fails inside the batch gets ``RunOutput(error=...)``.
+    A run that fails inside the batch gets ``RunOutput(error=...)``. With a
+    ``progress`` keyword (``run_batch(params_list, rngs, progress=None)``)
+    it is given, when a progress bar is drawn, a callable to call with the
+    fraction of the batch simulated (at most a few times a second:
+    :class:`attitude.progress.Throttle`), so the bar moves while the runs of
+    a batch advance together.
 ``scenario.fingerprint`` (optional str)
     A stable description of the scenario's code and settings; it guards
     checkpoint resumption. Without it the scenario is identified by its
@@ -68,7 +73,6 @@ import hashlib
 import json
 import multiprocessing
 import os
-import sys
 import threading
 import time
 from collections.abc import Mapping, Sequence
@@ -330,7 +334,12 @@ def run_campaign(
     resume : bool
         Skip the runs already in ``out_dir``'s checkpoint (same campaign only).
     progress : bool, optional
-        Progress bar on stderr (default: when stderr is a terminal).
+        Progress bar on stderr (tqdm): runs done of the total, errors,
+        elapsed time and ETA; a resumed campaign's bar starts at the runs
+        already done. With ``vectorized``, it also counts the runs simulated
+        so far of the batches in flight (serial and local processes; on a
+        Dask cluster it moves batch by batch). Default: when stderr is a
+        terminal; False: never.
     max_retries : int
         Extra attempts for a task whose worker process died (module
         :mod:`attitude.montecarlo.executors`).
@@ -377,7 +386,7 @@ def run_campaign(
     resumed = len(done)
     rows: dict[int, list[float]] = {}
     tasks = _Tasks(campaign, done, runs_per_task, rows)
-    bar = Progress(campaign.runs, sys.stderr.isatty() if progress is None else bool(progress))
+    bar = Progress(campaign.runs, None if progress is None else bool(progress), initial=resumed)
     reserved = campaign.parameter_columns()
     collector = Collector(bar, checkpoint, done, check_metric=lambda name: check_metric_name(name, reserved))
     # Whatever ends the loop (an error, Ctrl-C), the bar's line is finished and the

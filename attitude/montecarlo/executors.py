@@ -54,13 +54,30 @@ written with ``repr`` so they load back bit for bit) and its time history to
 fingerprint; a later campaign with the same fingerprint in the same
 directory skips the runs found there, except those lost to a dead worker or
 a failed cluster task, which are run again.
+
+Progress
+--------
+:class:`Progress` is a tqdm bar on stderr (:func:`attitude.progress.progress_bar`:
+drawn on a terminal only unless asked) of the runs completed, with the
+errors, elapsed time and ETA; a resumed campaign's bar starts at the runs
+found in the checkpoint. A vectorised task's runs all finish together, so
+its bar also counts the runs simulated so far of the batches in flight:
+``run_batch`` is given a ``progress`` callable (when it has that keyword)
+that it calls with the fraction of the batch simulated, at most every
+``REFRESH_PERIOD_S``. In this process the call moves the bar; in a pool
+worker it writes the fraction into the task's slot of a table of doubles in
+shared memory, which the parent reads when it wakes to redraw the bar (as
+often). On a Dask cluster the bar moves as tasks finish. The bar never
+touches the runs' numbers: a campaign's table is the same with and without it.
 """
 
 from __future__ import annotations
 
 import ctypes
+import inspect
 import json
 import math
+import multiprocessing
 import os
 import pickle
 import select
@@ -80,6 +97,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from attitude.montecarlo.dispersions import scenario_generator
+from attitude.progress import REFRESH_PERIOD_S, progress_bar
 
 __all__ = [
     "CHECKPOINT_FILE",
@@ -216,7 +234,9 @@ def _identity(value: Any) -> Any:
     return value
 
 
-def execute_task(scenario: Any, seed: int, items: Task, vectorized: bool) -> list[RunRecord]:
+def execute_task(
+    scenario: Any, seed: int, items: Task, vectorized: bool, report: Callable[[float], None] | None = None
+) -> list[RunRecord]:
     """Run the runs of one task and return their records (never raises for a scenario error).
 
     Parameters
@@ -230,9 +250,13 @@ def execute_task(scenario: Any, seed: int, items: Task, vectorized: bool) -> lis
         The runs of the task.
     vectorized : bool
         Run the items together with ``run_batch``.
+    report : callable, optional
+        ``report(fraction)``: passed to ``run_batch`` as its ``progress``
+        keyword when it has one, for the fraction of the batch simulated
+        (the progress bar of a vectorised campaign). Not used per run.
     """
     if vectorized:
-        return _execute_batch(scenario, seed, items)
+        return _execute_batch(scenario, seed, items, report)
     records = []
     for run, params in items:
         cpu0, wall0 = time.process_time(), time.perf_counter()
@@ -250,11 +274,20 @@ def execute_task(scenario: Any, seed: int, items: Task, vectorized: bool) -> lis
     return records
 
 
-def _execute_batch(scenario: Any, seed: int, items: Task) -> list[RunRecord]:
+def _takes_progress(run_batch: Any) -> bool:
+    """True when ``run_batch`` has a ``progress`` parameter (the optional keyword of the scenario protocol)."""
+    try:
+        return "progress" in inspect.signature(run_batch).parameters
+    except (TypeError, ValueError):  # no signature to read (a C callable): call it without
+        return False
+
+
+def _execute_batch(scenario: Any, seed: int, items: Task, report: Callable[[float], None] | None) -> list[RunRecord]:
     cpu0, wall0 = time.process_time(), time.perf_counter()
     runs = [run for run, _ in items]
     try:
-        outputs = scenario.run_batch([p for _, p in items], [scenario_generator(seed, r) for r in runs])
+        extra = {"progress": report} if report is not None and _takes_progress(scenario.run_batch) else {}
+        outputs = scenario.run_batch([p for _, p in items], [scenario_generator(seed, r) for r in runs], **extra)
         outputs = [_as_output(o) for o in outputs]
         if len(outputs) != len(items):
             raise ValueError(f"run_batch returned {len(outputs)} outputs for {len(items)} runs")
@@ -274,69 +307,63 @@ def _execute_batch(scenario: Any, seed: int, items: Task) -> list[RunRecord]:
 
 
 class Progress:
-    """A one-line text progress bar on a stream (stderr by default), redrawn at most 5 times a second.
+    """The campaign's progress bar on stderr (tqdm, :func:`attitude.progress.progress_bar`): runs done, errors, ETA.
 
     Parameters
     ----------
     total : int
         Number of runs of the campaign.
-    enabled : bool
-        Draw the bar (False: stay silent).
+    enabled : bool or None
+        True: draw the bar; False: stay silent; None: draw it when the stream is a terminal.
     stream : text stream, optional
         Where to draw (default ``sys.stderr``).
-    width : int, optional
-        Width of the bar in characters.
+    initial : int, optional
+        Runs already done (resumed from a checkpoint): the bar starts there,
+        and its rate and ETA count only the runs done after.
     """
 
-    def __init__(self, total: int, enabled: bool, stream: TextIO | None = None, width: int = 30) -> None:
+    def __init__(self, total: int, enabled: bool | None, stream: TextIO | None = None, initial: int = 0) -> None:
         self.total = total
-        self.enabled = enabled and total > 0
-        self.stream = stream if stream is not None else sys.stderr
-        self.width = width
-        self.start = time.perf_counter()
-        self._last = -math.inf
-        self.done = 0
+        self.done: float = initial
         self.errors = 0
+        self._bar = progress_bar(
+            total,
+            desc="Monte Carlo",
+            unit="run",
+            enabled=enabled if total > 0 else False,
+            initial=initial,
+            postfix="0 errors",
+            file=stream,
+        )
 
-    def update(self, done: int, errors: int, force: bool = False) -> None:
-        """Record the progress and redraw the bar (at most 5 times a second unless ``force``).
+    @property
+    def enabled(self) -> bool:
+        """True when the bar is drawn."""
+        return not self._bar.disable
+
+    def update(self, done: float, errors: int, force: bool = False) -> None:
+        """Record the progress and redraw the bar (at most every ``REFRESH_PERIOD_S`` unless ``force``).
 
         Parameters
         ----------
-        done : int
-            Runs completed so far.
+        done : float
+            Runs completed so far, plus the fraction simulated of the batches
+            in flight (shown as whole runs).
         errors : int
             Runs that failed so far.
         force : bool, optional
             Redraw now, whatever the time since the last redraw.
         """
+        if errors != self.errors:
+            self._bar.set_postfix_str(f"{errors} errors", refresh=False)
         self.done, self.errors = done, errors
-        now = time.perf_counter()
-        if not self.enabled or (not force and now - self._last < 0.2 and done < self.total):
-            return
-        self._last = now
-        elapsed = now - self.start
-        fraction = done / self.total
-        filled = round(self.width * fraction)
-        eta = elapsed / fraction * (1 - fraction) if fraction > 0 else math.nan
-        self.stream.write(
-            f"\rMonte Carlo [{'#' * filled}{'-' * (self.width - filled)}] {done}/{self.total} runs, "
-            f"{errors} errors, elapsed {_clock(elapsed)}, ETA {_clock(eta)} "
-        )
-        self.stream.flush()
+        self._bar.update(math.floor(done) - self._bar.n)
+        if force:
+            self._bar.refresh()
 
     def close(self) -> None:
-        if self.enabled:
-            self.update(self.done, self.errors, force=True)
-            self.stream.write("\n")
-            self.stream.flush()
-
-
-def _clock(seconds: float) -> str:
-    if not math.isfinite(seconds):
-        return "--:--"
-    s = int(seconds)
-    return f"{s // 3600}:{s % 3600 // 60:02d}:{s % 60:02d}"
+        """Draw the final state and end the bar's line."""
+        self._bar.close()
 
 
 class Checkpoint:
@@ -453,6 +480,11 @@ class Checkpoint:
 class Collector:
     """Gathers records as tasks finish: progress bar and checkpoint.
 
+    The bar counts the completed runs; a vectorised campaign's bar also
+    counts the runs simulated so far of the batches in flight (their runs
+    times the fraction of their ticks done, :meth:`in_flight`), since the
+    runs of a batch all finish together.
+
     Parameters
     ----------
     progress : Progress
@@ -479,7 +511,29 @@ class Collector:
         self.records = records
         self.check_metric = check_metric
         self.errors = sum(r.status != "ok" for r in records.values())
-        self.progress.update(len(records), self.errors, force=True)
+        self.progress.update(len(records), self.errors)
+
+    def reporter(self, runs: int) -> Callable[[float], None] | None:
+        """The ``report(fraction)`` of a batch of ``runs`` runs simulated in this process (None: no bar drawn).
+
+        Parameters
+        ----------
+        runs : int
+            Runs of the batch.
+        """
+        if not self.progress.enabled:
+            return None
+        return lambda fraction: self.in_flight(fraction * runs)
+
+    def in_flight(self, runs: float) -> None:
+        """Show on the bar the runs simulated so far of the tasks still running.
+
+        Parameters
+        ----------
+        runs : float
+            Sum over the tasks in flight of their runs times the fraction of them simulated.
+        """
+        self.progress.update(len(self.records) + runs, self.errors)
 
     def _checked(self, record: RunRecord) -> RunRecord:
         if self.check_metric is None:
@@ -493,7 +547,7 @@ class Collector:
             )
         return record
 
-    def add(self, records: Sequence[RunRecord], attempts: int = 1) -> None:
+    def add(self, records: Sequence[RunRecord], attempts: int = 1, in_flight: float = 0.0) -> None:
         """Record completed runs: table, checkpoint and progress bar.
 
         Parameters
@@ -502,6 +556,8 @@ class Collector:
             The runs of a finished task.
         attempts : int, optional
             Attempts the task took.
+        in_flight : float, optional
+            Runs simulated so far of the tasks still running (:meth:`in_flight`).
         """
         records = [self._checked(r) for r in records]
         for r in records:
@@ -510,7 +566,7 @@ class Collector:
             self.errors += r.status != "ok"
         if self.checkpoint is not None:
             self.checkpoint.append(records)
-        self.progress.update(len(self.records), self.errors)
+        self.progress.update(len(self.records) + in_flight, self.errors)
 
 
 # ---------------------------------------------------------------------------
@@ -535,7 +591,8 @@ def run_serial(scenario: Any, seed: int, tasks: Sequence[Task], vectorized: bool
     """
     try:
         for task in tasks:
-            collector.add(execute_task(scenario, seed, task, vectorized))
+            report = collector.reporter(len(task)) if vectorized else None
+            collector.add(execute_task(scenario, seed, task, vectorized, report))
     except KeyboardInterrupt:
         return True
     return False
@@ -579,6 +636,8 @@ class _TaskQueue:
 
 
 _WORKER_SCENARIO: Any = None
+#: A pool worker's view of the shared table of the fraction simulated of each task in flight (None: no bar).
+_WORKER_FRACTIONS: Any = None
 
 
 #: How often a pool worker checks that its parent is still alive [s] (the bound on an orphan's life
@@ -667,15 +726,23 @@ def _exit_with_parent(parent_pid: int) -> None:
     ).start()
 
 
-def _init_worker(payload: bytes, parent_pid: int) -> None:
-    global _WORKER_SCENARIO
+def _init_worker(payload: bytes, parent_pid: int, fractions: Any = None) -> None:
+    global _WORKER_SCENARIO, _WORKER_FRACTIONS
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
     _exit_with_parent(parent_pid)
     _WORKER_SCENARIO = pickle.loads(payload)
+    _WORKER_FRACTIONS = fractions
 
 
-def _pool_task(seed: int, items: Task, vectorized: bool) -> list[RunRecord]:
-    return execute_task(_WORKER_SCENARIO, seed, items, vectorized)
+def _pool_task(seed: int, items: Task, vectorized: bool, slot: int | None = None) -> list[RunRecord]:
+    report = None
+    if slot is not None and _WORKER_FRACTIONS is not None:
+        fractions = _WORKER_FRACTIONS
+
+        def report(fraction: float) -> None:
+            fractions[slot] = fraction  # one double in shared memory, read by the parent for its bar
+
+    return execute_task(_WORKER_SCENARIO, seed, items, vectorized, report)
 
 
 def _stop_pool(pool: ProcessPoolExecutor) -> None:
@@ -728,10 +795,32 @@ def run_processes(
             f"lambda or a local function), or use workers=1: {_describe_error(exc)}"
         ) from exc
 
+    limit = 2 * workers
+    # The progress of the batches in flight (a vectorised campaign with a bar): each task gets a slot of a
+    # table in shared memory where its worker writes the fraction of its batch simulated (at most every
+    # REFRESH_PERIOD_S), and the parent, woken as often, shows the sum on the bar. A slot is cleared when
+    # its task ends or is lost, so a dead worker's last value is never counted.
+    fractions = None
+    if vectorized and collector.progress.enabled:
+        fractions = (mp_context or multiprocessing.get_context()).RawArray("d", limit)
+    free_slots = list(range(limit))
+    slots: dict[Future, tuple[int | None, int]] = {}  # future -> (its slot, its runs)
+
     def new_pool() -> ProcessPoolExecutor:
         return ProcessPoolExecutor(
-            workers, mp_context=mp_context, initializer=_init_worker, initargs=(payload, os.getpid())
+            workers, mp_context=mp_context, initializer=_init_worker, initargs=(payload, os.getpid(), fractions)
         )
+
+    def release(fut: Future) -> None:
+        slot, _ = slots.pop(fut)
+        if slot is not None:
+            fractions[slot] = 0.0
+            free_slots.append(slot)
+
+    def running() -> float:
+        if fractions is None:
+            return 0.0
+        return sum(fractions[slot] * runs for slot, runs in slots.values() if slot is not None)
 
     # Task indices are handed out by a counter (and a deque of the few handed back), not a deque of
     # every index: memory must not grow with the run count before the runs start (tasks is lazy).
@@ -740,14 +829,22 @@ def run_processes(
     lone_deaths: defaultdict[int, int] = defaultdict(int)  # only the tasks whose worker died
     in_flight: dict[Future, int] = {}
     pool = new_pool()
-    limit = 2 * workers
     empty_breaks = 0
 
     def submit(i: int) -> bool:
+        task = tasks[i]
+        slot = None
+        if fractions is not None:
+            slot = free_slots.pop()
+            fractions[slot] = 0.0
         try:
-            in_flight[pool.submit(_pool_task, seed, tasks[i], vectorized)] = i
+            fut = pool.submit(_pool_task, seed, task, vectorized, slot)
         except BrokenProcessPool:  # a worker died since the last look
+            if slot is not None:
+                free_slots.append(slot)
             return False
+        in_flight[fut] = i
+        slots[fut] = (slot, len(task))
         return True
 
     finished = False
@@ -768,15 +865,22 @@ def run_processes(
                         healthy = False
             broken: list[int] = []
             if healthy:
-                done, _ = wait(list(in_flight), return_when=FIRST_COMPLETED)
+                # With a bar, wake up to redraw it (elapsed time, batches in flight) even while no task ends.
+                timeout = REFRESH_PERIOD_S if collector.progress.enabled else None
+                done, _ = wait(list(in_flight), timeout=timeout, return_when=FIRST_COMPLETED)
                 for fut in done:
                     i = in_flight.pop(fut)
+                    release(fut)
                     try:
-                        collector.add(fut.result(), attempts=lone_deaths[i] + 1)
+                        collector.add(fut.result(), attempts=lone_deaths[i] + 1, in_flight=running())
                     except BrokenProcessPool:
                         broken.append(i)
+                if not done:
+                    collector.in_flight(running())
             if broken or not healthy:
                 # Every unfinished future of a broken pool fails: collect them all.
+                for fut in list(slots):
+                    release(fut)
                 for fut, i in list(in_flight.items()):
                     try:
                         collector.add(fut.result(), attempts=lone_deaths[i] + 1)

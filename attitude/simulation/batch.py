@@ -55,6 +55,7 @@ import pickle
 import threading
 import time
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -65,6 +66,7 @@ from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
 from attitude.environment.orbit_environment import SURFACE_PARAMETERS, OrbitEnvironment
 from attitude.integrators import ATTITUDE_ERROR_BUDGET_RAD, StepSizeWarning, check_error_budget
+from attitude.progress import Throttle
 from attitude.rigid_body import RigidBody, symmetric_entries
 from attitude.simulation.codegen import CompilationError
 from attitude.simulation.engine import settling_time_after, ticks_per_period, whole_ticks
@@ -74,10 +76,19 @@ from attitude.simulation.protocols import CompiledController
 from attitude.simulation.step_rule import batch_broken, batch_substeps
 from attitude.validation import as_float_array, check_positive
 
-__all__ = ["BATCH_CHUNK", "BatchResult", "closed_loop_metrics", "environment_inputs", "simulate_batch"]
+__all__ = [
+    "BATCH_CHUNK",
+    "PROGRESS_SEGMENTS",
+    "BatchResult",
+    "closed_loop_metrics",
+    "environment_inputs",
+    "simulate_batch",
+]
 
 #: Most spacecraft advanced together; larger batches are split (cache-sized component arrays).
 BATCH_CHUNK = 4096
+#: Compiled calls a batch's ticks are split into when a progress callback is given (one call otherwise).
+PROGRESS_SEGMENTS = 100
 
 
 @dataclass
@@ -164,6 +175,7 @@ def simulate_batch(
     environment: OrbitEnvironment | None = None,
     surface_parameters: ArrayLike | None = None,
     attitude_error_budget_rad: float = ATTITUDE_ERROR_BUDGET_RAD,
+    progress: Callable[[float], None] | None = None,
 ) -> BatchResult:
     """Simulate ``N`` closed loops at once (module docstring).
 
@@ -215,6 +227,13 @@ def simulate_batch(
         broken it mid-run is reported as failed (NaN metrics,
         ``info["step_rule_broken"]``) with a warning; its final state is
         returned as run and is not within the budget: do not use it.
+    progress : callable, optional
+        ``progress(fraction)``: called with the fraction of the runs' ticks
+        simulated (over all chunks), at most every
+        :data:`attitude.progress.REFRESH_PERIOD_S` of wall time
+        (:class:`attitude.progress.Throttle`), for a progress bar. The
+        compiled back end then advances the ticks in
+        :data:`PROGRESS_SEGMENTS` calls instead of one (same numbers).
 
     Returns
     -------
@@ -253,6 +272,8 @@ def simulate_batch(
     stride = history_stride
     if stride is not None and (isinstance(stride, bool) or not isinstance(stride, int) or stride < 1):
         raise ValueError(f"history_stride must be a positive integer or None, got {stride!r}")
+    if progress is not None and not callable(progress):
+        raise ValueError(f"progress must be callable as progress(fraction) or None, got {progress!r}")
 
     if backend not in ("auto", "compiled", "numpy"):
         raise ValueError(f"backend must be 'auto', 'compiled' or 'numpy', got {backend!r}")
@@ -300,7 +321,10 @@ def simulate_batch(
     chunk = n if ticks is not None else BATCH_CHUNK
     chunks = -(-n // chunk)
     size = -(-n // chunks)
-    for lo in range(0, n, size):
+    # Ticks over every chunk: chunk c's tick k is step c * n_ticks + k of the whole batch.
+    loop.report = None if progress is None else Throttle(progress, chunks * n_ticks)
+    for c, lo in enumerate(range(0, n, size)):
+        loop.first_step = c * n_ticks
         sl = slice(lo, min(lo + size, n))
         chunk_plant = plant if not plant.batch_shape else RigidBody(plant.inertia[sl])
         with np.errstate(all="ignore"):  # a diverging run turns NaN; it is reported, the others go on
@@ -437,6 +461,8 @@ class _Loop:
         self.every, self.substeps, self.threshold, self.stride = every, substeps, threshold, stride
         self.environment: OrbitEnvironment | None = None
         self.rows: NDArray[np.float64] | None = None  # (15, n_ticks + 1) track columns with an environment
+        self.report: Throttle | None = None  # progress of the whole batch, in ticks over every chunk
+        self.first_step = 0  # the batch's step count at this chunk's first tick
 
     def _disturbance(self, model, x, k, surface) -> tuple:
         """Per-source torques and their sum at tick ``k`` (numpy on arrays of runs)."""
@@ -476,6 +502,8 @@ class _Loop:
         surface_c = None if surface is None else [np.ascontiguousarray(surface[:, i]) for i in range(surface.shape[1])]
         acc, recorded, u = self._start(x0.shape[0]), {}, []
         for k in range(n_ticks + 1):
+            if self.report is not None:
+                self.report(self.first_step + k)
             if k % self.every == 0:
                 u = command(model, self.controller, x, [float(v) for v in self.inputs[:, k]])
             tau_ext, torques = ext_c, None
@@ -509,13 +537,18 @@ class _Loop:
         columns.append(np.stack([k, self.t[:-1], (k % self.every == 0), np.diff(self.t), np.full(n_ticks, 0.0)]))
         columns = np.concatenate(columns, axis=0)
         columns[-1] = self.threshold
-        stops = list(range(0, n_ticks, self.stride)) if self.stride else [0]
+        stops = set(range(0, n_ticks, self.stride)) if self.stride else {0}
+        if self.report is not None:  # calls short enough for the bar to move (the state carries over exactly)
+            stops |= set(range(0, n_ticks, -(-n_ticks // PROGRESS_SEGMENTS)))
+        bounds = sorted(stops)
         recorded: dict[str, list] = {}
         model = PlantModel(plant, self.model.wheels)
-        for a, b in zip(stops, [*stops[1:], n_ticks]):
-            if self.stride:
+        for a, b in zip(bounds, [*bounds[1:], n_ticks]):
+            if self.stride and a % self.stride == 0:
                 self._observe(model, [z[:, i] for i in range(ticks.n_x)], a, self._start(n), recorded, surface_c)
             z = ticks.advance(z, columns[:, a:b])
+            if self.report is not None:
+                self.report(self.first_step + b)
         x = [np.ascontiguousarray(z[:, i]) for i in range(ticks.n_x)]
         off = ticks.n_x + ticks.n_u
         acc = [np.ascontiguousarray(z[:, off + i]) for i in range(len(METRICS))]

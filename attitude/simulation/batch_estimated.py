@@ -46,6 +46,7 @@ from numpy.typing import ArrayLike, NDArray
 from attitude import quaternion as quat
 from attitude.environment.orbit_environment import OrbitEnvironment
 from attitude.integrators import ATTITUDE_ERROR_BUDGET_RAD, StepSizeWarning, check_error_budget
+from attitude.progress import Throttle
 from attitude.rigid_body import RigidBody, symmetric_entries
 from attitude.rng import NormalStreams
 from attitude.sensors import GyroBatch, StarTracker
@@ -83,6 +84,7 @@ def simulate_batch_estimated(
     environment: OrbitEnvironment | None = None,
     surface_parameters: ArrayLike | None = None,
     attitude_error_budget_rad: float = ATTITUDE_ERROR_BUDGET_RAD,
+    progress: Callable[[float], None] | None = None,
 ) -> dict[str, Any]:
     """Simulate ``N`` closed loops with a gyro, a star tracker and an estimator (module docstring).
 
@@ -131,6 +133,10 @@ def simulate_batch_estimated(
         docs/rk4_step_rule.md) and after it on every run's peak body rate
         (a run that outgrew the rule mid-run is flagged in
         ``step_rule_broken``, with a warning); ``inf`` turns the rule off.
+    progress : callable, optional
+        ``progress(fraction)``: called with the fraction of the ticks
+        simulated, at most every :data:`attitude.progress.REFRESH_PERIOD_S`
+        of wall time (:class:`attitude.progress.Throttle`), for a progress bar.
 
     Returns
     -------
@@ -164,6 +170,8 @@ def simulate_batch_estimated(
         raise ValueError(f"backend must be 'auto', 'compiled' or 'numpy', got {backend!r}")
     if isinstance(substeps, bool) or not isinstance(substeps, int) or substeps < 1:
         raise ValueError(f"substeps must be a positive integer, got {substeps!r}")
+    if progress is not None and not callable(progress):
+        raise ValueError(f"progress must be callable as progress(fraction) or None, got {progress!r}")
     dt = gyro.period if dt is None else float(check_positive(dt, "dt"))
     every = {
         name: ticks_per_period(float(check_positive(part.period, f"{name}.period")), dt, name)
@@ -204,7 +212,10 @@ def simulate_batch_estimated(
     u = np.zeros((n, wheels.n_wheels))
     diverged_at = np.full(n, np.nan)
     rate_peak = np.linalg.norm(omega0, axis=1)  # each run's largest body rate [rad/s], for the rule after the run
+    report = None if progress is None else Throttle(progress, n_ticks)
     for k in range(n_ticks + 1):
+        if report is not None:
+            report(k)
         tk = float(t[k])
         q_true = x[:, :4] / np.linalg.norm(x[:, :4], axis=1, keepdims=True)
         g = y = mask = None

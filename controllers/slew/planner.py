@@ -26,12 +26,14 @@ from __future__ import annotations
 import time
 import warnings
 from collections.abc import Mapping, Sequence
+from contextlib import ExitStack
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from attitude.actuators import ReactionWheels
+from attitude.progress import progress_bar
 from attitude.rigid_body import RigidBody
 from attitude.rng import as_generator
 from attitude.validation import check_positive
@@ -86,6 +88,7 @@ def plan_slew(
     ipopt_options: Mapping[str, Any] | None = None,
     verify_tolerance: float = 1e-4,
     keep_out_margin: bool = True,
+    progress: bool | None = False,
 ) -> SlewPlan:
     """Plan a minimum-time or minimum-energy slew (docs/slew_planning.md for the method).
 
@@ -150,6 +153,11 @@ def plan_slew(
         ``(|omega|^2 + |omega_dot|) eta^2 / (8 sin(half_angle))`` rad, which
         the verification then rejects unless ``verify_tolerance`` allows it;
         for studies of what the margin costs.
+    progress : bool or None
+        A progress bar on stderr over the starts, with more than one start
+        (:func:`attitude.progress.progress_bar`; erased when the plan is
+        done): None draws it when stderr is a terminal, True always,
+        False (default) never.
 
     Returns
     -------
@@ -192,7 +200,7 @@ def plan_slew(
     >>> round(plan.refined_duration, 4), round(plan.eigenaxis_duration, 4)
     (3.2431, 3.5449)
     """
-    with sigint_guard("slew planning interrupted (Ctrl-C)"):
+    with sigint_guard("slew planning interrupted (Ctrl-C)"), ExitStack() as cleanup:
         wall_start = time.perf_counter()
         prob = validate(body, q0, qf, omega0, omegaf, torque_max, rate_max, keep_out, substeps, keep_out_margin)
         if objective not in OBJECTIVES:
@@ -214,6 +222,8 @@ def plan_slew(
         smoothing = float(check_positive(smoothing, "smoothing", allow_zero=True))
         perturbation = float(check_positive(perturbation, "perturbation", allow_zero=True))
         verify_tolerance = float(check_positive(verify_tolerance, "verify_tolerance"))
+        if progress is not None and not isinstance(progress, bool):
+            raise ValueError(f"progress must be True, False or None (a bar on a terminal only), got {progress!r}")
         if initial_guess is not None and not isinstance(initial_guess, SlewPlan):
             raise ValueError(f"initial_guess must be a SlewPlan, got {type(initial_guess).__name__}")
         if objective == "time" and np.allclose(prob.omega0, prob.omegaf) and axis_angle(prob.q0, prob.qf)[1] == 0:
@@ -236,7 +246,14 @@ def plan_slew(
             X0, U0 = perturbed(prob, base_X, base_U, perturbation * (1.0 + 0.5 * i), gen)
             guesses.append((X0, U0, base_T))
 
-        best, results = solve_grid(prob, n, objective, duration_s, smoothing, guesses, max_iter, options)
+        bar = cleanup.enter_context(
+            progress_bar(
+                starts, desc="slew planning", unit="start", enabled=progress if starts > 1 else False, leave=False
+            )
+        )
+        best, results = solve_grid(
+            prob, n, objective, duration_s, smoothing, guesses, max_iter, options, solved=bar.update
+        )
         eig = eigenaxis_comparison(prob, torque_max)
         # The eigenaxis slew itself as one more start (docs/slew_planning.md, Guess and multi-start): when no start
         # converged, or when the best minimum-time answer is slower than an eigenaxis slew that meets every limit by
@@ -245,7 +262,10 @@ def plan_slew(
         if best is None or (objective == "time" and _wrong_optimum(eig, best.duration * prob.t_s, n)):
             fallback = eigenaxis_start(prob, n, duration_s)
             if fallback is not None:
-                alt, more = solve_grid(prob, n, objective, duration_s, smoothing, [fallback], max_iter, options)
+                bar.total += 1
+                alt, more = solve_grid(
+                    prob, n, objective, duration_s, smoothing, [fallback], max_iter, options, solved=bar.update
+                )
                 results += more
                 if alt is not None and (best is None or alt.objective < best.objective):
                     best = alt
@@ -269,6 +289,7 @@ def plan_slew(
         switch_times = np.zeros(0)
         refine_info: dict[str, Any] = {"requested": bool(refine)}
         if refine:
+            bar.set_postfix_str("refining the switch times")
             sol, rinfo = refine_phases(prob, best, refine_steps, max_iter, options)
             refine_info.update(rinfo)
             if sol is not None:

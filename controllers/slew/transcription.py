@@ -8,7 +8,7 @@ from __future__ import annotations
 import signal
 import threading
 import time
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
@@ -425,6 +425,7 @@ def solve_grid(
     guesses: list[tuple[NDArray, NDArray, float]],
     max_iter: int,
     options: Mapping[str, Any],
+    solved: Callable[[], None] | None = None,
 ) -> tuple[Solution | None, list[Solution]]:
     """Solve the uniform-grid problem from each guess ``(X0, U0, T0)``; the best converged answer and all answers.
 
@@ -446,6 +447,8 @@ def solve_grid(
         IPOPT iteration limit.
     options : mapping
         IPOPT options of the caller (override :data:`IPOPT_DEFAULTS`).
+    solved : callable, optional
+        Called with no argument after each guess is solved (a progress bar over the starts).
     """
     tr = Transcription(prob, n, options)
     opti = tr.opti
@@ -487,6 +490,8 @@ def solve_grid(
                 objective=float(val["cost"][0]),
             )
         )
+        if solved is not None:
+            solved()
     good = [r for r in results if r.converged]
     best = min(good, key=lambda r: r.objective) if good else None
     return best, results

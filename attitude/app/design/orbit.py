@@ -38,6 +38,7 @@ from attitude.config import SpacecraftConfig
 from attitude.environment import DISTURBANCE_SOURCES, MomentumBuildUp, held_attitude_momentum
 from attitude.plain import plain_float as _f
 from attitude.plain import plain_vector as _vec
+from attitude.progress import progress_bar
 from attitude.simulation.engine import simulate
 
 __all__ = [
@@ -88,7 +89,9 @@ def _build_up_summary(build: MomentumBuildUp, wheels: Any, margin: float, period
     }
 
 
-def momentum_budget(config: SpacecraftConfig, orbits: float | None = None) -> dict[str, Any] | None:
+def momentum_budget(
+    config: SpacecraftConfig, orbits: float | None = None, progress: bool | None = False
+) -> dict[str, Any] | None:
     """Disturbance torques over one orbit and the wheel momentum over ``orbits`` (module docstring).
 
     Parameters
@@ -98,6 +101,10 @@ def momentum_budget(config: SpacecraftConfig, orbits: float | None = None) -> di
         ``[wheels]``, and optionally ``[magnetorquers]`` and ``[momentum]``).
     orbits : float, optional
         Length of the budget [orbits]; default ``[momentum] orbits`` (20 without the table).
+    progress : bool or None
+        A progress bar on stderr over the unloading run, the long part
+        (:func:`attitude.progress.progress_bar`; default False; None: when
+        stderr is a terminal; erased when done).
 
     Returns
     -------
@@ -155,7 +162,11 @@ def momentum_budget(config: SpacecraftConfig, orbits: float | None = None) -> di
         def dipole_law(field_B: np.ndarray, h_B: np.ndarray) -> np.ndarray:
             return np.array([float(v) for v in law.dipole_components(list(field_B), list(h_B), target)])
 
-        unloaded = held_attitude_momentum(env, body, t, q, w, dipole_law=dipole_law)
+        desc = f"unloading over {n_orbits:g} orbits"
+        with progress_bar(n_steps, desc=desc, unit="step", enabled=progress, leave=False) as bar:
+            unloaded = held_attitude_momentum(
+                env, body, t, q, w, dipole_law=dipole_law, progress=lambda f: bar.update(round(n_steps * f) - bar.n)
+            )
         unloading = _build_up_summary(unloaded, wheels, margin, period)
         unloading.update(
             {

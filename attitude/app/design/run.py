@@ -544,7 +544,10 @@ def _caption_table() -> dict[str, tuple[str, str]]:
 
 
 def run_design(
-    config: SpacecraftConfig, options: DesignOptions | None = None, progress: Progress | None = None
+    config: SpacecraftConfig,
+    options: DesignOptions | None = None,
+    progress: Progress | None = None,
+    on_step: Callable[[int, str], None] | None = None,
 ) -> DesignResult:
     """Run the whole design (module docstring) and judge the requirements.
 
@@ -555,7 +558,11 @@ def run_design(
     options : DesignOptions, optional
         Size of the computation (default: the full design).
     progress : callable, optional
-        Called with a short message before and after each step.
+        Called with a short message before and after each step
+        (``"[3/9] slews: ... ..."``, ``"[3/9] slews: ...: done in 2.1 s"``).
+    on_step : callable, optional
+        ``on_step(number, label)``: called when step ``number`` (1 to
+        :data:`STEPS`) starts, with its label (a progress bar over the steps).
 
     Raises
     ------
@@ -574,6 +581,8 @@ def run_design(
     figures: dict[str, Figure] = {}
 
     def step(number: int, name: str, label: str, fun: Callable[[], Any]) -> Any:
+        if on_step is not None:
+            on_step(number, label)
         say(f"[{number}/{STEPS}] {label} ...")
         start = time.perf_counter()
         with warnings.catch_warnings(record=True) as record:

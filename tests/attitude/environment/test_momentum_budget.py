@@ -138,3 +138,19 @@ def test_closed_loop_unloading_cross_check():
     assert h_free[-1, 1] - h_free[0, 1] == pytest.approx(integral, abs=1e-4)
     assert abs(integral) > 0.05
     assert np.linalg.norm(h_unl[-1]) < 0.1 * np.linalg.norm(h_free[-1])
+
+
+def test_progress_reports_each_unloading_step_and_changes_no_number(monkeypatch):
+    """With every report let through (no wait between reports), the callback sees ``k / (n - 1)`` before
+    RK4 step ``k`` of the unloading run; the momentum is the same bits as without it."""
+    import attitude.progress
+
+    monkeypatch.setattr(attitude.progress, "REFRESH_PERIOD_S", 0.0)
+    t = np.arange(0.0, 0.2 * ORBIT.period, DT)
+    q = ORBIT.q_LN(t)
+    reference = held_attitude_momentum(ENV, BODY, t, q, [0.0, -N, 0.0], dipole_law=_law())
+    fractions: list[float] = []
+    reported = held_attitude_momentum(ENV, BODY, t, q, [0.0, -N, 0.0], dipole_law=_law(), progress=fractions.append)
+    np.testing.assert_array_equal(reported.h_wheels_B, reference.h_wheels_B)
+    np.testing.assert_array_equal(reported.dipole, reference.dipole)
+    assert fractions == [k / (t.size - 1) for k in range(t.size - 1)]

@@ -193,6 +193,37 @@ def test_bad_arguments_are_rejected_with_their_name():
         _batch("fortran", n=2, duration=1.0)
     with pytest.raises(ValueError, match="history_stride"):
         _batch("numpy", n=2, duration=1.0, history_stride=0)
+    with pytest.raises(ValueError, match="progress must be callable"):
+        _batch("numpy", n=2, duration=1.0, progress=0.5)
+
+
+@pytest.mark.parametrize("backend", ["compiled", "numpy"])
+def test_progress_reports_the_fraction_of_ticks_and_changes_no_number(backend, monkeypatch):
+    """The progress callback sees the batch's ticks done, in order up to all of them; the results are the same bits.
+
+    Every report let through (no wait between reports), and the numpy batch in 3 chunks of 2 runs, so
+    the fraction runs over every chunk's ticks. The compiled back end splits its ticks into
+    ``PROGRESS_SEGMENTS`` calls, which must leave the state, the metrics and the histories unchanged.
+    """
+    import attitude.progress
+
+    monkeypatch.setattr(attitude.progress, "REFRESH_PERIOD_S", 0.0)
+    monkeypatch.setattr(mb, "BATCH_CHUNK", 2)
+    reference = _batch(backend, n=5)
+    fractions: list[float] = []
+    reported = _batch(backend, n=5, progress=fractions.append)
+    for name in reference.metrics:
+        np.testing.assert_array_equal(reported.metrics[name], reference.metrics[name], err_msg=name)
+    np.testing.assert_array_equal(reported.q, reference.q)
+    np.testing.assert_array_equal(reported.h_wheels, reference.h_wheels)
+    for name in reference.histories:
+        np.testing.assert_array_equal(reported.histories[name], reference.histories[name], err_msg=name)
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0 and fractions[0] >= 0.0
+    n_ticks = 600
+    if backend == "numpy":  # one report per tick of each of the 3 chunks, and the last tick of each
+        assert len(fractions) == 3 * (n_ticks + 1)
+    else:  # one report per compiled call
+        assert mb.PROGRESS_SEGMENTS <= len(fractions) <= mb.PROGRESS_SEGMENTS + n_ticks // 7 + 1
 
 
 def test_compiled_kernels_are_cached_on_disk_and_rebuilt_when_damaged(tmp_path, monkeypatch):

@@ -157,6 +157,23 @@ def test_bad_arguments_are_named():
         _run_batch(inertia, q0, omega0, seeds, 1.0, backend="gpu")
     with pytest.raises(ValueError, match="tracker_mounting"):
         _run_batch(inertia, q0, omega0, seeds, 1.0, tracker_mounting=np.ones((2, 4)))
+    with pytest.raises(ValueError, match="progress must be callable"):
+        _run_batch(inertia, q0, omega0, seeds, 1.0, progress="bar")
+
+
+def test_progress_reports_each_tick_and_changes_no_number(monkeypatch):
+    """With every report let through (no wait between reports), the callback sees ``k / n_ticks`` at each
+    tick ``k``; the final states are the same bits as without it."""
+    import attitude.progress
+
+    monkeypatch.setattr(attitude.progress, "REFRESH_PERIOD_S", 0.0)
+    inertia, q0, omega0, _, seeds = _setup(5)
+    reference = _run_batch(inertia, q0, omega0, seeds, 10.0)
+    fractions: list[float] = []
+    reported = _run_batch(inertia, q0, omega0, seeds, 10.0, progress=fractions.append)
+    np.testing.assert_array_equal(reported["x"], reference["x"])
+    n_ticks = 100  # 10 s at the gyro's 0.1 s
+    assert fractions == [k / n_ticks for k in range(n_ticks + 1)]
 
 
 def test_a_run_that_outgrew_the_step_rule_mid_run_is_flagged():

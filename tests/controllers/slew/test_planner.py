@@ -30,7 +30,9 @@ What each group checks against:
   failures name the likely cause.
 """
 
+import io
 import math
+import sys
 import warnings
 from typing import ClassVar
 
@@ -38,6 +40,7 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
+import attitude.progress
 from attitude import RigidBody
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
@@ -171,6 +174,34 @@ class TestMultiStart:
         b = plan_slew(UNIT, Q_ID, Q_180X, starts=2, **self.kwargs)
         np.testing.assert_array_equal(a.torque, b.torque)
         np.testing.assert_array_equal(a.q, b.q)
+
+    def test_a_bar_over_several_starts_on_a_terminal_and_the_same_plan(self, monkeypatch):
+        """The bar counts the starts solved (read off stderr, a fake terminal); it changes no bit of the plan.
+
+        One start draws no bar, nor does ``progress=False`` or ``progress=None`` off a terminal.
+        """
+
+        class Terminal(io.StringIO):
+            def isatty(self) -> bool:
+                return True
+
+        monkeypatch.setattr(attitude.progress, "REFRESH_PERIOD_S", 0.0)  # every update drawn: a frame per start
+        quiet = plan_slew(UNIT, Q_ID, Q_180X, starts=2, **self.kwargs)
+        stderr = Terminal()
+        monkeypatch.setattr(sys, "stderr", stderr)
+        shown = plan_slew(UNIT, Q_ID, Q_180X, starts=2, progress=None, **self.kwargs)
+        np.testing.assert_array_equal(shown.torque, quiet.torque)
+        np.testing.assert_array_equal(shown.q, quiet.q)
+        text = stderr.getvalue()
+        assert "slew planning" in text and "1/2" in text and "2/2" in text
+        for kwargs in ({"starts": 1, "progress": True}, {"starts": 2, "progress": False}):
+            stderr.seek(0)
+            stderr.truncate()
+            plan_slew(UNIT, Q_ID, Q_180X, **{**self.kwargs, **kwargs})
+            assert stderr.getvalue() == "", kwargs
+        monkeypatch.setattr(sys, "stderr", io.StringIO())  # not a terminal
+        plan_slew(UNIT, Q_ID, Q_180X, starts=2, progress=None, **self.kwargs)
+        assert sys.stderr.getvalue() == ""
 
 
 class TestOptions:
@@ -673,6 +704,7 @@ BAD_INPUT = [
     ({"substeps": 0}, "substeps must be a positive integer"),
     ({"starts": 0}, "starts must be an integer >= 1"),
     ({"smoothing": -1.0}, "smoothing must be non-negative"),
+    ({"progress": "yes"}, "progress must be True, False or None"),
     ({"keep_out": [(1, 0, 0)]}, r"keep_out\[0\] must be a KeepOutCone"),
     (
         {"keep_out": [KeepOutCone.from_degrees([0, 1, 0], [0, 1, 0], 10.0, name="sun")]},
