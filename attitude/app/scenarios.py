@@ -89,7 +89,7 @@ from attitude.simulation.batch import closed_loop_metrics, simulate_batch
 from attitude.simulation.batch_estimated import simulate_batch_estimated
 from attitude.simulation.engine import simulate
 from attitude.simulation.protocols import Truth
-from attitude.simulation.slew_windows import SlewWindowsTracker
+from attitude.simulation.slew_windows import SlewWindows, SlewWindowsTracker
 from controllers.slew.problem import SlewPlanningError
 from controllers.tracking import ReferenceTrajectory, TrackingController
 from estimation.consistency import band_verdict, chi2_band, nees
@@ -1101,6 +1101,7 @@ def replay_from_config(
     nodes: int = PLAN_NODES,
     consider_misalignment: bool = False,
     environment: bool = False,
+    study: SlewStudy | None = None,
 ) -> RunReplay:
     """One run of a file's campaign flown again, alone, with its history at every tick (``--replay``).
 
@@ -1135,6 +1136,8 @@ def replay_from_config(
         As in the campaign (:class:`ClosedLoopScenario`).
     environment : bool
         As in the campaign: fly the file's orbit environment.
+    study : SlewStudy, optional
+        The campaign's planned slew (:attr:`ClosedLoopScenario.study`); None plans it again.
 
     Returns
     -------
@@ -1156,13 +1159,18 @@ def replay_from_config(
         nodes=nodes,
         consider_misalignment=consider_misalignment,
         environment=environment,
+        study=study,
     )
     replay = campaign.replay(run, vectorized=vectorized)
     wheels = assembly.reaction_wheels(config)
     replay.info["wheel_speed_limit"] = (np.asarray(wheels.momentum_max) / np.asarray(wheels.spin_inertia)).tolist()
-    w = campaign.scenario.windows
-    replay.info["windows"] = {"slew_end_s": w.slew_end_s, "hold_start_s": w.hold_start_s, "hold_end_s": w.hold_end_s}
+    replay.info["windows"] = _windows_info(campaign.scenario.windows)
     return replay
+
+
+def _windows_info(windows: SlewWindows) -> dict[str, float]:
+    """The requirements' windows for the figures [s]: end of the slew, start and end of the hold."""
+    return {"slew_end_s": windows.slew_end_s, "hold_start_s": windows.hold_start_s, "hold_end_s": windows.hold_end_s}
 
 
 #: Failing runs flown again at every tick for the envelope figures of :func:`run_campaign_from_config`.
@@ -1286,24 +1294,24 @@ def run_campaign_from_config(
         # The failing runs' excursions at every tick (the table's histories are thinned): flown again alone.
         failing = np.flatnonzero((np.asarray(result.status) == "ok") & ~np.asarray(result.passed))
         overlays = {}
-        if failing.size and history_stride not in (None, 1):
-            full = campaign_from_config(
-                config,
-                runs,
-                seed=seed,
-                duration=duration,
-                history_stride=1,
-                keep_out=keep_out,
-                guidance=guidance,
-                nodes=nodes,
-                consider_misalignment=consider_misalignment,
-                environment=environment,
-                study=campaign.scenario.study,
-            )
+        if history_stride not in (None, 1):
             for run in failing[:FAILING_RUNS_REPLAYED]:
-                overlays[int(run)] = full.replay(int(run), vectorized=vectorized).history
-        w = campaign.scenario.windows
-        windows = {"slew_end_s": w.slew_end_s, "hold_start_s": w.hold_start_s, "hold_end_s": w.hold_end_s}
+                replay = replay_from_config(
+                    config,
+                    int(run),
+                    runs,
+                    vectorized=vectorized,
+                    seed=seed,
+                    duration=duration,
+                    keep_out=keep_out,
+                    guidance=guidance,
+                    nodes=nodes,
+                    consider_misalignment=consider_misalignment,
+                    environment=environment,
+                    study=campaign.scenario.study,
+                )
+                overlays[int(run)] = replay.history
+        windows = _windows_info(campaign.scenario.windows)
         save_figures(
             result, Path(out_dir) / "figures", lines={"wheel_speed": speed_limit}, overlays=overlays, windows=windows
         )
