@@ -645,6 +645,7 @@ class RateEKF:
         *,
         torque: ArrayLike | None = None,
         wheel_momentum: ArrayLike | None = None,
+        external_torque: ArrayLike | None = None,
     ) -> StepReport:
         """Predict to ``t`` and update with a gyro sample taken at ``t``.
 
@@ -657,11 +658,20 @@ class RateEKF:
             non-finite sample is skipped and counted; a sample whose NIS is
             above the gate is rejected and counted (docs/rate_ekf.md).
         torque : array_like (3,), optional
-            Known body torque held over the interval ending at ``t`` [N m]
-            (default zero). With wheels and known momenta it is not used.
+            Known actuator torque on the body held over the interval ending
+            at ``t`` [N m] (the engine's ``"torque_command"``; default zero).
+            With wheels and their momenta known at both ends of the interval
+            it is replaced by the wheels' reaction torque from the momenta
+            (docs/rate_ekf.md); it is the fallback when they are not.
         wheel_momentum : array_like (n_wheels,), optional
             Wheel spin-axis momenta at ``t`` [N m s] (ignored without wheels;
             non-finite: treated as missing and counted).
+        external_torque : array_like (3,), optional
+            Known torque from outside the wheels (environment torques from a
+            model, magnetorquers) held over the interval ending at ``t``
+            [N m], body axes; added to the actuator torque in every case,
+            with or without wheels (default zero). An external torque left
+            out here must be covered by ``torque_noise``.
 
         Returns
         -------
@@ -671,8 +681,9 @@ class RateEKF:
         ------
         ValueError
             If ``t`` is not finite or earlier than the filter's time, the
-            torque is not a finite (3,) vector, a sample has the wrong shape,
-            or the covariance loses positive definiteness; or on a numerical
+            torque or the external torque is not a finite (3,) vector, a
+            sample has the wrong shape, or the covariance loses positive
+            definiteness; or on a numerical
             breakdown (the state or covariance would become non-finite: the
             message names the time and cause, and the filter is left as it
             was before the step).
@@ -682,6 +693,7 @@ class RateEKF:
             raise ValueError(f"t must not go backwards: t = {t!r} s is before the filter time {self.t!r} s")
         dt = t - self.t
         tau = np.zeros(3) if torque is None else _vector3(torque, "torque")
+        tau_ext = np.zeros(3) if external_torque is None else _vector3(external_torque, "external_torque")
         # Validate every input before the state changes.
         z = None
         nan_skipped = False
@@ -705,7 +717,7 @@ class RateEKF:
         )
         try:
             with np.errstate(over="ignore", invalid="ignore"):  # overflow is caught by the finiteness checks
-                return self._step(t, dt, tau, z, nan_skipped, hw)
+                return self._step(t, dt, tau, tau_ext, z, nan_skipped, hw)
         except _Breakdown as exc:
             for key, value in saved[0].items():
                 setattr(kf, key, value)
@@ -733,6 +745,7 @@ class RateEKF:
         t: float,
         dt: float,
         tau: NDArray[np.float64],
+        tau_ext: NDArray[np.float64],
         z: NDArray[np.float64] | None,
         nan_skipped: bool,
         hw: NDArray[np.float64] | None,
@@ -757,7 +770,7 @@ class RateEKF:
             if h_new is not None:
                 self._h_wheels = h_new
         if dt > 0:
-            self._propagate(dt, tau, h0, hdot)
+            self._propagate(dt, tau + tau_ext, h0, hdot)
         self.t = t
 
         nu = np.full(3, np.nan)
@@ -1052,6 +1065,7 @@ def run_rate_ekf(
     *,
     torque: ArrayLike | None = None,
     wheel_momentum: ArrayLike | None = None,
+    external_torque: ArrayLike | None = None,
     gyro_available: ArrayLike | None = None,
     omega_true: ArrayLike | None = None,
     bias_true: ArrayLike | None = None,
@@ -1073,9 +1087,15 @@ def run_rate_ekf(
         Known body torque held over the interval *ending* at ``t[k]`` [N m]
         (what the engine hands an estimator as ``"torque_command"``; a
         ``SimulationResult.torque_command`` row is held *from* its time, so
-        shift it by one row). Default zero.
+        shift it by one row). Default zero. With wheels and known momenta it
+        is replaced by the wheels' reaction torque (:meth:`RateEKF.step`).
     wheel_momentum : array_like (n, n_wheels), optional
         Wheel momenta at each time [N m s] (filters with wheels).
+    external_torque : array_like (n, 3), optional
+        Known torque from outside the wheels (environment, magnetorquers)
+        held over the interval ending at ``t[k]`` [N m], body axes; always
+        added (:meth:`RateEKF.step`). A ``SimulationResult.external_torque``
+        row is held from its time: shift it by one row. Default zero.
     gyro_available : array_like (n,) of bool, optional
         False where the gyro did not sample (multi-rate; not counted as
         NaN). Default: all samples present.
@@ -1108,6 +1128,9 @@ def run_rate_ekf(
     tau = np.zeros((n, 3)) if torque is None else as_float_array(torque, "torque")
     if tau.shape != (n, 3):
         raise ValueError(f"torque must have shape ({n}, 3), got {tau.shape}")
+    tau_ext = None if external_torque is None else as_float_array(external_torque, "external_torque")
+    if tau_ext is not None and tau_ext.shape != (n, 3):
+        raise ValueError(f"external_torque must have shape ({n}, 3) [N m], got {tau_ext.shape}")
     hw = None
     if wheel_momentum is not None:
         hw = as_float_array(wheel_momentum, "wheel_momentum", allow_nonfinite=True)
@@ -1141,6 +1164,7 @@ def run_rate_ekf(
             z[k] if avail[k] else None,
             torque=tau[k],
             wheel_momentum=None if hw is None else hw[k],
+            external_torque=None if tau_ext is None else tau_ext[k],
         )
         out_w[k] = ekf.x[:3]
         out_b[k] = ekf.bias

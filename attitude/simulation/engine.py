@@ -148,6 +148,22 @@ class SimulationResult(ResultIO):
     dipole: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))
     torque_magnetorquer: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))
 
+    @property
+    def external_torque(self) -> NDArray[np.float64]:
+        """Body torque from outside the wheels at each row [N m], (n, 3): the environment sources and magnetorquers.
+
+        The sum of :attr:`disturbance_torques` and :attr:`torque_magnetorquer`,
+        held from each row's time like them (zeros in empty space without
+        magnetorquers). A ``disturbance`` handed to :func:`simulate` is not
+        recorded, so it is not included.
+        """
+        torque = np.zeros_like(self.omega)
+        for source in self.disturbance_torques.values():
+            torque = torque + source
+        if self.torque_magnetorquer.size:
+            torque = torque + self.torque_magnetorquer
+        return torque
+
     def settling_time(self, threshold_rad: float) -> float:
         """First time [s] after which the error angle stays below ``threshold_rad`` (inf if never).
 
@@ -544,13 +560,9 @@ def _run_compiled_rule(args: tuple, substeps: int, every: dict, rng: Any, budget
 
 def _body_torque_history(result: SimulationResult, disturbance: Any) -> NDArray[np.float64]:
     """Body torque at the ticks [N m]: the actuators', a constant disturbance, the environment and magnetorquers."""
-    torque = result.torque_applied.copy()
+    torque = result.torque_applied + result.external_torque
     if disturbance is not None:
         torque += np.asarray(disturbance, dtype=float)
-    for source in result.disturbance_torques.values():
-        torque += source
-    if result.torque_magnetorquer.size:
-        torque += result.torque_magnetorquer
     return torque
 
 

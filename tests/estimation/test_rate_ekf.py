@@ -262,6 +262,49 @@ class TestModel:
         # One RK4 step of 0.1 s at |A| ~ 0.05/s: truncation ~ (|A| dt)^5 |w| ~ 1e-14 rad/s.
         np.testing.assert_allclose(ekf.omega, ref, atol=1e-13)
 
+    def test_external_torque_is_added_to_the_wheels_reaction_torque(self):
+        """With wheel momenta known, the model torque is ``-A hdot + external_torque``; ``torque`` is replaced.
+
+        Reference: DOP853 of the hub body's Euler equations with that torque (independent integrator),
+        over 1 s in ten filter steps. The external torque (1e-4 N m on ~10 kg m^2) moves the rate by
+        ~1e-5 rad/s, 1e8 times the tolerance, so leaving it out (the filter before ``external_torque``
+        existed, or handing it over as ``torque``, which the tachometers replace) fails.
+        """
+        body = RigidBody([[10.0, 1.2, -0.5], [1.2, 12.0, 0.3], [-0.5, 0.3, 8.0]])
+        wheels = ReactionWheels.pyramid(spin_inertia=0.005, torque_max=0.05, momentum_max=0.8)
+        h_a = np.array([0.1, -0.2, 0.05, 0.3])
+        h_rate = np.array([0.04, -0.02, 0.01, 0.03])  # [N m] motor torques, constant
+        tau_ext = np.array([1e-4, -2e-4, 5e-5])  # [N m] body axes
+        w0 = np.array([0.05, -0.03, 0.02])
+        t = np.arange(11) * 0.1
+        h = h_a + t[:, None] * h_rate
+
+        def filtered(**inputs):
+            ekf = RateEKF(
+                body,
+                sigma_v=1e-5,
+                sigma_u=0.0,
+                gyro_period=0.1,
+                torque_noise=1e-4,
+                P0=np.full(6, 1e-6),
+                x0=np.r_[w0, 0, 0, 0],
+                wheels=wheels,
+            )
+            return run_rate_ekf(ekf, t, np.full((t.size, 3), np.nan), wheel_momentum=h, **inputs).omega[-1]
+
+        hub = wheels.hub_body(body)
+        a = wheels.distribution
+
+        def rhs(s, w):
+            return hub.omega_dot(w, -a @ h_rate + tau_ext, a @ (h_a + s * h_rate))
+
+        ref = solve_ivp(rhs, (0.0, 1.0), w0, method="DOP853", rtol=1e-13, atol=1e-15).y[:, -1]
+        # Ten RK4 steps of 0.1 s at |A| ~ 0.05/s: truncation ~ 10 (|A| dt)^5 |w| ~ 1e-13 rad/s.
+        np.testing.assert_allclose(filtered(external_torque=np.tile(tau_ext, (t.size, 1))), ref, atol=1e-12)
+        without = filtered()
+        assert np.abs(without - ref).max() > 1e-6
+        np.testing.assert_array_equal(filtered(torque=np.tile(tau_ext, (t.size, 1))), without)
+
 
 # ---------------------------------------------------------------------------
 # Linear special case: the steady-state Riccati solution in closed form

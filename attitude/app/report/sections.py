@@ -557,8 +557,10 @@ def _estimation(results: dict[str, Any]) -> list[Block]:
             f"{fmt(e['attitude_sigma0_deg'])} deg attitude, {fmt(e['bias_sigma0_deg_per_h'])} deg/h bias and "
             f"{fmt(e['rate_sigma0_deg_per_s'])} deg/s rate (1 sigma per axis). A consistent filter keeps the "
             f"average NEES (6 degrees of freedom) inside its {fmt(e['confidence_percent'])} % chi-square band. The "
-            f"rate EKF uses a torque uncertainty of {fmt(r['torque_noise_Nm_per_sqrt_Hz'])} N m/sqrt(Hz) and the "
-            "wheel tachometers; a gyro alone separates rate and bias only through the gyroscopic dynamics, so its "
+            f"rate EKF uses a torque uncertainty of {fmt(r['torque_noise_Nm_per_sqrt_Hz'])} N m/sqrt(Hz), the "
+            "wheel tachometers and, as its known external torque, the flight's environment torques (peak "
+            f"{fmt(r.get('external_torque_peak_uNm', 0.0))} uN m; a torque left out would be a rate error common "
+            "to every run); a gyro alone separates rate and bias only through the gyroscopic dynamics, so its "
             "bias uncertainty stays large during a slow slew."
         ),
         Paragraph(_mount_approach(e.get("tracker_mount_sigma_arcsec", 0.0))),

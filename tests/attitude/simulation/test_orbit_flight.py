@@ -64,14 +64,15 @@ def _q_off_nadir(orbit, angle_rad, axis=(0.3, 1.0, -0.2)):
 
 
 def _external_increments_N(result):
-    """Integral over each tick of the logged external torques (held from the tick), rotated to N.
+    """Integral over each tick of the logged external torque (held from the tick), rotated to N.
 
-    The torque is constant in body axes over the tick while the body turns; the rotation into N
-    is averaged by the trapezoid of the two ends (error O((omega dt)^2) of the increment).
+    ``SimulationResult.external_torque``: the environment sources plus the magnetorquers, so the
+    momentum check below also checks that sum. The torque is constant in body axes over the tick
+    while the body turns; the rotation into N is averaged by the trapezoid of the two ends (error
+    O((omega dt)^2) of the increment).
     """
-    tau_B = sum(result.disturbance_torques.values())
-    if result.torque_magnetorquer.size:
-        tau_B = tau_B + result.torque_magnetorquer
+    tau_B = result.external_torque
+    assert result.torque_magnetorquer.size and np.abs(result.torque_magnetorquer).max() > 0.0  # both kinds summed
     dt = np.diff(result.t)[:, None]
     rot = 0.5 * (quat.rotate(result.q[:-1], tau_B[:-1]) + quat.rotate(result.q[1:], tau_B[:-1]))
     return rot * dt, tau_B
