@@ -22,13 +22,14 @@ JSON document; ``--json`` does not change stderr).
 from __future__ import annotations
 
 import argparse
+import logging
 import math
 import os
 import re
 import sys
 import time
 import tomllib
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -128,6 +129,25 @@ def _progress(message: str, quiet: bool = False) -> None:
 
     tqdm.write(message, file=sys.stderr)
     sys.stderr.flush()
+
+
+def _status_lines(logger_name: str, quiet: bool) -> Callable[[], None]:
+    """Print a library logger's INFO records as status lines (:func:`_progress`) until the returned call."""
+
+    class Lines(logging.Handler):
+        def emit(self, record: logging.LogRecord) -> None:
+            _progress(record.getMessage(), quiet)
+
+    logger, handler = logging.getLogger(logger_name), Lines(logging.INFO)
+    level = logger.level
+    logger.addHandler(handler)
+    logger.setLevel(min(level or logging.INFO, logging.INFO))
+
+    def stop() -> None:
+        logger.removeHandler(handler)
+        logger.setLevel(level)
+
+    return stop
 
 
 def _bars(args: argparse.Namespace) -> bool | None:
@@ -461,6 +481,7 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
     _progress(f"Monte Carlo campaign of {config.name}: results in {out}/", args.quiet)
     if args.guidance == "plan":
         _progress(f"planning the slew ({args.nodes} intervals, once, on the nominal spacecraft) ...", args.quiet)
+    stop_lines = _status_lines("attitude.montecarlo", args.quiet)  # "resuming: 37 of 200 runs from the checkpoint"
     try:
         result = run_campaign_from_config(
             config,
@@ -488,12 +509,15 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
         return EXIT_FAIL
     except ValueError as exc:
         if "checkpoint of a different campaign" in str(exc):
-            raise UsageError(f"--out {out}: {str(exc).split(';')[0]}; use another --out, or --fresh") from None
+            what = str(exc).split("; use another out_dir")[0]  # the library's advice names its own arguments
+            raise UsageError(f"--out {out}: {what}; use another --out, or --fresh") from None
         raise
     except OSError as exc:
         if getattr(exc, "filename", None) is not None or not args.scheduler:  # the output folder
             raise UsageError(f"--out {out}: {exc}") from None
         raise UsageError(f"--scheduler {args.scheduler}: {exc}") from None  # nobody answers at that address
+    finally:
+        stop_lines()
     if args.json:
         from attitude.app.report.writer import dumps_json
 

@@ -71,10 +71,12 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import multiprocessing
 import os
 import threading
 import time
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -101,7 +103,7 @@ from attitude.montecarlo.executors import (
     run_processes,
     run_serial,
 )
-from attitude.montecarlo.identity import UnidentifiableScenario, scenario_identity
+from attitude.montecarlo.identity import UnidentifiableScenario, UnidentifiableScenarioWarning, scenario_identity
 from attitude.montecarlo.results import CampaignResult, Requirement, RunReplay, check_metric_name
 from attitude.results import provenance
 
@@ -112,6 +114,8 @@ from attitude.results import provenance
 #: 10**7 runs without a failure prove a failure probability below 3e-7 at 95 % confidence (rule of three),
 #: beyond any attitude requirement. A larger count is a typing mistake, refused before anything is drawn.
 MAX_RUNS = 10_000_000
+#: Where :func:`run_campaign` says what it resumes (INFO); the ``attitude montecarlo`` command prints it.
+_log = logging.getLogger(__name__)
 
 __all__ = [
     "MAX_RUNS",
@@ -267,16 +271,23 @@ class Campaign:
             A ValueError: the scenario has no ``fingerprint`` string and its content cannot be identified
             (:mod:`attitude.montecarlo.identity`).
         """
+        return _digest(self._identity(vectorized))
+
+    def _identity(self, vectorized: bool) -> dict[str, Any]:
+        """What :meth:`fingerprint` hashes, part by part (a checkpoint keeps it to say which part changed)."""
         ident = getattr(self.scenario, "fingerprint", None)
         if not isinstance(ident, str):
             ident = "content " + scenario_identity(self.scenario)
-        payload = {
+        return {
             "seed": self.seed,
             "dispersions": {k: repr(v) for k, v in self.dispersions.items()},
             "scenario": ident,
             "vectorized": bool(vectorized),
         }
-        return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
+
+
+def _digest(identity: dict[str, Any]) -> str:
+    return hashlib.sha256(json.dumps(identity, sort_keys=True).encode()).hexdigest()
 
 
 def usable_cpus() -> int:
@@ -352,7 +363,18 @@ def run_campaign(
     Returns
     -------
     CampaignResult
-        ``info["interrupted"]`` is True after Ctrl-C (completed runs kept).
+        ``info["interrupted"]`` is True after Ctrl-C (completed runs kept);
+        ``info["resumed_runs"]`` is the number of runs taken from the
+        checkpoint, also logged when the campaign starts (INFO, logger
+        ``attitude.montecarlo.campaign``: "resuming: 37 of 200 runs from the
+        checkpoint in DIR").
+
+    Warns
+    -----
+    UnidentifiableScenarioWarning
+        With ``out_dir``, when the scenario has no ``fingerprint`` and its
+        content cannot be identified: the campaign runs afresh, but its
+        checkpoint can never be resumed.
     """
     if not isinstance(campaign, Campaign):
         raise ValueError(f"campaign must be a Campaign, got {type(campaign).__name__}")
@@ -374,7 +396,8 @@ def run_campaign(
     done: dict[int, RunRecord] = {}
     if out_dir is not None:
         try:
-            checkpoint = Checkpoint(out_dir, campaign.fingerprint(vectorized))
+            identity = campaign._identity(vectorized)
+            checkpoint = Checkpoint(out_dir, _digest(identity), identity=identity)
         except UnidentifiableScenario as exc:  # a fresh run is fine; resuming it is refused (Checkpoint.load)
             checkpoint = Checkpoint(out_dir, None, unidentified=str(exc))
         if resume:
@@ -383,7 +406,18 @@ def run_campaign(
                 r: rec for r, rec in checkpoint.load().items() if r < campaign.runs and not rec.error.startswith(lost)
             }
         checkpoint.start(resume)
+        if checkpoint.fingerprint is None:
+            warnings.warn(
+                f"the scenario {_scenario_name(campaign.scenario)} has no `fingerprint` and cannot be identified by "
+                f"its content ({checkpoint.unidentified}): this campaign runs afresh, but its checkpoint in "
+                f"{str(out_dir)!r} can never be resumed (interrupted, it starts again from its first run); give the "
+                "scenario a `fingerprint` string attribute that names its code and settings",
+                UnidentifiableScenarioWarning,
+                stacklevel=2,
+            )
     resumed = len(done)
+    if resumed:
+        _log.info("resuming: %d of %d runs from the checkpoint in %s", resumed, campaign.runs, out_dir)
     rows: dict[int, list[float]] = {}
     tasks = _Tasks(campaign, done, runs_per_task, rows)
     bar = Progress(campaign.runs, None if progress is None else bool(progress), initial=resumed)
@@ -438,6 +472,13 @@ def run_campaign(
     if out_dir is not None:
         result.save(out_dir)
     return result
+
+
+def _scenario_name(scenario: Any) -> str:
+    """A scenario's module and qualified name (a callable object's class), for messages."""
+    named = scenario if hasattr(scenario, "__qualname__") else type(scenario)
+    module = getattr(named, "__module__", None)
+    return f"{module}.{named.__qualname__}" if module else str(named.__qualname__)
 
 
 def _scheduler_address(scheduler: Any) -> str | None:

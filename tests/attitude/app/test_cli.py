@@ -821,3 +821,45 @@ def test_an_over_aggressive_bandwidth_fails_and_every_fail_line_says_why(tmp_pat
     assert any(x.startswith("Mismatch: sampled PD loop unstable") for x in lines)
     saturation = next(x for x in lines if x.startswith("Saturation (closed loop): "))
     assert float(saturation.split("command on ")[1].split(" %")[0]) > 50.0
+
+
+# ---------------------------------------------------------------------------
+# What a campaign says when it resumes, or refuses to (issue 12)
+
+
+class _CheapScenario:
+    """A scenario of a few microseconds, so the command's resume messages are checked without flying a spacecraft."""
+
+    fingerprint = "test_cli._CheapScenario"
+
+    def __call__(self, params, rng):
+        return {"y": float(params["x"])}
+
+
+def test_montecarlo_says_how_many_runs_it_resumes_and_which_part_of_a_checkpoint_differs(
+    tmp_path, monkeypatch, capsys
+):
+    """The command prints "resuming: N of M runs from the checkpoint in DIR" (silenced by --quiet), and a refused
+    checkpoint names the part that differs; checked against the runs the first command wrote (the campaign's
+    first runs: the same seed draws the same runs whatever the run count)."""
+    import attitude.app.scenarios as scenarios
+    from attitude.montecarlo.campaign import Campaign, run_campaign
+    from attitude.montecarlo.dispersions import Normal
+
+    def cheap_campaign(config, runs=None, workers=None, scheduler=None, out_dir=None, *, seed=None, **options):
+        campaign = Campaign(_CheapScenario(), {"x": Normal(0.0, 1.0)}, runs=runs, seed=1 if seed is None else seed)
+        return run_campaign(campaign, workers=1, out_dir=out_dir, resume=options["resume"], progress=False)
+
+    monkeypatch.setattr(scenarios, "run_campaign_from_config", cheap_campaign)
+    out = tmp_path / "mc"
+    args = ["montecarlo", "--guidance", "eigenaxis", "--out", str(out)]
+    assert main([*args, "--runs", "2"]) == 0
+    assert "resuming" not in capsys.readouterr().err  # nothing to resume
+    assert main([*args, "--runs", "5"]) == 0
+    assert f"resuming: 2 of 5 runs from the checkpoint in {out}\n" in capsys.readouterr().err
+    assert main([*args, "--runs", "5", "--quiet"]) == 0
+    assert capsys.readouterr().err == ""
+    assert main([*args, "--runs", "5", "--seed", "9"]) == 2
+    err = capsys.readouterr().err
+    assert "holds the checkpoint of a different campaign: it differs in the seed (1 in the checkpoint, 9 now); " in err
+    assert err.rstrip().endswith("use another --out, or --fresh")
