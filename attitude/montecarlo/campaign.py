@@ -35,13 +35,15 @@ Scenario protocol (duck-typed; this module never imports ``controllers`` or
     class's code and its state, never by its name alone, so editing the
     scenario and resuming its old checkpoint is refused instead of mixing old
     and new runs. A scenario whose content cannot be identified (it holds a
-    lock, an open file, a C callable...) runs afresh but never resumes: give
-    it a ``fingerprint`` then.
+    lock, an open file, a C callable...) runs afresh but never resumes, and
+    an :class:`~attitude.montecarlo.identity.UnidentifiableScenarioWarning`
+    says so when the campaign starts: give it a ``fingerprint`` then.
 
 Executors (:mod:`attitude.montecarlo.executors`, faults and checkpoint there)
 
 * ``workers=1``: in this process, in order;
-* ``workers=K`` (default ``os.cpu_count()``): a pool of K local processes;
+* ``workers=K`` (default :func:`usable_cpus`, the CPUs this process may run
+  on): a pool of K local processes;
 * ``scheduler="tcp://HOST:PORT"`` or a ``dask.distributed.Client``: a Dask
   cluster. To start one on several machines (each with this package and the
   same versions installed)::
@@ -331,9 +333,12 @@ def run_campaign(
     ----------
     campaign : Campaign
     workers : int, optional
-        Local worker processes (default ``os.cpu_count()``; 1 runs in this
-        process). Ignored with a ``scheduler``. With ``vectorized`` the
-        default is 1 (one batch holds all runs).
+        Local worker processes (default :func:`usable_cpus`: the CPUs in
+        this process's affinity mask, which taskset and container limits
+        set; 1 runs in this process). Ignored with a ``scheduler``. With
+        ``vectorized`` the default is 1 (this process flies the batches of
+        ``runs_per_task`` runs one after the other; ``attitude montecarlo
+        --vectorized`` uses :func:`usable_cpus` workers).
     scheduler : str or dask.distributed.Client, optional
         Run on a Dask cluster (module docstring).
     vectorized : bool

@@ -571,6 +571,28 @@ def test_design_help_states_the_sizes_it_uses(capsys):
     assert f"{quick.nodes} planner intervals instead of {full.nodes}" in text
     assert f"{quick.mekf_runs} MEKF and {quick.rate_ekf_runs} rate-EKF" in text
     assert f"instead of {full.mekf_runs} and {full.rate_ekf_runs}" in text
+    assert f"{quick.dispersed_runs} runs of the dispersed check instead of {full.dispersed_runs}" in text
+
+
+@pytest.mark.parametrize("command", ["design", "slew", "montecarlo"])
+def test_help_states_the_planning_fractions_the_plan_uses(command, capsys):
+    """Issue 12: `attitude slew --help` said the plan used 95 % of the rate limit while it used 85 %; each help
+    that names the planning margins states the constants of :mod:`attitude.app.slew_study`."""
+    from attitude.app.slew_study import (
+        KEEP_OUT_MARGIN_DEG,
+        PLAN_MOMENTUM_FRACTION,
+        PLAN_RATE_FRACTION,
+        PLAN_TORQUE_FRACTION,
+    )
+
+    with pytest.raises(SystemExit):
+        main([command, "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    torque, rate = f"{100 * PLAN_TORQUE_FRACTION:g} %", f"{100 * PLAN_RATE_FRACTION:g} %"
+    assert f"{torque} of the wheels' torque and {rate} of the rate limit" in text
+    if command == "slew":
+        assert f"within {100 * PLAN_MOMENTUM_FRACTION:g} % of its capacity" in text
+        assert f"widened by up to {KEEP_OUT_MARGIN_DEG:g} deg" in text
 
 
 def test_python_dash_m_attitude_help(tmp_path):
@@ -836,9 +858,7 @@ class _CheapScenario:
         return {"y": float(params["x"])}
 
 
-def test_montecarlo_says_how_many_runs_it_resumes_and_which_part_of_a_checkpoint_differs(
-    tmp_path, monkeypatch, capsys
-):
+def test_montecarlo_says_how_many_runs_it_resumes_and_which_part_of_a_checkpoint_differs(tmp_path, monkeypatch, capsys):
     """The command prints "resuming: N of M runs from the checkpoint in DIR" (silenced by --quiet), and a refused
     checkpoint names the part that differs; checked against the runs the first command wrote (the campaign's
     first runs: the same seed draws the same runs whatever the run count)."""
