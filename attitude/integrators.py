@@ -37,6 +37,7 @@ __all__ = [
     "RULE_INERTIA_RATIO_MAX",
     "VARYING_RATE_WEIGHT",
     "StepSizeWarning",
+    "attitude_error_text",
     "casadi_rk4_step",
     "check_error_budget",
     "fifth_derivative_excess",
@@ -435,6 +436,37 @@ def predicted_attitude_error(
     step = np.broadcast_to(np.asarray(step_s, dtype=float), angle.shape[-1:])
     local = np.broadcast_to(np.asarray(excess_rad5_s5, dtype=float), angle.shape) * step * (step / substeps) ** 4
     return (weight * np.sum(angle, axis=-1) * theta**4 + VARYING_RATE_WEIGHT * np.sum(local, axis=-1)) / 1920.0
+
+
+def attitude_error_text(error_rad: float, digits: int = 3) -> str:
+    """A predicted or bounded attitude error as the messages print it: in rad, or above pi, that the attitude is lost.
+
+    The angle between two attitudes is at most pi rad, so a prediction beyond
+    it (:func:`predicted_attitude_error` grows without limit with the step)
+    says only that the fixed-step attitude may be anywhere, not by how much.
+
+    Parameters
+    ----------
+    error_rad : float
+        The predicted or bounded error [rad].
+    digits : int, optional
+        Significant digits of a printed number.
+
+    Returns
+    -------
+    str
+        ``"1.2e-05 rad"``, or ``"more than pi rad (the attitude is lost)"``.
+
+    Examples
+    --------
+    >>> attitude_error_text(1.234e-5)
+    '1.23e-05 rad'
+    >>> attitude_error_text(370.0)
+    'more than pi rad (the attitude is lost)'
+    """
+    if error_rad > np.pi:
+        return "more than pi rad (the attitude is lost)"
+    return f"{error_rad:.{digits}g} rad"
 
 
 def substeps_for_budget(

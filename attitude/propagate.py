@@ -43,6 +43,7 @@ from attitude.integrators import (
     ATTITUDE_ERROR_BUDGET_RAD,
     MAX_RULE_SUBSTEPS,
     StepSizeWarning,
+    attitude_error_text,
     casadi_rk4_step,
     check_error_budget,
     normalize_quaternion_components,
@@ -498,12 +499,11 @@ def _propagate_fixed(
         else:
             note = (
                 f"; after {RULE_PASSES} runs, sub-stepped to {int(np.max(subs))} steps per output interval, the "
-                f"result is NOT within the budget: predicted error {error:.4g} rad against {budget:.4g} rad "
-                "(pass a smaller max_step)"
+                f"result is NOT within the budget: predicted error {attitude_error_text(error, 4)} against "
+                f"{budget:.4g} rad (pass a smaller max_step)"
             )
         warnings.warn(
-            f"{message}{note}. method='geometric' is exact for a constant rate and method='adaptive' controls its "
-            "own error; attitude_error_budget_rad sets the budget",
+            f"{message}{note}. {_other_methods(method)}; attitude_error_budget_rad sets the budget",
             StepSizeWarning,
             stacklevel=3,
         )
@@ -618,15 +618,29 @@ def _rule_substeps(
         f"method={method!r} breaks the step-size rule {rule_formula(method)} <= {budget:.3g} rad "
         f"(docs/rk4_step_rule.md): |omega| up to {rate_max:.3g} rad/s with a "
         f"step of {h_asked:.3g} s (|omega| h = {rate_max * h_asked:.3g} rad per step) predicts an accumulated "
-        f"attitude error of {error:.3g} rad"
+        f"attitude error of {attitude_error_text(error)}"
     )
     if np.max(needed / asked) > MAX_RULE_SUBSTEPS:
         raise ValueError(
             f"{rule}; meeting it needs {int(np.max(needed / asked))} steps per step asked, more than "
-            f"{MAX_RULE_SUBSTEPS}: pass max_step <= {h_new:.3g} s (max_step = {max_step!r}), or use "
-            "method='geometric' (exact attitude for a constant rate) or method='adaptive'"
+            f"{MAX_RULE_SUBSTEPS}: pass max_step <= {h_new:.3g} s (max_step = {max_step!r}); "
+            f"{_other_methods(method)}"
         )
     return needed, rule
+
+
+def _other_methods(method: str) -> str:
+    """What the messages of a fixed-step run that broke the rule recommend besides a smaller step.
+
+    ``geometric`` is recommended to an RK4 run only: a geometric run breaks
+    the rule only where its rate varies (it is exact for a constant rate).
+    """
+    if method == "geometric":
+        return (
+            "method='geometric' (in use) is exact only for a constant rate and this one varies: "
+            "method='adaptive' controls its own error"
+        )
+    return "method='geometric' is exact for a constant rate and method='adaptive' controls its own error"
 
 
 #: Fewest steps per time scale of a callable torque below which propagate warns that the rule does not cover it
@@ -667,7 +681,8 @@ def _check_finite(q: NDArray, omega: NDArray, t: NDArray, method: str, max_step:
     raise PropagationDivergedError(
         f"{method} propagation diverged at t = {float(t[k]):.6g} s (non-finite state): initial body rate "
         f"{rate0:.3g} rad/s with a step of {step:.3g} s (|omega| h = {rate0 * step:.3g}); "
-        "use a smaller max_step (the step-size rule of docs/rk4_step_rule.md) or method='geometric' or 'adaptive'"
+        "use a smaller max_step (the step-size rule of docs/rk4_step_rule.md)"
+        + ("" if method == "adaptive" else f"; {_other_methods(method)}")
     )
 
 

@@ -35,13 +35,15 @@ Scenario protocol (duck-typed; this module never imports ``controllers`` or
     class's code and its state, never by its name alone, so editing the
     scenario and resuming its old checkpoint is refused instead of mixing old
     and new runs. A scenario whose content cannot be identified (it holds a
-    lock, an open file, a C callable...) runs afresh but never resumes: give
-    it a ``fingerprint`` then.
+    lock, an open file, a C callable...) runs afresh but never resumes, and
+    an :class:`~attitude.montecarlo.identity.UnidentifiableScenarioWarning`
+    says so when the campaign starts: give it a ``fingerprint`` then.
 
 Executors (:mod:`attitude.montecarlo.executors`, faults and checkpoint there)
 
 * ``workers=1``: in this process, in order;
-* ``workers=K`` (default ``os.cpu_count()``): a pool of K local processes;
+* ``workers=K`` (default :func:`usable_cpus`, the CPUs this process may run
+  on): a pool of K local processes;
 * ``scheduler="tcp://HOST:PORT"`` or a ``dask.distributed.Client``: a Dask
   cluster. To start one on several machines (each with this package and the
   same versions installed)::
@@ -71,10 +73,12 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import multiprocessing
 import os
 import threading
 import time
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -101,7 +105,7 @@ from attitude.montecarlo.executors import (
     run_processes,
     run_serial,
 )
-from attitude.montecarlo.identity import UnidentifiableScenario, scenario_identity
+from attitude.montecarlo.identity import UnidentifiableScenario, UnidentifiableScenarioWarning, scenario_identity
 from attitude.montecarlo.results import CampaignResult, Requirement, RunReplay, check_metric_name
 from attitude.results import provenance
 
@@ -112,6 +116,8 @@ from attitude.results import provenance
 #: 10**7 runs without a failure prove a failure probability below 3e-7 at 95 % confidence (rule of three),
 #: beyond any attitude requirement. A larger count is a typing mistake, refused before anything is drawn.
 MAX_RUNS = 10_000_000
+#: Where :func:`run_campaign` says what it resumes (INFO); the ``attitude montecarlo`` command prints it.
+_log = logging.getLogger(__name__)
 
 __all__ = [
     "MAX_RUNS",
@@ -267,16 +273,23 @@ class Campaign:
             A ValueError: the scenario has no ``fingerprint`` string and its content cannot be identified
             (:mod:`attitude.montecarlo.identity`).
         """
+        return _digest(self._identity(vectorized))
+
+    def _identity(self, vectorized: bool) -> dict[str, Any]:
+        """What :meth:`fingerprint` hashes, part by part (a checkpoint keeps it to say which part changed)."""
         ident = getattr(self.scenario, "fingerprint", None)
         if not isinstance(ident, str):
             ident = "content " + scenario_identity(self.scenario)
-        payload = {
+        return {
             "seed": self.seed,
             "dispersions": {k: repr(v) for k, v in self.dispersions.items()},
             "scenario": ident,
             "vectorized": bool(vectorized),
         }
-        return hashlib.sha256(json.dumps(payload, sort_keys=True).encode()).hexdigest()
+
+
+def _digest(identity: dict[str, Any]) -> str:
+    return hashlib.sha256(json.dumps(identity, sort_keys=True).encode()).hexdigest()
 
 
 def usable_cpus() -> int:
@@ -320,9 +333,12 @@ def run_campaign(
     ----------
     campaign : Campaign
     workers : int, optional
-        Local worker processes (default ``os.cpu_count()``; 1 runs in this
-        process). Ignored with a ``scheduler``. With ``vectorized`` the
-        default is 1 (one batch holds all runs).
+        Local worker processes (default :func:`usable_cpus`: the CPUs in
+        this process's affinity mask, which taskset and container limits
+        set; 1 runs in this process). Ignored with a ``scheduler``. With
+        ``vectorized`` the default is 1 (this process flies the batches of
+        ``runs_per_task`` runs one after the other; ``attitude montecarlo
+        --vectorized`` uses :func:`usable_cpus` workers).
     scheduler : str or dask.distributed.Client, optional
         Run on a Dask cluster (module docstring).
     vectorized : bool
@@ -352,7 +368,18 @@ def run_campaign(
     Returns
     -------
     CampaignResult
-        ``info["interrupted"]`` is True after Ctrl-C (completed runs kept).
+        ``info["interrupted"]`` is True after Ctrl-C (completed runs kept);
+        ``info["resumed_runs"]`` is the number of runs taken from the
+        checkpoint, also logged when the campaign starts (INFO, logger
+        ``attitude.montecarlo.campaign``: "resuming: 37 of 200 runs from the
+        checkpoint in DIR").
+
+    Warns
+    -----
+    UnidentifiableScenarioWarning
+        With ``out_dir``, when the scenario has no ``fingerprint`` and its
+        content cannot be identified: the campaign runs afresh, but its
+        checkpoint can never be resumed.
     """
     if not isinstance(campaign, Campaign):
         raise ValueError(f"campaign must be a Campaign, got {type(campaign).__name__}")
@@ -374,7 +401,8 @@ def run_campaign(
     done: dict[int, RunRecord] = {}
     if out_dir is not None:
         try:
-            checkpoint = Checkpoint(out_dir, campaign.fingerprint(vectorized))
+            identity = campaign._identity(vectorized)
+            checkpoint = Checkpoint(out_dir, _digest(identity), identity=identity)
         except UnidentifiableScenario as exc:  # a fresh run is fine; resuming it is refused (Checkpoint.load)
             checkpoint = Checkpoint(out_dir, None, unidentified=str(exc))
         if resume:
@@ -383,7 +411,18 @@ def run_campaign(
                 r: rec for r, rec in checkpoint.load().items() if r < campaign.runs and not rec.error.startswith(lost)
             }
         checkpoint.start(resume)
+        if checkpoint.fingerprint is None:
+            warnings.warn(
+                f"the scenario {_scenario_name(campaign.scenario)} has no `fingerprint` and cannot be identified by "
+                f"its content ({checkpoint.unidentified}): this campaign runs afresh, but its checkpoint in "
+                f"{str(out_dir)!r} can never be resumed (interrupted, it starts again from its first run); give the "
+                "scenario a `fingerprint` string attribute that names its code and settings",
+                UnidentifiableScenarioWarning,
+                stacklevel=2,
+            )
     resumed = len(done)
+    if resumed:
+        _log.info("resuming: %d of %d runs from the checkpoint in %s", resumed, campaign.runs, out_dir)
     rows: dict[int, list[float]] = {}
     tasks = _Tasks(campaign, done, runs_per_task, rows)
     bar = Progress(campaign.runs, None if progress is None else bool(progress), initial=resumed)
@@ -438,6 +477,13 @@ def run_campaign(
     if out_dir is not None:
         result.save(out_dir)
     return result
+
+
+def _scenario_name(scenario: Any) -> str:
+    """A scenario's module and qualified name (a callable object's class), for messages."""
+    named = scenario if hasattr(scenario, "__qualname__") else type(scenario)
+    module = getattr(named, "__module__", None)
+    return f"{module}.{named.__qualname__}" if module else str(named.__qualname__)
 
 
 def _scheduler_address(scheduler: Any) -> str | None:

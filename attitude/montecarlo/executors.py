@@ -51,9 +51,12 @@ With an output directory, every completed record is appended to
 ``checkpoint.jsonl`` (one JSON line per run, flushed at once; floats are
 written with ``repr`` so they load back bit for bit) and its time history to
 ``checkpoint_histories/run_NNNNNN.npz``. The first line holds the campaign
-fingerprint; a later campaign with the same fingerprint in the same
-directory skips the runs found there, except those lost to a dead worker or
-a failed cluster task, which are run again.
+fingerprint, and what it hashes part by part (the seed, each dispersion, the
+scenario's identity, the mode); a later campaign with the same fingerprint in
+the same directory skips the runs found there, except those lost to a dead
+worker or a failed cluster task, which are run again. A campaign with another
+fingerprint is refused, naming the parts that differ (the run count is not
+one: a longer campaign resumes a shorter one's runs, which are its first).
 
 Progress
 --------
@@ -379,14 +382,25 @@ class Checkpoint:
         be identified, so it may start a checkpoint but never resume one.
     unidentified : str, optional
         Why the campaign cannot be identified (with ``fingerprint=None``), for the refusal.
+    identity : mapping, optional
+        What the fingerprint hashes, part by part (``seed``, ``dispersions``
+        name -> description, ``scenario``, ``vectorized``: JSON values), kept in
+        the header so that a refusal says which part differs.
     """
 
-    def __init__(self, out_dir: str | Path, fingerprint: str | None, unidentified: str = "") -> None:
+    def __init__(
+        self,
+        out_dir: str | Path,
+        fingerprint: str | None,
+        unidentified: str = "",
+        identity: Mapping[str, Any] | None = None,
+    ) -> None:
         self.dir = Path(out_dir)
         self.dir.mkdir(parents=True, exist_ok=True)
         self.path = self.dir / CHECKPOINT_FILE
         self.fingerprint = fingerprint
         self.unidentified = unidentified
+        self.identity = None if identity is None else dict(identity)
         self._file: TextIO | None = None
 
     def load(self) -> dict[int, RunRecord]:
@@ -410,9 +424,9 @@ class Checkpoint:
                 "settings, or use resume=False to start afresh"
             )
         if not isinstance(header, dict) or header.get("fingerprint") != self.fingerprint:
+            differs = _what_differs(header, self.identity)
             raise ValueError(
-                f"out_dir {str(self.dir)!r} holds the checkpoint of a different campaign (other seed, dispersions, "
-                "scenario code or parameters, or mode; or a scenario that could not be identified); use another "
+                f"out_dir {str(self.dir)!r} holds the checkpoint of a different campaign{differs}; use another "
                 "out_dir, or resume=False to start afresh"
             )
         for line in lines[1:]:
@@ -447,6 +461,8 @@ class Checkpoint:
         header: dict[str, Any] = {"fingerprint": self.fingerprint, "format": 1}
         if self.fingerprint is None:
             header["unidentified"] = self.unidentified
+        if self.identity is not None:
+            header["identity"] = self.identity
         self._file.write(json.dumps(header) + "\n")
         self._file.flush()
 
@@ -475,6 +491,67 @@ class Checkpoint:
         if self._file is not None:
             self._file.close()
             self._file = None
+
+
+#: Characters shown on each side of the first difference between two long descriptions (a refused checkpoint).
+_DIFFERENCE_CONTEXT = 40
+
+
+def _what_differs(header: Any, identity: Mapping[str, Any] | None) -> str:
+    """What tells a checkpoint's campaign from this one, as the end of the refusal's first clause."""
+    if isinstance(header, dict) and header.get("fingerprint") is None and "unidentified" in header:
+        return (
+            f": its scenario could not be identified by its content when it was written ({header['unidentified']}), "
+            "so nothing says it is this one"
+        )
+    old = header.get("identity") if isinstance(header, dict) else None
+    if not isinstance(old, dict) or identity is None:  # a checkpoint written before its header kept the parts
+        return " (other seed, dispersions, scenario code or parameters, or mode)"
+    parts = []
+    if old.get("seed") != identity.get("seed"):
+        parts.append(f"the seed ({old.get('seed')!r} in the checkpoint, {identity.get('seed')!r} now)")
+    vectorized = (old.get("vectorized"), identity.get("vectorized"))
+    if vectorized[0] != vectorized[1]:
+        modes = ["vectorized (run_batch)" if v else "per run" for v in vectorized]
+        parts.append(f"the mode ({modes[0]} in the checkpoint, {modes[1]} now)")
+    before, after = old.get("dispersions") or {}, identity.get("dispersions") or {}
+    for name in sorted(set(before) | set(after)):
+        if name not in after:
+            parts.append(f"the dispersion {name!r} (in the checkpoint only)")
+        elif name not in before:
+            parts.append(f"the dispersion {name!r} (new)")
+        elif before[name] != after[name]:
+            was, now = _first_difference(str(before[name]), str(after[name]))
+            parts.append(f"the dispersion {name!r} ({was} in the checkpoint, {now} now)")
+    if old.get("scenario") != identity.get("scenario"):
+        parts.append(_scenario_difference(str(old.get("scenario")), str(identity.get("scenario"))))
+    if not parts:
+        return " (other seed, dispersions, scenario code or parameters, or mode)"
+    return ": it differs in " + (parts[0] if len(parts) == 1 else ", ".join(parts[:-1]) + " and " + parts[-1])
+
+
+def _scenario_difference(was: str, now: str) -> str:
+    """How two scenario identities (a ``fingerprint`` string, or ``"content "`` and a digest) differ."""
+    content = "content "
+    if was.startswith(content) and now.startswith(content):
+        return "the scenario's code or the values it holds (identified by its content)"
+    if was.startswith(content) != now.startswith(content):
+        how = ["its content" if x.startswith(content) else "its `fingerprint`" for x in (was, now)]
+        return f"the scenario (identified by {how[0]} in the checkpoint, by {how[1]} now)"
+    was, now = _first_difference(was, now)
+    return f"the scenario's fingerprint ({was} in the checkpoint, {now} now)"
+
+
+def _first_difference(was: str, now: str) -> tuple[str, str]:
+    """The two texts quoted around their first difference (``...`` where cut)."""
+    first = next((i for i, (a, b) in enumerate(zip(was, now)) if a != b), min(len(was), len(now)))
+    start = max(0, first - _DIFFERENCE_CONTEXT)
+
+    def cut(text: str) -> str:
+        end = first + _DIFFERENCE_CONTEXT
+        return ("..." if start else "") + repr(text[start:end])[1:-1] + ("..." if end < len(text) else "")
+
+    return f"'{cut(was)}'", f"'{cut(now)}'"
 
 
 class Collector:

@@ -37,7 +37,8 @@ What cannot be identified (a lock, an open file, a generator, a built-in
 function or C-extension callable given as the scenario itself, anything whose
 pickle protocol refuses) raises :class:`UnidentifiableScenario`, naming the
 value and where it was found; :func:`attitude.montecarlo.campaign.run_campaign`
-then runs the campaign afresh but refuses to resume it. A ``fingerprint``
+then runs the campaign afresh, with an :class:`UnidentifiableScenarioWarning`
+when it starts, but refuses to resume it. A ``fingerprint``
 string attribute on the scenario names its settings instead and always wins.
 """
 
@@ -53,7 +54,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["UnidentifiableScenario", "scenario_identity"]
+__all__ = ["UnidentifiableScenario", "UnidentifiableScenarioWarning", "scenario_identity"]
 
 #: Top-level packages of this toolkit: identified by name and version, like any installed package.
 _TOOLKIT = frozenset({"attitude", "controllers", "estimation"})
@@ -64,6 +65,10 @@ _CLASS_NOISE = frozenset({"__dict__", "__weakref__", "__module__", "__qualname__
 
 class UnidentifiableScenario(ValueError):
     """The scenario's content cannot be identified reliably (the message names the value and where it is)."""
+
+
+class UnidentifiableScenarioWarning(UserWarning):
+    """A campaign with an output directory whose scenario cannot be identified: it runs, but can never resume."""
 
 
 def scenario_identity(scenario: Any) -> str:

@@ -45,7 +45,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
 from attitude.environment.orbit_environment import OrbitEnvironment
-from attitude.integrators import ATTITUDE_ERROR_BUDGET_RAD, StepSizeWarning, check_error_budget
+from attitude.integrators import ATTITUDE_ERROR_BUDGET_RAD, StepSizeWarning, attitude_error_text, check_error_budget
 from attitude.progress import Throttle
 from attitude.rigid_body import RigidBody, symmetric_entries
 from attitude.rng import NormalStreams
@@ -265,7 +265,8 @@ def simulate_batch_estimated(
         warnings.warn(
             f"{int(np.sum(broken))} run(s) of the batch may have broken the step-size rule mid-run "
             f"(docs/rk4_step_rule.md; run {first}: peak body rate {float(rate_peak[first]):.3g} rad/s, "
-            f"error bound {float(bound[first]):.3g} rad > {budget:.3g} rad): their attitude may be off by more "
+            f"error bound {attitude_error_text(float(bound[first]))}, over the budget of {budget:.3g} rad): "
+            "their attitude may be off by more "
             "than the budget (info step_rule_broken); shorten dt or raise substeps",
             StepSizeWarning,
             stacklevel=2,

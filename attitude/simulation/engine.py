@@ -43,6 +43,7 @@ from attitude.integrators import (
     ATTITUDE_ERROR_BUDGET_RAD,
     MAX_RULE_SUBSTEPS,
     StepSizeWarning,
+    attitude_error_text,
     check_error_budget,
     rule_formula,
     warn_outside_calibration,
@@ -532,7 +533,7 @@ def _run_compiled_rule(args: tuple, substeps: int, every: dict, rng: Any, budget
                 f"simulate breaks the step-size rule (docs/rk4_step_rule.md) at the rates reached (body rate up to "
                 f"{float(np.max(np.linalg.norm(result.omega, axis=1))):.3g} rad/s): meeting it needs {needed} RK4 "
                 f"steps per tick, more than {MAX_RULE_SUBSTEPS * substeps}; the attitude is NOT within the "
-                f"budget of {budget:.3g} rad (predicted error {error:.3g} rad)",
+                f"budget of {budget:.3g} rad (predicted error {attitude_error_text(error)})",
                 StepSizeWarning,
                 stacklevel=3,
             )
@@ -837,8 +838,8 @@ def _warn_over_budget(step_rule: dict[str, Any]) -> None:
     if np.isfinite(error) and error > budget:
         warnings.warn(
             f"simulate: the result is NOT within the attitude-error budget: the rates flown predict "
-            f"{error:.4g} rad against {budget:.4g} rad (docs/rk4_step_rule.md; the figure is a bound and may "
-            "overstate); pass a shorter dt or more substeps, or a larger attitude_error_budget_rad",
+            f"{attitude_error_text(error, 4)} against {budget:.4g} rad (docs/rk4_step_rule.md; the figure is a "
+            "bound and may overstate); pass a shorter dt or more substeps, or a larger attitude_error_budget_rad",
             StepSizeWarning,
             stacklevel=3,
         )

@@ -20,6 +20,7 @@ from attitude.integrators import (
     MAX_RULE_SUBSTEPS,
     VARYING_RATE_WEIGHT,
     StepSizeWarning,
+    attitude_error_text,
     fifth_derivative_excess,
     predicted_attitude_error,
     rule_formula,
@@ -195,7 +196,7 @@ class TickRule:
             f"(docs/rk4_step_rule.md) at t = {k * self.dt:.6g} s: body rate {rate:.3g} rad/s with "
             f"{self.substeps} RK4 step(s) per tick of {self.dt:.3g} s "
             f"(|omega| h = {rate * self.dt / self.substeps:.3g} rad per step) predicts an accumulated attitude "
-            f"error of {error:.3g} rad"
+            f"error of {attitude_error_text(error)}"
         )
 
     def info(self) -> dict[str, Any]:

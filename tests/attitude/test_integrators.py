@@ -7,6 +7,7 @@ from attitude import RigidBody
 from attitude import quaternion as quat
 from attitude.integrators import (
     ATTITUDE_ERROR_BUDGET_RAD,
+    attitude_error_text,
     gyroscopic_turn_rate,
     normalize_quaternion_components,
     predicted_attitude_error,
@@ -50,3 +51,13 @@ def test_substeps_meet_the_budget_and_leave_a_run_within_it_alone():
     slow = np.full(6000, 0.05)
     assert np.all(substeps_for_budget(slow, 0.1, 0.05) == 1)
     assert np.all(substeps_for_budget(rate, 0.1, substeps=40) == 40)  # never lowers what was asked
+
+
+def test_an_error_above_pi_is_printed_as_a_lost_attitude():
+    # The angle between two attitudes is at most pi rad (2 atan2(|v|, |w|) with |w| >= 0): a predicted or bounded
+    # error beyond it is printed as a lost attitude, not as a number of radians (issue 12).
+    assert attitude_error_text(1.234e-5) == "1.23e-05 rad"
+    assert attitude_error_text(np.pi) == f"{np.pi:.3g} rad"  # the largest angle there is: still a number
+    assert attitude_error_text(np.nextafter(np.pi, 4.0)) == "more than pi rad (the attitude is lost)"
+    assert attitude_error_text(370.0, digits=4) == "more than pi rad (the attitude is lost)"
+    assert attitude_error_text(float("inf")) == "more than pi rad (the attitude is lost)"

@@ -21,6 +21,8 @@ What each group checks against:
   returning NaN.
 """
 
+import re
+
 import numpy as np
 import pytest
 from hypothesis import given
@@ -438,6 +440,42 @@ class TestStepSizeRule:
         exact = quat.from_axis_angle([0.0, 0.0, 1.0], 25.0 * t[-1])
         # Exact exponential per step: only rounding over 100 steps (1e-12 rad with margin).
         assert float(quat.error_angle(exact, traj.q[-1])) < 1e-10
+
+    # -- What the messages say: a remedy that applies, an error bound that is an angle ---------------------------
+
+    # A tumble of the triaxial body: its rate varies, so geometric (exact for a constant rate) breaks the rule too.
+    TUMBLE = (1.0, 2.0, 5.0)
+
+    def _message(self, method, t):
+        from attitude.integrators import StepSizeWarning
+
+        with pytest.warns(StepSizeWarning, match="step-size rule") as caught:
+            propagate(self.SPIN_BODY, [1.0, 0.0, 0.0, 0.0], self.TUMBLE, t, method=method)
+        return str(caught[0].message)
+
+    def test_a_geometric_run_is_not_told_to_use_geometric(self):
+        # Issue 12: the warning of a geometric run said "method='geometric' is exact for a constant rate", as if
+        # the run were not geometric already. It must point to what applies: adaptive, or the step and budget.
+        t = np.arange(0.0, 10.01, 0.5)
+        geometric = self._message("geometric", t)
+        assert "method='geometric' is exact" not in geometric
+        assert "method='adaptive'" in geometric and "attitude_error_budget_rad" in geometric
+        rk4 = self._message("rk4", t)  # an RK4 run is still pointed to geometric
+        assert "method='geometric' is exact for a constant rate" in rk4
+        # The refusal of an absurd step too (more than MAX_RULE_SUBSTEPS steps per step asked).
+        with pytest.raises(ValueError, match=r"max_step <= .*method='adaptive'") as refused:
+            propagate(self.SPIN_BODY, [1.0, 0.0, 0.0, 0.0], self.TUMBLE, np.arange(0.0, 1e4, 100.0), method="geometric")
+        assert "method='geometric' is exact" not in str(refused.value)
+
+    def test_a_predicted_error_above_pi_reads_as_a_lost_attitude(self):
+        # Issue 12: 0.5 s steps of a 5.5 rad/s tumble predict some 44 rad, which was printed as "43.7 rad": the
+        # angle between two attitudes is at most pi rad, so the message says the attitude is lost instead.
+        message = self._message("rk4", np.arange(0.0, 10.01, 0.5))
+        assert "predicts an accumulated attitude error of more than pi rad (the attitude is lost)" in message
+        assert re.search(r"error of \d", message) is None
+        # Below pi the number is printed: 5 rad/s at 0.1 s over 600 s predicts 0.098 rad (6000 steps of 0.5^5/1920).
+        _, _, small = self._spin(5.0, np.arange(0.0, 600.0001, 0.1))
+        assert "predicts an accumulated attitude error of 0.0977 rad" in small
 
     # -- The rule on the rates actually flown: between sparse samples, under a turning torque, one warning ------
 

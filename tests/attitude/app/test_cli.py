@@ -571,6 +571,28 @@ def test_design_help_states_the_sizes_it_uses(capsys):
     assert f"{quick.nodes} planner intervals instead of {full.nodes}" in text
     assert f"{quick.mekf_runs} MEKF and {quick.rate_ekf_runs} rate-EKF" in text
     assert f"instead of {full.mekf_runs} and {full.rate_ekf_runs}" in text
+    assert f"{quick.dispersed_runs} runs of the dispersed check instead of {full.dispersed_runs}" in text
+
+
+@pytest.mark.parametrize("command", ["design", "slew", "montecarlo"])
+def test_help_states_the_planning_fractions_the_plan_uses(command, capsys):
+    """Issue 12: `attitude slew --help` said the plan used 95 % of the rate limit while it used 85 %; each help
+    that names the planning margins states the constants of :mod:`attitude.app.slew_study`."""
+    from attitude.app.slew_study import (
+        KEEP_OUT_MARGIN_DEG,
+        PLAN_MOMENTUM_FRACTION,
+        PLAN_RATE_FRACTION,
+        PLAN_TORQUE_FRACTION,
+    )
+
+    with pytest.raises(SystemExit):
+        main([command, "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    torque, rate = f"{100 * PLAN_TORQUE_FRACTION:g} %", f"{100 * PLAN_RATE_FRACTION:g} %"
+    assert f"{torque} of the wheels' torque and {rate} of the rate limit" in text
+    if command == "slew":
+        assert f"within {100 * PLAN_MOMENTUM_FRACTION:g} % of its capacity" in text
+        assert f"widened by up to {KEEP_OUT_MARGIN_DEG:g} deg" in text
 
 
 def test_python_dash_m_attitude_help(tmp_path):
@@ -821,3 +843,43 @@ def test_an_over_aggressive_bandwidth_fails_and_every_fail_line_says_why(tmp_pat
     assert any(x.startswith("Mismatch: sampled PD loop unstable") for x in lines)
     saturation = next(x for x in lines if x.startswith("Saturation (closed loop): "))
     assert float(saturation.split("command on ")[1].split(" %")[0]) > 50.0
+
+
+# ---------------------------------------------------------------------------
+# What a campaign says when it resumes, or refuses to (issue 12)
+
+
+class _CheapScenario:
+    """A scenario of a few microseconds, so the command's resume messages are checked without flying a spacecraft."""
+
+    fingerprint = "test_cli._CheapScenario"
+
+    def __call__(self, params, rng):
+        return {"y": float(params["x"])}
+
+
+def test_montecarlo_says_how_many_runs_it_resumes_and_which_part_of_a_checkpoint_differs(tmp_path, monkeypatch, capsys):
+    """The command prints "resuming: N of M runs from the checkpoint in DIR" (silenced by --quiet), and a refused
+    checkpoint names the part that differs; checked against the runs the first command wrote (the campaign's
+    first runs: the same seed draws the same runs whatever the run count)."""
+    import attitude.app.scenarios as scenarios
+    from attitude.montecarlo.campaign import Campaign, run_campaign
+    from attitude.montecarlo.dispersions import Normal
+
+    def cheap_campaign(config, runs=None, workers=None, scheduler=None, out_dir=None, *, seed=None, **options):
+        campaign = Campaign(_CheapScenario(), {"x": Normal(0.0, 1.0)}, runs=runs, seed=1 if seed is None else seed)
+        return run_campaign(campaign, workers=1, out_dir=out_dir, resume=options["resume"], progress=False)
+
+    monkeypatch.setattr(scenarios, "run_campaign_from_config", cheap_campaign)
+    out = tmp_path / "mc"
+    args = ["montecarlo", "--guidance", "eigenaxis", "--out", str(out)]
+    assert main([*args, "--runs", "2"]) == 0
+    assert "resuming" not in capsys.readouterr().err  # nothing to resume
+    assert main([*args, "--runs", "5"]) == 0
+    assert f"resuming: 2 of 5 runs from the checkpoint in {out}\n" in capsys.readouterr().err
+    assert main([*args, "--runs", "5", "--quiet"]) == 0
+    assert capsys.readouterr().err == ""
+    assert main([*args, "--runs", "5", "--seed", "9"]) == 2
+    err = capsys.readouterr().err
+    assert "holds the checkpoint of a different campaign: it differs in the seed (1 in the checkpoint, 9 now); " in err
+    assert err.rstrip().endswith("use another --out, or --fresh")

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import signal
 import threading
 import time
@@ -712,3 +713,83 @@ class TestRunCount:
         # The table still holds every run's parameters, as a campaign run to the end would.
         reference = [Campaign(Quadratic(), X, runs=2000, seed=3).parameters(r)["x"] for r in range(2000)]
         assert list(result.parameters["x"]) == reference
+
+
+# ---------------------------------------------------------------------------
+# What a resume says (issue 12): the runs it took, and which part of a refused checkpoint's campaign differs
+
+
+class Tuned(Quadratic):
+    """A scenario whose ``fingerprint`` names its settings, with a batched path (the vectorised mode)."""
+
+    def __init__(self, gain: float = 1.0) -> None:
+        self.gain = gain
+        self.fingerprint = f"Tuned(gain={gain!r}, stride=10)"
+
+    def run_batch(self, params_list, rngs):
+        return [RunOutput(self(p, rng)) for p, rng in zip(params_list, rngs)]
+
+
+class TestResumeMessages:
+    def test_a_resume_says_how_many_runs_it_took_from_the_checkpoint(self, tmp_path, caplog):
+        import logging
+
+        run_campaign(Campaign(Quadratic(), X, runs=2, seed=1), workers=1, out_dir=tmp_path)
+        with caplog.at_level(logging.INFO, logger="attitude.montecarlo"):
+            fresh = run_campaign(Campaign(Quadratic(), X, runs=5, seed=1), workers=1, out_dir=tmp_path / "other")
+            assert caplog.messages == []  # nothing was resumed: nothing said
+            longer = run_campaign(Campaign(Quadratic(), X, runs=5, seed=1), workers=1, out_dir=tmp_path)
+        # The first campaign wrote 2 runs; the longer one (same seed, so its first runs are those) takes them.
+        assert caplog.messages == [f"resuming: 2 of 5 runs from the checkpoint in {tmp_path}"]
+        assert longer.info["resumed_runs"] == 2 and fresh.info["resumed_runs"] == 0
+
+    @pytest.mark.parametrize(
+        ("second", "vectorized", "differs"),
+        [
+            (Campaign(Tuned(), X, runs=2, seed=2), False, "it differs in the seed (1 in the checkpoint, 2 now)"),
+            (Campaign(Tuned(), X, runs=2, seed=1), True, "it differs in the mode (per run in the checkpoint, "
+             "vectorized (run_batch) now)"),
+            (Campaign(Tuned(), {"x": Normal(0.0, 2.0)}, runs=2, seed=1), False, "it differs in the dispersion 'x' "
+             "('Normal(mean=0.0, sigma=1.0)' in the checkpoint, 'Normal(mean=0.0, sigma=2.0)' now)"),
+            (Campaign(Tuned(), {**X, "z": Normal(0.0, 1.0)}, runs=2, seed=1), False,
+             "it differs in the dispersion 'z' (new)"),
+            (Campaign(Tuned(2.0), X, runs=2, seed=1), False, "it differs in the scenario's fingerprint "
+             "('Tuned(gain=1.0, stride=10)' in the checkpoint, 'Tuned(gain=2.0, stride=10)' now)"),
+            (Campaign(Tuned(2.0), X, runs=2, seed=3), False, "it differs in the seed (1 in the checkpoint, 3 now) "
+             "and the scenario's fingerprint"),
+        ],
+        ids=["seed", "mode", "dispersion changed", "dispersion added", "scenario", "two parts"],
+    )  # fmt: skip
+    def test_a_refused_checkpoint_names_the_part_that_differs(self, tmp_path, second, vectorized, differs):
+        # Before: every refusal listed every possible cause ("other seed, dispersions, scenario code or
+        # parameters, or mode"). The campaign written first differs from each second one in the named part only.
+        run_campaign(Campaign(Tuned(), X, runs=2, seed=1), workers=1, out_dir=tmp_path)
+        with pytest.raises(ValueError, match="holds the checkpoint of a different campaign") as refused:
+            run_campaign(second, workers=1, out_dir=tmp_path, vectorized=vectorized)
+        message = str(refused.value)
+        assert f"different campaign: {differs}" in message
+        assert "resume=False to start afresh" in message
+        # The same campaign still resumes: the parts kept in the header do not change its fingerprint.
+        again = run_campaign(Campaign(Tuned(), X, runs=2, seed=1), workers=1, out_dir=tmp_path)
+        assert again.info["resumed_runs"] == 2
+
+    def test_a_long_fingerprint_is_quoted_around_its_first_difference(self, tmp_path):
+        # A built-in scenario's fingerprint holds the whole spacecraft file: the refusal quotes its two versions
+        # around the first character that differs, not thousands of characters.
+        padding = "k=1.0, " * 200
+        first, second = Tuned(), Tuned()
+        first.fingerprint = f"Scenario({padding}duration=159.0, {padding})"
+        second.fingerprint = f"Scenario({padding}duration=200.0, {padding})"
+        run_campaign(Campaign(first, X, runs=1, seed=1), workers=1, out_dir=tmp_path)
+        with pytest.raises(ValueError) as refused:
+            run_campaign(Campaign(second, X, runs=1, seed=1), workers=1, out_dir=tmp_path)
+        message = str(refused.value)
+        quoted = r"'\.\.\.[^']{{30,}}duration={}[^']{{30,}}\.\.\.'"
+        assert re.search(quoted.format("159.0") + " in the checkpoint, " + quoted.format("200.0") + " now", message)
+        assert len(message) < 600  # each fingerprint alone holds 2,826 characters
+
+    def test_a_checkpoint_without_the_parts_gets_the_general_refusal(self, tmp_path):
+        # A checkpoint written before the header kept the parts: nothing says which differs, so every cause is named.
+        (tmp_path / "checkpoint.jsonl").write_text('{"fingerprint": "0123", "format": 1}\n')
+        with pytest.raises(ValueError, match=r"different campaign \(other seed, dispersions, scenario code"):
+            run_campaign(Campaign(Tuned(), X, runs=2, seed=1), workers=1, out_dir=tmp_path)

@@ -20,13 +20,14 @@ import sys
 import textwrap
 import threading
 import types
+import warnings
 from pathlib import Path
 
 import pytest
 
 from attitude.montecarlo.campaign import Campaign, run_campaign
 from attitude.montecarlo.dispersions import Normal
-from attitude.montecarlo.identity import UnidentifiableScenario, scenario_identity
+from attitude.montecarlo.identity import UnidentifiableScenario, UnidentifiableScenarioWarning, scenario_identity
 
 X = {"x": Normal(0.0, 1.0)}
 REPO = Path(__file__).resolve().parents[3]
@@ -133,14 +134,28 @@ class HoldsALock:
 def test_an_unidentifiable_scenario_runs_afresh_but_never_resumes(tmp_path):
     with pytest.raises(UnidentifiableScenario, match=r"\['lock'\].*_thread.lock"):
         campaign(HoldsALock()).fingerprint()
-    first = run_campaign(campaign(HoldsALock()), workers=1, out_dir=tmp_path)
+    # Said when the campaign starts (issue 12: before, nothing was said until a resume was refused): one warning
+    # naming the scenario, what cannot be read in it, and the way out.
+    never = r"HoldsALock has no `fingerprint` and cannot .*\['lock'\].*never be resumed.*`fingerprint` string attribute"
+    with pytest.warns(UnidentifiableScenarioWarning, match=never) as caught:
+        first = run_campaign(campaign(HoldsALock()), workers=1, out_dir=tmp_path)
+    assert [type(w.message) for w in caught] == [UnidentifiableScenarioWarning]
     assert list(first.status) == ["ok"] * 3
     with pytest.raises(ValueError, match=r"cannot be identified by its content.*`fingerprint` string attribute"):
         run_campaign(campaign(HoldsALock()), workers=1, out_dir=tmp_path)
-    fresh = run_campaign(campaign(HoldsALock()), workers=1, out_dir=tmp_path, resume=False)
+    with pytest.warns(UnidentifiableScenarioWarning, match=never):
+        fresh = run_campaign(campaign(HoldsALock()), workers=1, out_dir=tmp_path, resume=False)
     assert fresh.info["resumed_runs"] == 0
     # Its checkpoint is not resumed by an identifiable scenario either: nothing says they are the same.
-    with pytest.raises(ValueError, match="checkpoint of a different campaign"):
+    with pytest.raises(ValueError, match="different campaign: its scenario could not be identified"):
+        run_campaign(campaign(HoldsALock("lock-v1")), workers=1, out_dir=tmp_path)
+
+
+def test_no_warning_without_a_checkpoint_or_with_a_fingerprint(tmp_path):
+    # Without out_dir there is no checkpoint to resume; with a `fingerprint` the campaign resumes: nothing to say.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UnidentifiableScenarioWarning)
+        run_campaign(campaign(HoldsALock()), workers=1)
         run_campaign(campaign(HoldsALock("lock-v1")), workers=1, out_dir=tmp_path)
 
 

@@ -35,6 +35,13 @@ def test_simulate_5_rad_s_over_600_s_is_sub_stepped_within_the_budget(engine):
     assert result.info["step_rule"]["most_substeps_per_tick"] == 18
 
 
+def test_simulate_says_an_error_bound_above_pi_is_a_lost_attitude():
+    # Issue 12: one RK4 step per 1 s tick at 5 rad/s predicts 20 steps of 5^5/1920 rad = 33 rad, printed as a
+    # number; the angle between two attitudes is at most pi rad, so the warning says the attitude is lost.
+    with pytest.warns(StepSizeWarning, match=r"error of more than pi rad \(the attitude is lost\)"):
+        simulate(BODY, [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 5.0], 20.0, dt=1.0)
+
+
 class _NoTorque:
     """A compiled-path law commanding nothing, so the compiled engine flies a free spin."""
 
