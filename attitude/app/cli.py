@@ -472,6 +472,15 @@ def _cmd_momentum(args: argparse.Namespace) -> int:
 # montecarlo
 
 
+def _scenario_usage_error(exc: Exception, args: argparse.Namespace) -> UsageError:
+    """A scenario's refusal as a usage error naming the flag that set the refused value (exit 2)."""
+    text = str(exc)
+    flag = f"--duration-s {args.duration_s:g}: " if text.startswith("duration") and args.duration_s else ""
+    if "environment" in text and not flag:
+        flag = "--environment: " if args.environment else ""
+    return UsageError(f"{flag}{text}")
+
+
 def _cmd_montecarlo(args: argparse.Namespace) -> int:
     from attitude.app.scenarios import ScenarioError, nees_consistency, run_campaign_from_config
     from controllers.slew.problem import SlewPlanningError
@@ -479,6 +488,8 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
     config = _load(args.file)
     if args.workers is not None and args.scheduler is not None:
         raise UsageError("--workers and --scheduler exclude each other (the cluster decides its workers)")
+    if args.environment is None:  # as the design flies: in the file's orbit when it has one
+        args.environment = config.orbit_config is not None
     out = Path(args.out)
     mc = config.montecarlo
     if args.runs is None and mc is None:
@@ -517,10 +528,7 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
             environment=args.environment,
         )
     except ScenarioError as exc:
-        flag = f"--duration-s {args.duration_s:g}: " if "duration" in str(exc)[:40] and args.duration_s else ""
-        if "environment" in str(exc) and not flag:
-            flag = "--environment: " if args.environment else ""
-        raise UsageError(f"{flag}{exc}") from None
+        raise _scenario_usage_error(exc, args) from None
     except SlewPlanningError as exc:
         print(f"attitude montecarlo: {exc}", file=sys.stderr)
         return EXIT_FAIL
@@ -585,10 +593,7 @@ def _replay_montecarlo(args: argparse.Namespace, config: SpacecraftConfig, out: 
             environment=args.environment,
         )
     except ScenarioError as exc:
-        flag = f"--duration-s {args.duration_s:g}: " if str(exc).startswith("duration") else ""
-        if "environment" in str(exc) and not flag:
-            flag = "--environment: " if args.environment else ""
-        raise UsageError(f"{flag}{exc}") from None
+        raise _scenario_usage_error(exc, args) from None
     except SlewPlanningError as exc:
         print(f"attitude montecarlo: {exc}", file=sys.stderr)
         return EXIT_FAIL
@@ -841,9 +846,12 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--environment",
-        action="store_true",
+        action=argparse.BooleanOptionalAction,
+        default=None,
         help="fly the file's [orbit], [environment] and [surface]: the disturbance torques act on every run, with "
-        "the surface dispersions of [montecarlo] (drag_scale, residual_dipole, centre_of_pressure_offset)",
+        "the surface dispersions of [montecarlo] (drag_scale, residual_dipole, centre_of_pressure_offset). "
+        "Default: when the file has an [orbit], as attitude design flies its slew and its dispersed check; "
+        "--no-environment flies empty inertial space",
     )
     p.add_argument(
         "--replay",

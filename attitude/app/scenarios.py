@@ -78,6 +78,7 @@ from attitude.app.slew_study import SlewStudy, plan_slews
 from attitude.config import SpacecraftConfig, load_config
 from attitude.config.schema import SURFACE_DISPERSIONS
 from attitude.environment.orbit_environment import OrbitEnvironment
+from attitude.integrators import attitude_error_text
 from attitude.montecarlo.campaign import Campaign, run_campaign, usable_cpus
 from attitude.montecarlo.dispersions import dispersions_from_config
 from attitude.montecarlo.executors import RunOutput
@@ -668,7 +669,7 @@ class ClosedLoopScenario:
 
 #: A run the step-size rule fails (docs/rk4_step_rule.md): its attitude may be off by more than the budget.
 _STEP_RULE_ERROR = (
-    "the plant's RK4 broke the step-size rule (docs/rk4_step_rule.md): attitude error bound {bound:.3g} rad "
+    "the plant's RK4 broke the step-size rule (docs/rk4_step_rule.md): attitude error bound {bound} "
     "over the budget; shorten the tick or raise substeps"
 )
 
@@ -792,7 +793,7 @@ class _BatchRecorder:
                 )
                 continue
             if broken is not None and broken[r]:
-                outputs.append(RunOutput(error=_STEP_RULE_ERROR.format(bound=float(bound[r]))))
+                outputs.append(RunOutput(error=_STEP_RULE_ERROR.format(bound=attitude_error_text(float(bound[r])))))
                 continue
             metrics = {
                 **{name: float(values[r]) for name, values in windowed.items()},
@@ -986,7 +987,7 @@ class PDWheelsScenario:
                 continue
             if result.info["step_rule_broken"][i]:
                 bound = float(result.info["step_rule_error_bound_rad"][i])
-                outputs.append(RunOutput(error=_STEP_RULE_ERROR.format(bound=bound)))
+                outputs.append(RunOutput(error=_STEP_RULE_ERROR.format(bound=attitude_error_text(bound))))
                 continue
             history = None
             if self.history_stride:
@@ -1196,6 +1197,7 @@ def run_campaign_from_config(
     vectorized: bool = False,
     resume: bool = True,
     environment: bool = False,
+    study: SlewStudy | None = None,
 ) -> CampaignResult:
     """The campaign of a spacecraft file: what ``attitude montecarlo FILE`` runs.
 
@@ -1253,6 +1255,8 @@ def run_campaign_from_config(
         --environment``). Default False: empty space, and a file that
         disperses the surface is refused (ScenarioError naming the key)
         rather than drawing values nobody flies.
+    study : SlewStudy, optional
+        The slew already planned for this file and ``nodes`` (the design's); None plans it.
     """
     if not isinstance(config, SpacecraftConfig):
         config = load_config(config)
@@ -1268,6 +1272,7 @@ def run_campaign_from_config(
         consider_misalignment=consider_misalignment,
         environment=environment,
         plan_progress=progress,
+        study=study,
     )
     n = campaign.runs
     runs_per_task = None
@@ -1301,7 +1306,7 @@ def run_campaign_from_config(
                     int(run),
                     runs,
                     vectorized=vectorized,
-                    seed=seed,
+                    seed=campaign.seed,  # the campaign's (drawn when neither the file nor the caller gave one)
                     duration=duration,
                     keep_out=keep_out,
                     guidance=guidance,

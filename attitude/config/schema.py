@@ -233,7 +233,7 @@ CONFIG_KEYS: dict[str, tuple[str, str]] = {
     ),
     # requirements
     "requirements": ("", "what the design must achieve"),
-    "requirements.pointing_accuracy_deg": ("deg", "largest attitude error angle after settling"),
+    "requirements.pointing_accuracy_deg": ("deg", "largest error angle to the target over the hold (hold_time_s)"),
     "requirements.settling_time_s": ("s", "time after the end of the slew by which the pointing accuracy is met"),
     "requirements.hold_time_s": (
         "s",

@@ -228,7 +228,7 @@ def plot_envelope(
     """Percentile bands over the runs of a time history (min-max, 5-95 %, 25-75 %, median), with its limits.
 
     The upper bound of the requirement on the metric that bounds the
-    history (:data:`ENVELOPE_REQUIREMENTS`: the final pointing error for
+    history (:data:`ENVELOPE_REQUIREMENTS`: the largest error over the hold (or the final one) for
     ``error_angle``, the peak rate for ``|omega|``, the peak wheel speed for
     each wheel) is drawn dashed red, and ``lines`` add the limits the
     campaign has no requirement for (a wheel's speed limit).

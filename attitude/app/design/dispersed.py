@@ -28,6 +28,7 @@ import numpy as np
 
 from attitude.app import assembly
 from attitude.app.scenarios import ScenarioError, run_campaign_from_config
+from attitude.app.slew_study import SlewStudy
 from attitude.config import SpacecraftConfig
 from attitude.montecarlo.statistics import success_lower_bound
 from attitude.plain import plain_float as _f
@@ -41,7 +42,9 @@ CONFIDENCE = 0.95
 FAILING_RUNS_LISTED = 5
 
 
-def dispersed_check(config: SpacecraftConfig, runs: int, slew_s: float | None, nodes: int) -> dict[str, Any] | None:
+def dispersed_check(
+    config: SpacecraftConfig, runs: int, slew_s: float | None, nodes: int, study: SlewStudy | None = None
+) -> dict[str, Any] | None:
     """Fly ``runs`` dispersed runs and judge them; None without a ``[montecarlo]`` table.
 
     Parameters
@@ -55,6 +58,8 @@ def dispersed_check(config: SpacecraftConfig, runs: int, slew_s: float | None, n
         campaign's planning then fails and says why).
     nodes : int
         Planner intervals of the campaign's slew (the design's).
+    study : SlewStudy, optional
+        The design's planned slew (the campaign flies it instead of planning it again); None plans it.
 
     Returns
     -------
@@ -79,6 +84,9 @@ def dispersed_check(config: SpacecraftConfig, runs: int, slew_s: float | None, n
             out_dir=None,
             duration=None,
             nodes=nodes,
+            # In the file's orbit when it has one, as the design's flight and `attitude montecarlo` fly.
+            environment=config.orbit_config is not None,
+            study=study,
             progress=False,
             figures=False,
             vectorized=True,

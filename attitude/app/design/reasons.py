@@ -17,12 +17,12 @@ __all__ = ["failure_reason"]
 
 
 def _g(value: Any, digits: int = 4) -> str:
-    """A number for a sentence: 4 significant digits, thousands separated, inf as "never"."""
+    """A number for a sentence: 4 significant digits, thousands separated (callers word inf and NaN)."""
     if value is None:
         return "n/a"
     x = float(value)
-    if math.isinf(x):
-        return "never"
+    if not math.isfinite(x):
+        return str(x)
     if abs(x) >= 1e4:
         return f"{x:,.0f}"
     return f"{x:.{digits}g}"
@@ -76,6 +76,12 @@ def _settling(row: Mapping[str, Any], results: Mapping[str, Any]) -> str:
     flight = results.get("closed_loop")
     if row["achieved"] is None or flight is None:
         return _no_flight(results)
+    if not math.isfinite(float(row["achieved"])):
+        return (
+            f"the error to the target is still outside the accuracy at the end of the hold "
+            f"({_g(flight['pointing_window_end_s'])} s; the slew ended at {_g(flight['slew_end_s'])} s, "
+            f"{_g(row['required'])} s of settling allowed){_cause(results)}"
+        )
     return (
         f"the error to the target stays within the accuracy only {_g(row['achieved'])} s after the slew ended at "
         f"{_g(flight['slew_end_s'])} s, {_g(row['required'])} s allowed{_cause(results)}"
@@ -86,6 +92,8 @@ def _pointing(row: Mapping[str, Any], results: Mapping[str, Any]) -> str:
     flight = results.get("closed_loop")
     if row["achieved"] is None or flight is None:
         return _no_flight(results)
+    if not math.isfinite(float(row["achieved"])):
+        return f"the error to the target is not a number in the hold (a diverged or broken run){_cause(results)}"
     at = flight.get("pointing_error_max_in_window_at_s")
     when = f" at {_g(at)} s" if at is not None else ""
     return (
@@ -156,5 +164,9 @@ def failure_reason(row: Mapping[str, Any], results: Mapping[str, Any]) -> str | 
     if reason is not None:
         return reason(row, results)
     if row["achieved"] is None:
+        findings = ((results.get("linear") or {}).get("findings")) or []
+        unstable = [f["message"] for f in findings if f["id"].endswith("unstable")]
+        if unstable and row["id"].endswith(("_gain_margin", "_phase_margin")):
+            return f"no margin: {unstable[0]}"
         return "no figure could be computed"
     return f"{_g(row['achieved'])} {row['unit']}, required {row['comparison']} {_g(row['required'])} {row['unit']}"

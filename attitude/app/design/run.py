@@ -668,7 +668,7 @@ def run_design(
         "dispersed",
         f"dispersed check: {options.dispersed_runs} runs of the [montecarlo] dispersions, vectorised",
         lambda: dispersed_check(
-            config, options.dispersed_runs, None if plan is None else plan["duration_s"], options.nodes
+            config, options.dispersed_runs, None if plan is None else plan["duration_s"], options.nodes, study
         ),
     )
     verdicts = step(9, "requirements", "requirements", lambda: requirement_verdicts(config, results))

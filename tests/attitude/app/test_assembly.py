@@ -97,9 +97,9 @@ def test_the_assembled_objects_carry_the_files_numbers():
     assert tracker.sun_exclusion == pytest.approx(math.radians(35.0), rel=1e-15)
     assert assembly.orbit(CONFIG).altitude_m == pytest.approx(500e3, rel=1e-12)
     pd = assembly.quaternion_pd(CONFIG)
-    # from_bandwidth: K = 2 wn^2 I, C = 2 zeta wn I (wn = 0.2 rad/s, zeta = 0.7 in the file).
-    np.testing.assert_allclose(pd.K, 2.0 * 0.2**2 * body.inertia, rtol=1e-12)
-    np.testing.assert_allclose(pd.C, 2.0 * 0.7 * 0.2 * body.inertia, rtol=1e-12)
+    # from_bandwidth: K = 2 wn^2 I, C = 2 zeta wn I (wn = 0.4 rad/s, zeta = 0.7 in the file).
+    np.testing.assert_allclose(pd.K, 2.0 * 0.4**2 * body.inertia, rtol=1e-12)
+    np.testing.assert_allclose(pd.C, 2.0 * 0.7 * 0.4 * body.inertia, rtol=1e-12)
     assert assembly.lqr(CONFIG) is not None
     assert assembly.lqr(dataclasses.replace(CONFIG, control=dataclasses.replace(CONFIG.control, lqr=None))) is None
 

@@ -827,7 +827,7 @@ def test_an_over_aggressive_bandwidth_fails_and_every_fail_line_says_why(tmp_pat
     rows name the unstable sampled loop as the likely cause, and the saturation line shows the wheels cutting it."""
     path = tmp_path / "aggressive.toml"
     run_attitude("init", str(path), cwd=tmp_path)
-    path.write_text(path.read_text().replace("bandwidth_rad_per_s = 0.2 ", "bandwidth_rad_per_s = 20.0"))
+    path.write_text(path.read_text().replace("bandwidth_rad_per_s = 0.4 ", "bandwidth_rad_per_s = 20.0"))
     proc = run_attitude("design", str(path), "--quick", "--out", str(tmp_path / "out"), cwd=tmp_path)
     assert proc.returncode == 1, proc.stderr[-2000:]
     results = json.loads((tmp_path / "out" / "results.json").read_text())

@@ -474,7 +474,7 @@ BAD = [
     ("zero period", _replace("period_s = 0.1 ", "period_s = 0 "), "gyro.period_s", "strictly positive"),
     (
         "bandwidth above Nyquist",
-        _replace("bandwidth_rad_per_s = 0.2", "bandwidth_rad_per_s = 40.0"),
+        _replace("bandwidth_rad_per_s = 0.4", "bandwidth_rad_per_s = 40.0"),
         "control.bandwidth_rad_per_s",
         "Nyquist",
     ),
