@@ -9,16 +9,16 @@ reduce the error angle to the TARGET attitude into the figures every
 verdict of the toolkit judges:
 
 ``settling_time`` [s], from the start of the run
-    The first sample after which the error stays within the pointing
-    accuracy up to the start of the hold, ``slew_end_s + settling_time_s``:
-    the flown slew time. Judged over the settling window only, so an
-    excursion during the hold is judged where it happens (by the pointing
-    row, with its size) and does not move the settling time. When the
-    error is still outside the accuracy at the start of the hold, the
-    settling time is the first sample after which it stays within up to the
-    end of the hold (``inf`` if it never does): later than the allowed
-    time, so the settling requirement fails with a figure that says by how
-    much.
+    The start of the first stretch of samples over which the error stays
+    within the pointing accuracy for at least the dwell
+    (:data:`SETTLING_DWELL_FRACTION` of the hold) and that is still going
+    at the start of the hold, ``slew_end_s + settling_time_s``, or begins
+    after it: the flown slew time. Only samples up to the end of the hold
+    count. The dwell makes a dip into the band no settling (a loop that
+    limit-cycles through the band never settles), and the settling is
+    judged by that stretch alone, so a later excursion during the hold is
+    judged where it happens (by the pointing row, with its size) and does
+    not move the settling time. ``inf`` when no stretch qualifies.
 ``settling_after_slew`` [s]
     ``max(0, settling_time - slew_end_s)``: the settling after the end of
     the planned slew.
@@ -42,8 +42,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["SLEW_METRICS", "SlewWindows", "SlewWindowsTracker"]
+__all__ = ["SETTLING_DWELL_FRACTION", "SLEW_METRICS", "SlewWindows", "SlewWindowsTracker"]
 
+#: Dwell of the settling, as a fraction of the hold: the error must stay within the accuracy this long to
+#: count as settled. Long against a dip into the band (a limit cycle dips for a fraction of a second), short
+#: enough that one excursion in the second half of the hold is the pointing row's alone.
+SETTLING_DWELL_FRACTION = 0.5
 #: The metrics of :meth:`SlewWindows.metrics`, SI (module docstring).
 SLEW_METRICS = ("settling_time", "settling_after_slew", "pointing_error_hold")
 
@@ -112,15 +116,20 @@ class SlewWindows:
                 f"{self.hold_end_s:.4g} s; got {t_end_s:.4g} s"
             )
 
+    @property
+    def dwell_s(self) -> float:
+        """How long the error must stay within the accuracy to count as settled [s] (module docstring)."""
+        return SETTLING_DWELL_FRACTION * self.hold_time_s
+
     def describe(self) -> str:
         """How each requirement is judged, in one paragraph (for reports and summaries)."""
         return (
-            "All judged on the error angle to the target attitude at every tick. Slew time: the first time after "
-            f"which the error stays within the accuracy ({math.degrees(self.accuracy_rad):.4g} deg) up to the start "
-            f"of the hold at {self.hold_start_s:.4g} s. Settling: that time after the end of the slew "
-            f"({self.slew_end_s:.4g} s). Pointing: the largest error over the hold, "
-            f"{self.hold_start_s:.4g} to {self.hold_end_s:.4g} s; an excursion there fails the pointing, "
-            "not the settling."
+            "All judged on the error angle to the target attitude at every tick. Slew time: the start of the first "
+            f"stretch over which the error stays within the accuracy ({math.degrees(self.accuracy_rad):.4g} deg) "
+            f"for at least {self.dwell_s:.4g} s (half the hold) that is still going at the start of the hold "
+            f"({self.hold_start_s:.4g} s) or begins after it. Settling: that time after the end of the slew "
+            f"({self.slew_end_s:.4g} s). Pointing: the largest error over the hold, {self.hold_start_s:.4g} to "
+            f"{self.hold_end_s:.4g} s; an excursion there fails the pointing, not the settling."
         )
 
     def metrics(self, t: ArrayLike, error_rad: ArrayLike) -> dict[str, Any]:
@@ -142,7 +151,7 @@ class SlewWindows:
         """
         t = np.asarray(t, dtype=float)
         error = np.asarray(error_rad, dtype=float)
-        if t.ndim != 1 or error.shape[-1] != t.size or error.ndim > 2:
+        if t.ndim != 1 or t.size == 0 or error.ndim not in (1, 2) or error.shape[-1] != t.size:
             raise ValueError(
                 f"error_rad must have shape (n,) or (runs, n) with n = len(t) = {t.size}, got {error.shape}"
             )
@@ -162,27 +171,18 @@ class SlewWindowsTracker:
     windows : SlewWindows
         The windows.
     runs : int
-        Number of runs advancing together.
+        Number of runs advancing together (>= 1).
     """
 
     def __init__(self, windows: SlewWindows, runs: int) -> None:
+        if isinstance(runs, bool) or not isinstance(runs, (int, np.integer)) or runs < 1:
+            raise ValueError(f"runs must be an integer >= 1, got {runs!r}")
         self.windows = windows
         self._runs = int(runs)
-        # Two "settled after the last sample outside" reductions: over the settling window (t < hold start)
-        # and over the whole judged span (t <= hold end). settle: the time of the sample after the last one
-        # outside; pending: the last sample seen was outside.
-        self._settle_window = np.full(runs, np.nan)
-        self._pending_window = np.zeros(runs, dtype=bool)
-        self._settle_span = np.full(runs, np.nan)
-        self._pending_span = np.zeros(runs, dtype=bool)
+        self._streak_start = np.full(runs, np.nan)  # start of the current stretch within the accuracy (nan: outside)
+        self._settled = np.full(runs, np.inf)  # start of the first qualifying stretch (inf: none yet)
         self._hold_max = np.full(runs, -np.inf)
         self._last_t = -math.inf
-
-    @staticmethod
-    def _fold(settle: NDArray, pending: NDArray, t: float, outside: NDArray) -> None:
-        settle[np.isnan(settle)] = t  # the first sample
-        settle[pending] = t
-        pending[:] = outside
 
     def update(self, t: float, error_rad: ArrayLike) -> None:
         """Fold in one sample.
@@ -198,15 +198,23 @@ class SlewWindowsTracker:
         t = float(t)
         if not t > self._last_t:
             raise ValueError(f"t must increase from sample to sample, got {t!r} after {self._last_t!r}")
-        error = np.broadcast_to(np.asarray(error_rad, dtype=float), (self._runs,))
-        outside = ~(error <= w.accuracy_rad)  # NaN counts as outside
-        if t < w.hold_start_s - 1e-9:
-            self._fold(self._settle_window, self._pending_window, t, outside)
-        if t <= w.hold_end_s + 1e-9:
-            self._fold(self._settle_span, self._pending_span, t, outside)
-            if t >= w.hold_start_s - 1e-9:
-                np.fmax(self._hold_max, np.where(np.isnan(error), np.inf, error), out=self._hold_max)
+        error = np.asarray(error_rad, dtype=float)
+        if error.shape not in ((), (self._runs,)):
+            raise ValueError(f"error_rad must be a number or have shape ({self._runs},), got {error.shape}")
+        error = np.broadcast_to(error, (self._runs,))
         self._last_t = t
+        if t > w.hold_end_s + 1e-9:  # after the hold: flown, not judged
+            return
+        inside = error <= w.accuracy_rad  # NaN counts as outside
+        self._streak_start[~inside] = np.nan
+        self._streak_start[inside & np.isnan(self._streak_start)] = t
+        # 1e-9 s: the rounding of tick times accumulated over a run (ticks are 1e-3 s and longer).
+        if t >= w.hold_start_s - 1e-9:
+            np.fmax(self._hold_max, np.where(np.isnan(error), np.inf, error), out=self._hold_max)
+            # A stretch going at the start of the hold (or begun after it) that has lasted the dwell: settled.
+            long_enough = inside & (t - self._streak_start >= w.dwell_s - 1e-9)
+            first = long_enough & np.isinf(self._settled)
+            self._settled[first] = self._streak_start[first]
 
     def metrics(self) -> dict[str, NDArray[np.float64]]:
         """The metrics (module docstring), arrays ``(runs,)``; refused before the hold has ended."""
@@ -215,11 +223,7 @@ class SlewWindowsTracker:
             raise ValueError(
                 f"the run ended at {self._last_t:.4g} s, before the end of the hold at {w.hold_end_s:.4g} s"
             )
-        span = np.where(self._pending_span, np.inf, self._settle_span)
-        # Within at the last sample of the settling window: settled there. Outside (or no sample before the
-        # hold): the first time after which the error stays within up to the end of the hold.
-        settled_in_window = ~self._pending_window & ~np.isnan(self._settle_window)
-        settling = np.where(settled_in_window, self._settle_window, span)
+        settling = self._settled.copy()
         return {
             "settling_time": settling,
             "settling_after_slew": np.maximum(0.0, settling - w.slew_end_s),

@@ -53,6 +53,12 @@ def _cause(results: Mapping[str, Any]) -> str:
     return ""
 
 
+def _dwell(flight: Mapping[str, Any]) -> str:
+    """The settling dwell as words ("30 s")."""
+    dwell = flight.get("settling_dwell_s")
+    return "settling" if dwell is None else f"{_g(dwell)} s"
+
+
 def _slew_time(row: Mapping[str, Any], results: Mapping[str, Any]) -> str:
     flight = results.get("closed_loop")
     plan = (results.get("slews") or {}).get("plan")
@@ -63,7 +69,7 @@ def _slew_time(row: Mapping[str, Any], results: Mapping[str, Any]) -> str:
     planned = f"; the plan takes {_g(plan['duration_s'])} s" if plan else ""
     if math.isinf(float(row["achieved"])):
         return (
-            "the error to the target never stays within the pointing accuracy "
+            f"the error to the target never stays within the pointing accuracy for the {_dwell(flight)} dwell "
             f"({_g(flight['pointing_error_end_deg'])} deg at the end){planned}{_cause(results)}"
         )
     return (
@@ -78,8 +84,8 @@ def _settling(row: Mapping[str, Any], results: Mapping[str, Any]) -> str:
         return _no_flight(results)
     if not math.isfinite(float(row["achieved"])):
         return (
-            f"the error to the target is still outside the accuracy at the end of the hold "
-            f"({_g(flight['pointing_window_end_s'])} s; the slew ended at {_g(flight['slew_end_s'])} s, "
+            f"the error to the target never stays within the accuracy for the {_dwell(flight)} dwell by the end "
+            f"of the hold ({_g(flight['pointing_window_end_s'])} s; the slew ended at {_g(flight['slew_end_s'])} s, "
             f"{_g(row['required'])} s of settling allowed){_cause(results)}"
         )
     return (
@@ -106,7 +112,7 @@ def _pointing(row: Mapping[str, Any], results: Mapping[str, Any]) -> str:
 def _rate(row: Mapping[str, Any], results: Mapping[str, Any]) -> str:
     if row["achieved"] is None:
         return _no_flight(results)
-    return f"the body rate peaked at {_g(row['achieved'])} deg/s, {_g(row['required'])} deg/s allowed"
+    return f"the body rate peaked at {_g(row['achieved'])} deg/s, {_g(row['required'])} deg/s allowed{_cause(results)}"
 
 
 def _keep_out(row: Mapping[str, Any], results: Mapping[str, Any]) -> str:

@@ -245,6 +245,7 @@ def fly_slew(
         "flown_slew_time_s": _f(judged["settling_time"]),
         "pointing_error_max_after_slew_deg": _f(np.max(err_deg[r.t >= slew_end])),
         "settling_time_after_slew_s": _f(judged["settling_after_slew"]),
+        "settling_dwell_s": _f(windows.dwell_s),
         "pointing_window_start_s": _f(windows.hold_start_s),
         "pointing_window_end_s": _f(windows.hold_end_s),
         "pointing_error_max_in_window_deg": _f(math.degrees(judged["pointing_error_hold"])),

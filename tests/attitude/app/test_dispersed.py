@@ -30,8 +30,9 @@ SLEW_S = 38.7  # a planned slew of the default file at 30 nodes [s] (the check a
 def test_the_check_is_the_campaign_its_row_names():
     config = default_config()
     out = dispersed_check(config, 6, SLEW_S, 30)
+    # In the file's orbit, as the design's flight (and `attitude montecarlo` on a file with an [orbit]) fly.
     campaign = run_campaign_from_config(
-        config, runs=6, workers=1, nodes=30, progress=False, figures=False, vectorized=True
+        config, runs=6, workers=1, nodes=30, progress=False, figures=False, vectorized=True, environment=True
     )
     assert out["failures"] == int(np.sum(~campaign.passed)) and out["seed"] == campaign.seed == 12345
     assert out["command"].endswith("--runs 6 --vectorized --nodes 30")

@@ -16,6 +16,7 @@ FLIGHT = {
     "pointing_window_end_s": 158.8,
     "pointing_error_end_deg": 0.2,
     "pointing_error_max_in_window_at_s": 120.0,
+    "settling_dwell_s": 30.0,
 }
 RESULTS = {"closed_loop": FLIGHT, "slews": {"plan": {"duration_s": 38.8}}, "linear": {"findings": []}}
 
@@ -38,11 +39,11 @@ def test_a_finite_miss_quotes_both_numbers():
 def test_never_settled_and_not_a_number_are_said_in_words_not_as_inf_or_nan():
     # The review found "only never s after the slew" and "reached never deg": no number, no unit after it.
     line = failure_reason(row("settling_time", 60.0, math.inf), RESULTS)
-    assert "still outside the accuracy at the end of the hold (158.8 s" in line
+    assert "never stays within the accuracy for the 30 s dwell by the end of the hold (158.8 s" in line
     line = failure_reason(row("pointing_accuracy", 0.05, math.nan, "deg"), RESULTS)
     assert "not a number in the hold" in line
     for text in (line, failure_reason(row("settling_time", 60.0, math.inf), RESULTS)):
-        assert "never s" not in text and "inf" not in text and "nan" not in text
+        assert "only never" not in text and "inf" not in text and "nan" not in text
 
 
 def test_an_unstable_sampled_loop_names_itself_as_the_cause():
