@@ -552,6 +552,11 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
         line = nees_consistency(result)
         if line is not None:
             print(line)
+        from attitude.app.design.linear import controller_findings
+
+        # The likely cause of failing runs, as attitude design prints it (issue 12: failures explain themselves).
+        for finding in controller_findings(config):
+            print(f"Mismatch: {finding['message']}")
     if result.info.get("interrupted"):
         # Ctrl-C in the run loop: the completed runs are in the checkpoint; exit as for any Ctrl-C (130).
         raise KeyboardInterrupt

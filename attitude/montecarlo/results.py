@@ -732,6 +732,7 @@ class RunReplay:
                 r.name: {"rule": r.review_rule(), "passed": self.requirement_passed(r)} for r in self.requirements
             },
             "passed": self.passed,
+            "provenance": self.info.get("provenance"),
         }
 
     def summary(self) -> str:

@@ -29,7 +29,7 @@ import numpy as np
 from attitude.app import assembly
 from attitude.app.scenarios import ScenarioError, run_campaign_from_config
 from attitude.app.slew_study import SlewStudy
-from attitude.config import SpacecraftConfig
+from attitude.config import SpacecraftConfig, default_config
 from attitude.montecarlo.statistics import success_lower_bound
 from attitude.plain import plain_float as _f
 from controllers.slew.problem import SlewPlanningError
@@ -75,7 +75,9 @@ def dispersed_check(
     # The campaign's own default (None below): to the end of the hold of the slew it plans, which is the
     # design's plan (same file, same nodes); here for the report.
     duration = assembly.judged_duration(config, slew_s)
-    command = f"attitude montecarlo {config.source or 'FILE'} --runs {runs} --vectorized --nodes {nodes}"
+    # The built-in spacecraft is the command's default (its path inside the package is no file to give).
+    source = "" if config.source is None or config.source == default_config().source else f" {config.source}"
+    command = f"attitude montecarlo{source} --runs {runs} --vectorized --nodes {nodes}"
     try:
         result = run_campaign_from_config(
             config,

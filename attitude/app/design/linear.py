@@ -29,7 +29,7 @@ from attitude.plain import plain_vector as _vec
 from controllers.analysis import attitude_closed_loop, loop_gain, margins, plot_bode, plot_step
 from controllers.diagnostics import mismatch_findings
 
-__all__ = ["linear_design"]
+__all__ = ["controller_findings", "linear_design"]
 
 _AXES = "xyz"
 
@@ -117,15 +117,39 @@ def linear_design(config: SpacecraftConfig) -> tuple[dict[str, Any], dict[str, F
         figures["lqr_bode_sampled"] = plot_bode(
             lqr_sampled, labels=[f"LQR, {a} axis, {1.0 / period:g} Hz ZOH" for a in _AXES]
         )
-    # Controllers that do not fit their sample rate or the requirements' bandwidth, in words (issue 12).
+    out["findings"] = controller_findings(config, body, pd, None if designed is None else designed[1])
+    return out, figures
+
+
+def controller_findings(
+    config: SpacecraftConfig, body: Any = None, pd: Any = None, lqr: Any = None
+) -> list[dict[str, Any]]:
+    """The file's controllers that do not fit their sample rate or the requirements' bandwidth, in words.
+
+    :func:`controllers.diagnostics.mismatch_findings` on the file's PD and LQR (built here when not given),
+    JSON-ready; ``attitude design`` and ``attitude montecarlo`` print them.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file.
+    body : RigidBody, optional
+        The file's body (built when None).
+    pd : QuaternionPD, optional
+        The file's PD (built when None).
+    lqr : LQRDesign, optional
+        The file's LQR (built when None and the file has ``[control.lqr]``).
+    """
+    body = assembly.rigid_body(config) if body is None else body
+    pd = assembly.quaternion_pd(config, body) if pd is None else pd
+    if lqr is None:
+        designed = assembly.lqr(config, body)
+        lqr = None if designed is None else designed[1]
     findings = mismatch_findings(
         body=body,
         pd=pd,
-        lqr=None if designed is None else designed[1],
+        lqr=lqr,
         settling_time=config.requirements.settling_time_s,
-        damping=c.damping,
+        damping=config.control.damping,
     )
-    out["findings"] = [
-        {"id": f.id, "message": f.message, "figures": {k: _f(v) for k, v in f.figures.items()}} for f in findings
-    ]
-    return out, figures
+    return [{"id": f.id, "message": f.message, "figures": {k: _f(v) for k, v in f.figures.items()}} for f in findings]
