@@ -1138,7 +1138,7 @@ def monte_carlo_requirements(config: SpacecraftConfig, *, keep_out: bool = True)
 
     The same rows, metrics and windows as the design's requirement table
     (:mod:`attitude.simulation.slew_windows`, all on the error to the
-    target attitude): ``slew_time``: ``settling_time`` (the flown slew time,
+    target attitude): ``slew_time``: ``slew_time`` (the flown slew time,
     from the start of the run) <= ``slew.time_max_s``; ``settling``:
     ``settling_after_slew`` <= ``settling_time_s``; ``pointing``:
     ``pointing_error_hold`` (largest error over the hold) <= the pointing
@@ -1159,7 +1159,7 @@ def monte_carlo_requirements(config: SpacecraftConfig, *, keep_out: bool = True)
     """
     req = config.requirements
     out = [
-        Requirement("settling_time", max=req.slew.time_max_s, name="slew_time"),
+        Requirement("slew_time", max=req.slew.time_max_s, name="slew_time"),
         Requirement("settling_after_slew", max=req.settling_time_s, name="settling"),
         Requirement("pointing_error_hold", max=req.pointing_accuracy_rad, name="pointing"),
     ]

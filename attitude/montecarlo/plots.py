@@ -532,14 +532,14 @@ def plot_run(
         if pointing is not None and pointing.max is not None:
             accuracy = pointing.max * deg
             ax.axhline(accuracy, color="tab:red", ls="--", lw=1.2, label=f"{pointing.name}: {accuracy:.4g} deg")
-        settling = _requirement(requirements, "settling_time")
+        settling = _requirement(requirements, "slew_time") or _requirement(requirements, "settling_time")
         if settling is not None and settling.max is not None:
             label = f"{settling.name}: settled by {settling.max:.4g} s"
             if settling.max <= t[-1]:
                 ax.axvline(settling.max, color="tab:red", ls=":", lw=1.5, label=label)
             else:  # after the end of the run: named, not drawn (the axis keeps the run's time)
                 ax.plot([], [], " ", label=f"{label} (after this run's end)")
-        settled = metrics.get("settling_time")
+        settled = metrics.get("slew_time", metrics.get("settling_time"))
         if settled is not None:
             if math.isfinite(settled):
                 ax.axvline(settled, color="tab:green", ls="-.", lw=1.2, label=f"settled at {settled:.4g} s")

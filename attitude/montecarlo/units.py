@@ -27,6 +27,7 @@ _DEG = 180.0 / math.pi
 #: the axes), by name or by the prefix before the first "." (``keep_out_margin.<cone>``, ``inertia.xx``).
 DISPLAY_UNITS: dict[str, tuple[float, str]] = {
     "settling_time": (1.0, "s"),
+    "slew_time": (1.0, "s"),
     "settling_after_slew": (1.0, "s"),
     "pointing_error_hold": (_DEG, "deg"),
     "final_pointing_error": (_DEG, "deg"),

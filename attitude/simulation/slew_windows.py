@@ -8,7 +8,7 @@ and :class:`SlewWindowsTracker` (tick by tick, for the vectorised loops)
 reduce the error angle to the TARGET attitude into the figures every
 verdict of the toolkit judges:
 
-``settling_time`` [s], from the start of the run
+``slew_time`` [s], from the start of the run
     The start of the first stretch of samples over which the error stays
     within the pointing accuracy for at least the dwell
     (:data:`SETTLING_DWELL_FRACTION` of the hold) and that is still going
@@ -20,14 +20,14 @@ verdict of the toolkit judges:
     judged where it happens (by the pointing row, with its size) and does
     not move the settling time. ``inf`` when no stretch qualifies.
 ``settling_after_slew`` [s]
-    ``max(0, settling_time - slew_end_s)``: the settling after the end of
+    ``max(0, slew_time - slew_end_s)``: the settling after the end of
     the planned slew.
 ``pointing_error_hold`` [rad]
     The largest error over the hold, the samples with
     ``hold_start_s <= t <= hold_end_s``.
 
 The requirements on them (:func:`attitude.app.assembly.monte_carlo_requirements`
-and the design's table): slew time ``settling_time <= time_max_s``;
+and the design's table): slew time ``slew_time <= time_max_s``;
 settling ``settling_after_slew <= settling_time_s``; pointing
 ``pointing_error_hold <= accuracy``. Samples are the simulation's ticks
 (the full rate), never a thinned history.
@@ -49,7 +49,7 @@ __all__ = ["SETTLING_DWELL_FRACTION", "SLEW_METRICS", "SlewWindows", "SlewWindow
 #: enough that one excursion in the second half of the hold is the pointing row's alone.
 SETTLING_DWELL_FRACTION = 0.5
 #: The metrics of :meth:`SlewWindows.metrics`, SI (module docstring).
-SLEW_METRICS = ("settling_time", "settling_after_slew", "pointing_error_hold")
+SLEW_METRICS = ("slew_time", "settling_after_slew", "pointing_error_hold")
 
 
 def _finite_non_negative(value: float, name: str) -> float:
@@ -145,7 +145,7 @@ class SlewWindows:
         Returns
         -------
         dict
-            ``settling_time`` [s], ``settling_after_slew`` [s] and
+            ``slew_time`` [s], ``settling_after_slew`` [s] and
             ``pointing_error_hold`` [rad]: floats for one run, arrays
             ``(runs,)`` for many.
         """
@@ -225,7 +225,7 @@ class SlewWindowsTracker:
             )
         settling = self._settled.copy()
         return {
-            "settling_time": settling,
+            "slew_time": settling,
             "settling_after_slew": np.maximum(0.0, settling - w.slew_end_s),
             "pointing_error_hold": self._hold_max.copy(),
         }

@@ -242,7 +242,7 @@ def fly_slew(
         "initial_knowledge_error_arcsec": _f(knowledge[0]),
         "slew_end_s": slew_end,
         "plan_slew_time_s": slew_end,
-        "flown_slew_time_s": _f(judged["settling_time"]),
+        "flown_slew_time_s": _f(judged["slew_time"]),
         "pointing_error_max_after_slew_deg": _f(np.max(err_deg[r.t >= slew_end])),
         "settling_time_after_slew_s": _f(judged["settling_after_slew"]),
         "settling_dwell_s": _f(windows.dwell_s),

@@ -520,7 +520,7 @@ def test_config_campaign_writes_table_statistics_and_figures(tmp_path):
     # tests/attitude/app/test_scenarios.py).
     result = run_campaign_from_config(SHORT, runs=3, workers=1, out_dir=tmp_path, duration=20.0, guidance="eigenaxis")
     assert np.all(result.status == "ok")
-    assert {"settling_time", "nees", "wheel_speed_peak", "keep_out_margin.sun on star tracker"} <= set(result.metrics)
+    assert {"slew_time", "nees", "wheel_speed_peak", "keep_out_margin.sun on star tracker"} <= set(result.metrics)
     assert result.histories[0]["t"][-1] == pytest.approx(20.0)
     figures = sorted(p.name for p in (tmp_path / "figures").glob("*.png"))
     assert {"histograms.png", "envelope_error_angle.png", "envelope_wheel_speed.png"} <= set(figures)
