@@ -113,7 +113,7 @@ class SlewWindows:
             raise ValueError(
                 f"{what} must cover the slew ({self.slew_end_s:.4g} s), the settling time "
                 f"({self.settling_time_s:.4g} s) and the hold ({self.hold_time_s:.4g} s): at least "
-                f"{self.hold_end_s:.4g} s; got {t_end_s:.4g} s"
+                f"{self.hold_end_s:.10g} s; got {t_end_s:.10g} s"
             )
 
     @property

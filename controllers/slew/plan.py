@@ -357,23 +357,15 @@ def plot_plan(
             name = cone.name or f"cone {j}"
             line = ax[1, 1].plot(fine.t, np.degrees(sep[:, j]), label=f"{name}: separation")[0]
             planned_deg = math.degrees(cone.half_angle)
-            if required is None:
-                ax[1, 1].axhline(
-                    planned_deg,
-                    color=line.get_color(),
-                    ls="--",
-                    lw=0.9,
-                    label=f"{name}: half angle {planned_deg:.4g} deg",
-                )
-                continue
-            required_deg = math.degrees(float(required[j]))
-            ax[1, 1].axhline(
-                planned_deg,
-                color=line.get_color(),
-                ls="--",
-                lw=0.9,
-                label=f"{name}: planned at {planned_deg:.4g} deg (margin {planned_deg - required_deg:.3g} deg)",
+            required_deg = None if required is None else math.degrees(float(required[j]))
+            label = (
+                f"{name}: half angle {planned_deg:.4g} deg"
+                if required_deg is None
+                else f"{name}: planned at {planned_deg:.4g} deg (margin {planned_deg - required_deg:.3g} deg)"
             )
+            ax[1, 1].axhline(planned_deg, color=line.get_color(), ls="--", lw=0.9, label=label)
+            if required_deg is None:
+                continue
             ax[1, 1].axhline(
                 required_deg, color="tab:red", ls="-", lw=1.2, label=f"{name}: keep-out limit {required_deg:.4g} deg"
             )

@@ -168,7 +168,7 @@ def test_bad_guidance_is_refused():
 
 def test_a_duration_shorter_than_slew_settling_and_hold_is_refused(study):
     needed = study.plan.duration + REQ.settling_time_s + REQ.hold_time_judged_s
-    with pytest.raises(ScenarioError, match=rf"duration must cover .* at least {needed:.4g} s; got 60 s"):
+    with pytest.raises(ScenarioError, match=rf"duration must cover .* at least {needed:.10g} s; got 60 s"):
         ClosedLoopScenario(CONFIG, duration=60.0, study=study)
     assert issubclass(ScenarioError, ValueError)
     assert ClosedLoopScenario(CONFIG, duration=needed, study=study).duration == needed
