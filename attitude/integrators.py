@@ -386,7 +386,10 @@ def fifth_derivative_excess(rate_rad_s: Any, acceleration_rad_s2: Any, growth_ra
     b3 = 0.5 * (b2 * w0 + 2.0 * b1 * w1 + w2)
     b4 = 0.5 * (b3 * w0 + 3.0 * b2 * w1 + 3.0 * b1 * w2 + w3)
     b5 = 0.5 * (b4 * w0 + 4.0 * b3 * w1 + 6.0 * b2 * w2 + 4.0 * b1 * w3 + w4)
-    return np.maximum(32.0 * b5 - w0**5, 0.0)
+    excess = 32.0 * b5 - w0**5
+    if isinstance(excess, ca.SX | ca.MX):  # the compiled protocol tick (NaN stays NaN on numbers)
+        return ca.fmax(excess, 0.0)
+    return np.maximum(excess, 0.0)
 
 
 def predicted_attitude_error(

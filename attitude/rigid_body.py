@@ -40,6 +40,7 @@ __all__ = [
     "RigidBody",
     "skew",
     "symmetric_entries",
+    "symmetric_rows",
 ]
 
 #: Largest accepted ``max|I - I^T| / max|I|``: inertia tensors from CAD tools
@@ -550,8 +551,8 @@ class ParametricBody(_EulerEquations):
     """
 
     def __init__(self, inertia_entries: Sequence[Any], inverse_entries: Sequence[Any]) -> None:
-        self._I = _symmetric_entries(inertia_entries)
-        self._I_inv = _symmetric_entries(inverse_entries)
+        self._I = symmetric_rows(inertia_entries)
+        self._I_inv = symmetric_rows(inverse_entries)
 
 
 def skew(v: ArrayLike) -> NDArray[np.float64]:
@@ -588,7 +589,20 @@ def symmetric_entries(matrix: ArrayLike) -> NDArray[np.float64]:
     return np.stack([m[..., 0, 0], m[..., 1, 1], m[..., 2, 2], m[..., 0, 1], m[..., 0, 2], m[..., 1, 2]], axis=-1)
 
 
-def _symmetric_entries(six: Sequence[Any]) -> list[list[Any]]:
+def symmetric_rows(six: Sequence[Any]) -> list[list[Any]]:
+    """The rows of a symmetric 3x3 tensor from its six entries ``[xx, yy, zz, xy, xz, yz]``, any backend.
+
+    The inverse of :func:`symmetric_entries` on components (numbers or casadi symbols).
+
+    Parameters
+    ----------
+    six : sequence of 6
+        The entries (e.g. of an inertia [kg m^2]).
+
+    Returns
+    -------
+    list of 3 lists of 3
+    """
     if len(six) != 6:
         raise ValueError(f"a symmetric tensor needs 6 entries [xx, yy, zz, xy, xz, yz], got {len(six)}")
     xx, yy, zz, xy, xz, yz = six

@@ -40,6 +40,7 @@ __all__ = [
     "CompilationError",
     "cache_dir",
     "compile_functions",
+    "compile_library",
     "find_compiler",
     "library_path",
 ]
@@ -123,6 +124,44 @@ def compile_functions(functions: Sequence[ca.Function], *, flags: Sequence[str] 
         raise CompilationError(f"cannot build or load {library}: {exc} (set {CACHE_ENV} to a writable folder)") from exc
 
 
+def compile_library(
+    functions: Sequence[ca.Function], extra_source: str, *, flags: Sequence[str] = COMPILE_FLAGS
+) -> Path:
+    """Compile casadi Functions and hand-written C beside them into one cached shared library.
+
+    For callers that load the library with :mod:`ctypes` and call a C entry
+    point of their own (``extra_source``) that calls the generated functions
+    with no Python in between (:mod:`attitude.simulation.protocol_tick`).
+
+    Parameters
+    ----------
+    functions : sequence of casadi.Function
+        Functions with distinct names; their C names are the Function names.
+    extra_source : str
+        C code appended to the generated source (it may use ``casadi_real``,
+        ``casadi_int`` and the generated functions and their ``*_work``).
+    flags : sequence of str
+        Compiler flags (besides ``-shared -fPIC``).
+
+    Returns
+    -------
+    pathlib.Path
+        The library, built if it was not cached.
+
+    Raises
+    ------
+    ValueError, CompilationError
+        As :func:`compile_functions`.
+    """
+    compiler, source, library = _plan(functions, flags, extra_source)
+    try:
+        if not library.exists():
+            _build(compiler, list(flags), source, library)
+    except OSError as exc:
+        raise CompilationError(f"cannot build {library}: {exc} (set {CACHE_ENV} to a writable folder)") from exc
+    return library
+
+
 def library_path(functions: Sequence[ca.Function], *, flags: Sequence[str] = COMPILE_FLAGS) -> Path:
     """Where :func:`compile_functions` keeps the library of these functions (it may not exist yet).
 
@@ -141,7 +180,9 @@ def library_path(functions: Sequence[ca.Function], *, flags: Sequence[str] = COM
     return _plan(functions, flags)[2]
 
 
-def _plan(functions: Sequence[ca.Function], flags: Sequence[str]) -> tuple[list[str], str, Path]:
+def _plan(
+    functions: Sequence[ca.Function], flags: Sequence[str], extra_source: str = ""
+) -> tuple[list[str], str, Path]:
     """Compiler, C source and cache path of a set of functions."""
     names = [f.name() for f in functions]
     if not names:
@@ -156,7 +197,7 @@ def _plan(functions: Sequence[ca.Function], flags: Sequence[str]) -> tuple[list[
     generator = ca.CodeGenerator("kernel.c", {"with_header": False})
     for f in functions:
         generator.add(f)
-    source = generator.dump()
+    source = generator.dump() + extra_source
     identity = [source, *compiler, _compiler_version(tuple(compiler)), platform.machine(), platform.system(), *flags]
     key = hashlib.sha256("\n".join([*identity, ca.__version__]).encode()).hexdigest()[:24]
     return compiler, source, cache_dir() / f"kernel_{key}.so"

@@ -53,6 +53,7 @@ from attitude.rigid_body import RigidBody, split_components
 from attitude.rng import as_generator
 from attitude.simulation.orbit_flight import OrbitFlight
 from attitude.simulation.plant import PlantModel
+from attitude.simulation.protocol_tick import TickRunner, protocol_tick
 from attitude.simulation.protocols import (
     Controller,
     DipoleController,
@@ -506,6 +507,9 @@ def _orbit_histories(flight: OrbitFlight, torques, field_B, illumination, m_cmd,
     return fields
 
 
+#: Ticks per casadi call of the compiled path.
+FOLD_TICKS = 100
+
 #: Most runs of the compiled path under the step-size rule (the first, and repeats when the rates reached
 #: ask for more steps than the initial rates did).
 RULE_PASSES = 3
@@ -616,18 +620,28 @@ def _run_compiled(
         extra = [*torques, *field_B, *(m_cmd or zero), *(m_B or zero), *tau_m]
     commands = ca.vertcat(*tau_cmd, *tau_app, *u, *extra)
     x_next = model.compiled_step(substeps)(x, ca.vertcat(*u), ca.vertcat(*tau_ext), dt)
-    loop = ca.Function("closed_loop", [x, p], [x_next, commands]).mapaccum(n_ticks)
+    closed_loop = ca.Function("closed_loop", [x, p], [x_next, commands])
     columns = inputs if not flight.active else np.concatenate([inputs, flight.rows.T, law_inputs], axis=0)
     x_start = np.concatenate([q0, omega0, h0])
-    x_hist, out = loop(x_start, columns[:, :-1])
-    x_all = np.concatenate([x_start[None], np.array(x_hist).T], axis=0)
+    x_all = np.empty((n_ticks + 1, model.n_x))
+    x_all[0] = x_start
+    out = np.empty((n_ticks, commands.numel()))
+    # Folds of FOLD_TICKS ticks: building a mapaccum over the whole run costs as much as running it.
+    folds: dict[int, ca.Function] = {}
+    for start in range(0, n_ticks, FOLD_TICKS):
+        ticks = min(FOLD_TICKS, n_ticks - start)
+        if ticks not in folds:
+            folds[ticks] = closed_loop.mapaccum(ticks)
+        x_fold, out_fold = folds[ticks](x_all[start], columns[:, start : start + ticks])
+        x_all[start + 1 : start + ticks + 1] = x_fold.full().T
+        out[start : start + ticks] = out_fold.full().T
     finite = np.all(np.isfinite(x_all), axis=1)
     if not np.all(finite):
         k = int(np.argmin(finite))
         _diverged(t[k], x_all[k - 1])
     # The command at the final time, as the Python path computes it.
     last = np.array(ca.Function("command", [x, p], [commands])(x_all[-1], columns[:, -1])).T
-    out = np.concatenate([np.array(out).T, last], axis=0)
+    out = np.concatenate([out, last], axis=0)
     n_u = len(u)
     tau_c, tau_a, uu = out[:, :3], out[:, 3:6], out[:, 6 : 6 + n_u]
     orbit = None
@@ -694,25 +708,36 @@ def _run_python(
     rng,
     rule=None,
 ):
+    """The protocol path: the user's objects in Python, the plant's part of each tick compiled.
+
+    The plant's part (allocation, hold step, the wheels' momentum for the next
+    estimate, the step-size rule's projection) is one call per tick
+    (:mod:`attitude.simulation.protocol_tick`); ticks that the rule sub-steps
+    go through ``rule`` (:class:`TickRule`, which warns) and the casadi hold step.
+    """
     gen = as_generator(rng)
-    n_x, n_w = model.n_x, model.n_w
     t = np.arange(n_ticks + 1) * dt
-    x_all = np.empty((n_ticks + 1, n_x))
-    x_all[0] = np.concatenate([q0, omega0, h0])
-    tau_c_all = np.zeros((n_ticks + 1, 3))
-    tau_a_all = np.zeros((n_ticks + 1, 3))
-    u_all = np.zeros((n_ticks + 1, n_w if model.wheels is not None else 3))
-    est_q = np.empty((n_ticks + 1, 4))
-    est_w = np.empty((n_ticks + 1, 3))
+    tick = protocol_tick(model, substeps)
+    x0 = np.concatenate([q0, omega0, h0])
+    h_body0 = np.array([float(v) for v in model.body_momentum(list(x0))])
+    runner = TickRunner(tick, model.body, x0, h_body0, n_ticks, dt, rule.budget)
+    advance = runner.advance
+    x_all = runner.x
+    # What the user's objects are handed: read-only views of the histories (a controller that kept or changed
+    # its estimate's arrays must not change the run's record).
+    x_seen = x_all.view()
+    x_seen.flags.writeable = False
+    h_body_seen = runner.h_body.view()
+    h_body_seen.flags.writeable = False
+    tau_c_all = runner.torque_command
+    est_q = np.empty((n_ticks + 1, 4)) if estimator is not None else None
+    est_w = np.empty((n_ticks + 1, 3)) if estimator is not None else None
     logs: dict[str, list] = {}
-    step = model.compiled_step(substeps)
-    tau_cmd = np.zeros(3)
-    u = np.zeros(u_all.shape[1])
-    tau_app = np.zeros(3)
     estimate = Estimate(0.0, q0.copy(), omega0.copy(), h0.copy())
     const_dist = None
     if disturbance is not None and not callable(disturbance):
         const_dist = check_vector(disturbance, "disturbance", 3)
+        runner.tau_ext[:] = const_dist
     if flight.active:
         env_torques = np.zeros((n_ticks + 1, flight.n_sources, 3))
         field_all = np.zeros((n_ticks + 1, 3))
@@ -722,6 +747,9 @@ def _run_python(
         m_cmd = np.zeros(3)
         m_B = np.zeros(3)
     law = flight.dipole_controller
+    every_controller = every.get("controller", 0)
+    controller_logs = controller is not None and hasattr(controller, "log")
+    needs_truth = bool(sensors) or estimator is not None or flight.active or callable(disturbance)
 
     def record(prefix: str, k: int, values: dict) -> None:
         for key, value in values.items():
@@ -729,86 +757,111 @@ def _run_python(
             series = logs.setdefault(f"{prefix}.{key}", [None] * (n_ticks + 1))
             series[k] = arr
 
+    truth = None
     for k in range(n_ticks + 1):
-        tk = float(t[k])
-        x = x_all[k]
-        q_unit = x[:4] / np.linalg.norm(x[:4])
-        if flight.active:
-            torques_k, field_B, sun_B = flight.at_tick(k, q_unit)
-            env_torques[k], field_all[k] = torques_k, field_B
-            down_N = -flight.track.position_N[k] / np.linalg.norm(flight.track.position_N[k])
-            nadir_B = quat.rotate(quat.conjugate(q_unit), down_N)
-            illumination = float(flight.track.illumination[k])
-            truth = Truth(tk, q_unit, x[4:7].copy(), x[7:].copy(), field_B, sun_B, illumination, nadir_B)
+        tk = k * dt
+        x = x_seen[k]
+        h_body = h_body_seen[k]
+        if needs_truth:
+            q_unit = x[:4] / np.linalg.norm(x[:4])
+            if flight.active:
+                torques_k, field_B, sun_B = flight.at_tick(k, q_unit)
+                env_torques[k], field_all[k] = torques_k, field_B
+                down_N = -flight.track.position_N[k] / np.linalg.norm(flight.track.position_N[k])
+                nadir_B = quat.rotate(quat.conjugate(q_unit), down_N)
+                illumination = float(flight.track.illumination[k])
+                truth = Truth(tk, q_unit, x[4:7], x[7:], field_B, sun_B, illumination, nadir_B)
+            else:
+                truth = Truth(tk, q_unit, x[4:7], x[7:])
+        if sensors or estimator is not None:
+            prev = tau_c_all[k - 1] if k > 0 else tau_c_all[0]
+            measurements: dict[str, Any] = {"torque_command": prev.copy(), "wheel_momentum": truth.h_wheels}
+            samples: dict[str, Any] = {}
+            for s in sensors:
+                sample = None
+                if k % every[f"sensor {s.name}"] == 0:
+                    sample = s.measure(tk, truth, gen)
+                    if isinstance(sample, VectorMeasurement):
+                        # Logged as numbers: the measured direction and its reference.
+                        record("sensor", k, {s.name: sample.vector_B, f"{s.name}.reference_N": sample.reference_N})
+                    elif sample is not None:
+                        record("sensor", k, {s.name: sample})
+                measurements[s.name] = sample
+                samples[s.name] = sample
+        elif law is not None:
+            samples = {}
+        if estimator is not None:
+            if k % every["estimator"] == 0:
+                estimate = estimator.update(tk, measurements)
+                if not isinstance(estimate, Estimate):
+                    raise ValueError(
+                        f"estimator.update(t, measurements) must return an attitude.simulation.Estimate, "
+                        f"got {type(estimate).__name__} at t = {tk:.6g} s"
+                    )
+                if hasattr(estimator, "log"):
+                    record("estimator", k, estimator.log())
+            if type(estimate) is Estimate:
+                estimate = Estimate(estimate.t, estimate.q, estimate.omega, x[7:], h_body, estimate.covariance)
+            else:  # a subclass keeps its own fields
+                estimate = dataclasses.replace(estimate, h_wheels=x[7:], h_body=h_body)
+            est_q[k] = estimate.q
+            est_w[k] = estimate.omega
         else:
-            truth = Truth(tk, q_unit, x[4:7].copy(), x[7:].copy())
-        measurements: dict[str, Any] = {"torque_command": tau_cmd.copy(), "wheel_momentum": truth.h_wheels}
-        samples: dict[str, Any] = {}
-        for s in sensors:
-            sample = None
-            if k % every[f"sensor {s.name}"] == 0:
-                sample = s.measure(tk, truth, gen)
-                if isinstance(sample, VectorMeasurement):
-                    # Logged as numbers: the measured direction and its reference.
-                    record("sensor", k, {s.name: sample.vector_B, f"{s.name}.reference_N": sample.reference_N})
-                elif sample is not None:
-                    record("sensor", k, {s.name: sample})
-            measurements[s.name] = sample
-            samples[s.name] = sample
-        if estimator is not None and k % every["estimator"] == 0:
-            estimate = estimator.update(tk, measurements)
-            if not isinstance(estimate, Estimate):
-                raise ValueError(
-                    f"estimator.update(t, measurements) must return an attitude.simulation.Estimate, "
-                    f"got {type(estimate).__name__} at t = {tk:.6g} s"
-                )
-            if hasattr(estimator, "log"):
-                record("estimator", k, estimator.log())
-        elif estimator is None:
-            estimate = Estimate(tk, truth.q, truth.omega, truth.h_wheels)
-        h_body = np.array([float(v) for v in model.body_momentum(list(x))])
-        estimate = dataclasses.replace(estimate, h_wheels=truth.h_wheels, h_body=h_body)
-        est_q[k] = estimate.q
-        est_w[k] = estimate.omega
-        if controller is not None and k % every["controller"] == 0:
-            tau_cmd = check_vector(controller.torque(tk, estimate), "controller.torque(t, estimate)", 3).reshape(3)
-            xc = list(x)
-            u_c, tau_a_c = model.command(list(tau_cmd), xc)
-            u = np.array([float(v) for v in u_c])
-            tau_app = np.array([float(v) for v in tau_a_c])
-            if hasattr(controller, "log"):
+            # The engine renormalises the quaternion at every RK4 step: x[:4] is the unit attitude.
+            estimate = Estimate(tk, x[:4], x[4:7], x[7:], h_body)
+        sample_now = 0
+        if controller is not None and k % every_controller == 0:
+            tau = controller.torque(tk, estimate)
+            if type(tau) is not np.ndarray or tau.shape != (3,) or tau.dtype != np.float64:
+                tau = check_vector(tau, "controller.torque(t, estimate)", 3).reshape(3)
+            tau_c_all[k] = tau
+            sample_now = 1
+            if controller_logs:
                 record("controller", k, controller.log())
         if law is not None and k % every["dipole_controller"] == 0:
             m_cmd = flight.dipole_command(tk, samples, h_body, field_B)
             m_B = flight.delivered_dipole(m_cmd)
             if hasattr(law, "log"):
                 record("dipole_controller", k, law.log())
-        tau_c_all[k], tau_a_all[k], u_all[k] = tau_cmd, tau_app, u
-        if k == n_ticks:
-            break
-        if const_dist is not None:
-            tau_ext = const_dist
-        elif disturbance is not None:
-            tau_ext = check_vector(disturbance(tk, truth.q, truth.omega), "disturbance(t, q, omega)", 3)
-        else:
-            tau_ext = np.zeros(3)
-        if flight.active:
-            tau_ext = tau_ext + env_torques[k].sum(axis=0)
-            if flight.magnetorquers is not None:
-                tau_m = flight.magnetorquer_torque(m_B, field_B)
-                m_cmd_all[k], m_B_all[k], tau_m_all[k] = m_cmd, m_B, tau_m
-                tau_ext = tau_ext + tau_m
-        calls = 1 if rule is None else rule.calls(k, x[4:7], x[7:], tau_app + tau_ext)
-        if calls == 1:
-            x_all[k + 1] = np.array(step(x, u, tau_ext, dt)).ravel()
-        else:  # the commands held over the tick, the plant in shorter steps
-            x_next = x
+        if k < n_ticks:
+            if callable(disturbance):
+                runner.tau_ext[:] = check_vector(disturbance(tk, truth.q, truth.omega), "disturbance(t, q, omega)", 3)
+            if flight.active:
+                tau_ext = env_torques[k].sum(axis=0) + (0.0 if const_dist is None else const_dist)
+                if callable(disturbance):
+                    tau_ext = tau_ext + runner.tau_ext
+                if flight.magnetorquers is not None:
+                    tau_m = flight.magnetorquer_torque(m_B, field_B)
+                    m_cmd_all[k], m_B_all[k], tau_m_all[k] = m_cmd, m_B, tau_m
+                    tau_ext = tau_ext + tau_m
+                runner.tau_ext[:] = tau_ext
+        done = advance(k, sample_now)
+        if done == 1:
+            continue
+        if done == -1:
+            check_vector(tau_c_all[k], "controller.torque(t, estimate)", 3)  # names the non-finite command
+        if done == -2:
+            _diverged(t[k + 1], x)
+        if done != 0:
+            raise RuntimeError(f"the protocol tick failed at t = {tk:.6g} s (code {done})")
+        # The rule asks for more than one hold step this tick: TickRule chooses the count (and warns).
+        rule.turned, rule.swept, rule.varied, rule.largest = runner.rule.tolist()
+        u, tau_ext = runner.motor_torque[k], runner.tau_ext.copy()
+        calls = rule.calls(k, x[4:7], x[7:], runner.torque_applied[k] + tau_ext)
+        runner.rule[:] = (rule.turned, rule.swept, rule.varied, rule.largest)
+        if calls > 1:  # the commands held over the tick, the plant in shorter steps
+            step = model.compiled_step(substeps)
+            x_next = np.array(x)
             for _ in range(calls):
                 x_next = np.array(step(x_next, u, tau_ext, dt / calls)).ravel()
             x_all[k + 1] = x_next
+            runner.h_body[k + 1] = [float(v) for v in model.body_momentum(list(x_next))]
         if not np.all(np.isfinite(x_all[k + 1])):
             _diverged(t[k + 1], x)
 
+    rule.turned, rule.swept, rule.varied, rule.largest = runner.rule.tolist()
+    rows = slice(0, n_ticks + 1)
+    x_all = x_all[rows].copy()
     orbit = None
     if flight.active:
         if flight.magnetorquers is not None:  # the last row, as the other commands: what would be held from t_end
@@ -827,9 +880,24 @@ def _run_python(
         packed[key] = arr
     for s in sensors:  # a sensor that never sampled (e.g. blinded) still gets its column
         packed.setdefault(f"sensor.{s.name}", np.full((n_ticks + 1, 0), np.nan))
-    if model.wheels is None:
-        u_all = np.zeros((n_ticks + 1, 0))
-    return _finish(model, t, x_all, tau_c_all, tau_a_all, u_all, err, est_q, est_w, packed, orbit)
+    u_all = runner.motor_torque[rows].copy() if model.wheels is not None else np.zeros((n_ticks + 1, 0))
+    if est_q is None:
+        est_q, est_w = x_all[:, :4].copy(), x_all[:, 4:7].copy()
+    result = _finish(
+        model,
+        t,
+        x_all,
+        tau_c_all[rows].copy(),
+        runner.torque_applied[rows].copy(),
+        u_all,
+        err,
+        est_q,
+        est_w,
+        packed,
+        orbit,
+    )
+    result.info["protocol_tick"] = "C" if runner.compiled else "casadi (no C compiler: " + str(tick.compile_error) + ")"
+    return result
 
 
 def _warn_over_budget(step_rule: dict[str, Any]) -> None:

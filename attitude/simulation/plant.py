@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import pickle
+import threading
 from typing import Any
 
 import casadi as ca
+import numpy as np
 from numpy.typing import NDArray
 
 from attitude import quaternion as quat
@@ -13,6 +16,12 @@ from attitude.integrators import normalize_quaternion_components, rk4_step
 from attitude.rigid_body import RigidBody, split_components
 
 __all__ = ["PlantModel"]
+
+#: Hold steps shared by plant models of the same body, wheels and step count in this process (building one
+#: costs some milliseconds, a good part of a compiled run): design loops and benchmarks fly one plant often.
+_SHARED_STEPS: dict[tuple, ca.Function] = {}
+_SHARED_STEPS_KEPT = 32
+_SHARED_STEPS_LOCK = threading.Lock()
 
 
 class PlantModel:
@@ -100,6 +109,12 @@ class PlantModel:
             :meth:`hold_step` on symbols, for the compiled engine paths.
         """
         if substeps not in self._steps:
+            key = self._step_key(substeps)
+            with _SHARED_STEPS_LOCK:
+                shared = None if key is None else _SHARED_STEPS.get(key)
+            if shared is not None:
+                self._steps[substeps] = shared
+                return shared
             n_u = self.n_w if self.wheels is not None else 3
             x = ca.SX.sym("x", self.n_x)
             u = ca.SX.sym("u", n_u)
@@ -109,7 +124,19 @@ class PlantModel:
                 split_components(x, self.n_x), split_components(u, n_u), split_components(tau, 3), dt, substeps
             )
             self._steps[substeps] = ca.Function("hold_step", [x, u, tau, dt], [ca.vertcat(*xn)])
+            if key is not None:
+                with _SHARED_STEPS_LOCK:
+                    _SHARED_STEPS[key] = self._steps[substeps]
+                    while len(_SHARED_STEPS) > _SHARED_STEPS_KEPT:
+                        del _SHARED_STEPS[next(iter(_SHARED_STEPS))]
         return self._steps[substeps]
+
+    def _step_key(self, substeps: int) -> tuple | None:
+        """What a hold step is built from (None for a symbolic body, which is not shared)."""
+        inertia = getattr(self.body, "inertia", None)
+        if not isinstance(inertia, np.ndarray):
+            return None
+        return (substeps, inertia.tobytes(), None if self.wheels is None else pickle.dumps(self.wheels))
 
     def command(self, tau_cmd: list, x: list) -> tuple[list, list]:
         """Motor (or body) torque and the applied body torque for a command.

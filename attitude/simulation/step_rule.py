@@ -11,11 +11,13 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from attitude import backend as bk
 from attitude.integrators import (
     MAX_RULE_SUBSTEPS,
     VARYING_RATE_WEIGHT,
@@ -29,7 +31,15 @@ from attitude.integrators import (
 )
 from attitude.simulation.plant import PlantModel
 
-__all__ = ["TickRule", "batch_broken", "batch_substeps", "history_substeps"]
+__all__ = [
+    "TickRule",
+    "batch_broken",
+    "batch_substeps",
+    "history_substeps",
+    "tick_advance",
+    "tick_projection",
+    "tick_rule_rates",
+]
 
 
 def _rule_rates(
@@ -104,10 +114,10 @@ class TickRule:
         if not (math.isfinite(rate) and math.isfinite(turn) and math.isfinite(excess)):
             return 1  # the engine reports the divergence
         left = self.n_ticks - k
-        angle = rate * self.dt
-        turned, swept = self.turned + angle * left, self.swept + turn * self.dt * left
-        # The varying-rate term of the ticks left at `calls` hold steps per tick (its h_s^4 falls with calls).
-        per_call = VARYING_RATE_WEIGHT * excess * self.dt * (self.dt / self.substeps) ** 4 * left
+        state = (self.turned, self.swept, self.varied, self.largest)
+        angle, turned, swept, per_call, error_one_call = tick_projection(
+            state, rate, turn, excess, left, self.dt, self.substeps
+        )
 
         def error_at(calls: int, past_theta: float, past_varied: float) -> float:
             theta_k = max(past_theta, angle / (calls * self.substeps))
@@ -115,7 +125,7 @@ class TickRule:
 
         calls = 1
         theta = angle / self.substeps
-        if error_at(1, self.largest, self.varied) > self.budget:
+        if error_one_call > self.budget:
             theta_s = (1920.0 * self.budget / ((1.0 + 2.0 * swept) * turned)) ** 0.25
             calls = max(1, math.ceil(theta / theta_s))
             # The smallest count (in 12 % rises) that meets the budget. Where the steps already taken, projected
@@ -152,42 +162,20 @@ class TickRule:
                     StepSizeWarning,
                     stacklevel=4,
                 )
-        self.turned += angle
-        self.swept += turn * self.dt
-        self.varied += per_call / left / calls**4
-        self.largest = max(self.largest, theta / calls)
+        self.turned, self.swept, self.varied, self.largest = tick_advance(
+            state, angle, turn, per_call / calls**4, left, self.dt, theta / calls
+        )
         self.most_calls = max(self.most_calls, calls)
         return calls
 
     def _rule_rates(
         self, omega: NDArray[np.float64], h: NDArray[np.float64], torque: Any
     ) -> tuple[float, float, float]:
-        """:func:`_rule_rates` of one state on floats (:func:`attitude.integrators.rule_rates`)."""
+        """:func:`_rule_rates` of one state on floats (:func:`tick_rule_rates`)."""
         w = [float(v) for v in omega]
-        m = [sum(a * b for a, b in zip(row, w)) for row in self._inertia]
-        if self._distribution is not None:
-            hs = [float(v) for v in h]
-            m = [mi + sum(a * b for a, b in zip(row, hs)) for mi, row in zip(m, self._distribution)]
-        c = [w[1] * m[2] - w[2] * m[1], w[2] * m[0] - w[0] * m[2], w[0] * m[1] - w[1] * m[0]]
-        accel = math.sqrt(sum(sum(a * b for a, b in zip(row, c)) ** 2 for row in self._inverse))
-        rate = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
-        turn = accel / rate if rate > 0.0 else 0.0
-        # The applied torque enters the varying-rate term through |omega'| = |I^-1 (tau - w x m)|, not Phi.
-        acceleration = accel
-        if torque is not None:
-            net = [float(v) - ci for v, ci in zip(torque, c)]
-            acceleration = math.sqrt(sum(sum(a * b for a, b in zip(row, net)) ** 2 for row in self._inverse))
-        # Jacobian of Euler's equations, I^-1 ([m]x - [w]x I), for its Frobenius norm.
-        skew_m = [[0.0, -m[2], m[1]], [m[2], 0.0, -m[0]], [-m[1], m[0], 0.0]]
-        skew_w = [[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]]
-        inertia = self._inertia
-        inner = [
-            [skew_m[i][j] - sum(skew_w[i][n] * inertia[n][j] for n in range(3)) for j in range(3)] for i in range(3)
-        ]
-        growth = math.sqrt(
-            sum(sum(self._inverse[i][n] * inner[n][j] for n in range(3)) ** 2 for i in range(3) for j in range(3))
-        )
-        return rate, turn, float(fifth_derivative_excess(rate, acceleration, growth))
+        hs = None if self._distribution is None else [float(v) for v in h]
+        tau = None if torque is None else [float(v) for v in torque]
+        return tick_rule_rates(self._inertia, self._inverse, self._distribution, w, hs, tau, sqrt=math.sqrt)
 
     def _rule(self, rate: float, k: int, turned: float, swept: float) -> str:
         error = _error(turned, swept, max(self.largest, rate * self.dt / self.substeps), self.varied)
@@ -207,6 +195,128 @@ class TickRule:
             "substeps_added": self.most_calls > 1,
             "most_substeps_per_tick": self.most_calls * self.substeps,
         }
+
+
+def tick_rule_rates(
+    inertia: Sequence[Sequence[Any]],
+    inverse: Sequence[Sequence[Any]],
+    distribution: Sequence[Sequence[Any]] | None,
+    omega: Sequence[Any],
+    h: Sequence[Any] | None,
+    torque: Sequence[Any] | None,
+    *,
+    sqrt: Callable[[Any], Any] = bk.sqrt,
+) -> tuple[Any, Any, Any]:
+    """:func:`attitude.integrators.rule_rates` of one tick on components: floats or casadi symbols.
+
+    The one definition :class:`TickRule` evaluates on floats and the compiled
+    tick of the protocol engine (:mod:`attitude.simulation.protocol_tick`) on
+    symbols.
+
+    Parameters
+    ----------
+    inertia, inverse : 3 x 3 nested sequences
+        Hub inertia [kg m^2] and its inverse [1/(kg m^2)] (numbers or symbols).
+    distribution : 3 x n nested sequence or None
+        Wheel spin axes as columns (None without wheels).
+    omega : sequence of 3
+        Body rate [rad/s].
+    h : sequence of n or None
+        Wheel momenta [N m s] (None without wheels).
+    torque : sequence of 3 or None
+        Body torque applied over the tick [N m]; None: torque-free.
+    sqrt : callable
+        Square root of the backend (``math.sqrt`` on floats is the fast one).
+
+    Returns
+    -------
+    rate, turn, excess
+        ``|omega|`` [rad/s], the gyroscopic turn rate [rad/s] and the
+        fifth-derivative excess [rad^5/s^5].
+    """
+    w = list(omega)
+    m = [sum(a * b for a, b in zip(row, w)) for row in inertia]
+    if distribution is not None and h is not None:
+        m = [mi + sum(a * b for a, b in zip(row, h)) for mi, row in zip(m, distribution)]
+    c = [w[1] * m[2] - w[2] * m[1], w[2] * m[0] - w[0] * m[2], w[0] * m[1] - w[1] * m[0]]
+    accel = sqrt(sum(sum(a * b for a, b in zip(row, c)) ** 2 for row in inverse))
+    rate = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
+    if bk.is_symbolic(rate):
+        turn = bk.if_else(rate > 0.0, accel / rate, 0.0 * rate)
+    else:
+        turn = accel / rate if rate > 0.0 else 0.0
+    # The applied torque enters the varying-rate term through |omega'| = |I^-1 (tau - w x m)|, not Phi.
+    acceleration = accel
+    if torque is not None:
+        net = [v - ci for v, ci in zip(torque, c)]
+        acceleration = sqrt(sum(sum(a * b for a, b in zip(row, net)) ** 2 for row in inverse))
+    # Jacobian of Euler's equations, I^-1 ([m]x - [w]x I), for its Frobenius norm.
+    skew_m = [[0.0, -m[2], m[1]], [m[2], 0.0, -m[0]], [-m[1], m[0], 0.0]]
+    skew_w = [[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]]
+    inner = [[skew_m[i][j] - sum(skew_w[i][n] * inertia[n][j] for n in range(3)) for j in range(3)] for i in range(3)]
+    growth = sqrt(sum(sum(inverse[i][n] * inner[n][j] for n in range(3)) ** 2 for i in range(3) for j in range(3)))
+    return rate, turn, fifth_derivative_excess(rate, acceleration, growth)
+
+
+def tick_projection(
+    state: Sequence[Any], rate: Any, turn: Any, excess: Any, left: Any, dt: Any, substeps: int
+) -> tuple[Any, Any, Any, Any, Any]:
+    """The rule's projection over the ticks left at one RK4 hold step per tick, on floats or symbols.
+
+    Parameters
+    ----------
+    state : sequence of 4
+        :class:`TickRule`'s running sums ``(turned, swept, varied, largest)`` [rad].
+    rate, turn, excess
+        :func:`tick_rule_rates` of the tick.
+    left : int or symbol
+        Ticks left in the run, this one included (>= 1).
+    dt : float or symbol
+        Tick [s].
+    substeps : int
+        RK4 steps per hold step.
+
+    Returns
+    -------
+    tuple
+        ``(angle, turned, swept, per_call, error)``: the tick's rotation
+        ``|omega| dt`` [rad], the projected ``Theta`` and ``Phi`` [rad], the
+        varying-rate term of the ticks left at one call [rad] and the predicted
+        error [rad] of the run if every tick left takes one call.
+    """
+    turned, swept, varied, largest = state
+    angle = rate * dt
+    turned_left, swept_left = turned + angle * left, swept + turn * dt * left
+    per_call = VARYING_RATE_WEIGHT * excess * dt * (dt / substeps) ** 4 * left
+    theta = angle / substeps
+    largest_now = bk.fmax(largest, theta) if bk.is_symbolic(theta) else max(largest, theta)
+    return angle, turned_left, swept_left, per_call, _error(turned_left, swept_left, largest_now, varied + per_call)
+
+
+def tick_advance(state: Sequence[Any], angle: Any, turn: Any, per_call: Any, left: Any, dt: Any, theta: Any) -> list:
+    """:class:`TickRule`'s running sums after a tick of one call (hold step) per tick, on floats or symbols.
+
+    Parameters
+    ----------
+    state : sequence of 4
+        ``(turned, swept, varied, largest)`` before the tick [rad].
+    angle, turn, per_call
+        From :func:`tick_projection`.
+    left : int or symbol
+        Ticks left, this one included.
+    dt : float or symbol
+        Tick [s].
+    theta : float or symbol
+        The tick's rotation per RK4 step [rad].
+
+    Returns
+    -------
+    list of 4
+        The sums after the tick.
+    """
+    turned, swept, varied, largest = state
+    largest_next = bk.fmax(largest, theta) if bk.is_symbolic(theta) else max(largest, theta)
+    return [turned + angle, swept + turn * dt, varied + per_call / left, largest_next]
 
 
 def _error(turned: float, swept: float, theta: float, varied: float = 0.0) -> float:
