@@ -335,10 +335,11 @@ class TestTorqueSaturationInClosedLoop:
     """The two modes fly the same saturated slew differently, whichever path flies it.
 
     Measured (python engine): the opening command [0.0635, 0.0420, -0.0162] N m (0.0778 N m) is
-    2.64 times what the wheels give along it. Scale applies 0.0295 N m along it (6e-15 deg off); clip applies
-    0.0369 N m, 13.1 deg off. The attitudes of the two modes then differ by up to 1.60 deg (at
-    14.7 s), the wheel speeds by up to 6.95 rad/s (66 rpm); both settle within 0.05 deg (86.6 s
-    scale, 85.7 s clip). The python and compiled engines agree to 4e-16 in q and 5e-14 rad/s.
+    2.64 times what the wheels give along it. Scale applies 0.0295 N m along it (6e-15 deg off);
+    clip applies 0.0369 N m, 13.1 deg off. The attitudes of the two modes then differ by up to
+    1.60 deg (at 14.7 s), the wheel speeds by up to 6.95 rad/s (66 rpm); both settle within
+    0.05 deg (86.6 s scale, 85.7 s clip). The python and compiled engines agree to 4e-16 in q and
+    5e-14 rad/s.
     """
 
     def test_scale_keeps_the_commanded_direction_and_clip_turns_it(self, flights):
@@ -368,7 +369,7 @@ class TestTorqueSaturationInClosedLoop:
 
     @pytest.mark.parametrize("backend", ["numpy", "compiled"])
     def test_the_vectorised_batch_flies_the_mode_it_is_given(self, flights, backend):
-        """Two runs of the batch (the slew and a slower start) against the single-run engine."""
+        """A batch of two runs of the slew (arrays of runs, not one) against the single-run engine."""
         for mode in ("scale", "clip"):
             wheels = pyramid(torque_saturation=mode)
             batch = simulate_batch(
@@ -379,7 +380,7 @@ class TestTorqueSaturationInClosedLoop:
             single = flights[mode, "python"]
             # The same component arithmetic in C or numpy instead of casadi's virtual machine:
             # rounding only, as the batch's own agreement test (tests/attitude/simulation/test_batch.py).
-            np.testing.assert_allclose(batch.q[0], single.q[-1], atol=1e-12)
+            np.testing.assert_allclose(batch.q, [single.q[-1], single.q[-1]], atol=1e-12)
             np.testing.assert_allclose(
                 batch.histories["wheel_speed"][0], single.wheel_speed[::10], rtol=1e-10, atol=1e-10
             )
