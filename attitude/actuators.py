@@ -35,11 +35,18 @@ from attitude import backend as bk
 from attitude.rigid_body import Components, RigidBody
 from attitude.validation import as_float_array, check_positive, check_vector, describe
 
-__all__ = ["MAGNETORQUER_SATURATION", "RANK_TOLERANCE", "Magnetorquers", "ReactionWheels"]
+__all__ = ["RANK_TOLERANCE", "SATURATION_MODES", "Magnetorquers", "ReactionWheels"]
 
 #: Smallest accepted singular value of the wheel axis matrix (relative to the
 #: largest): below it the wheels cannot produce torque about some axis.
 RANK_TOLERANCE = 1e-6
+
+#: How an actuator set keeps its commands within the per-actuator limits
+#: (:class:`ReactionWheels` ``torque_saturation``, :class:`Magnetorquers`
+#: ``saturation``): ``"scale"``, one common factor for all of them, so the
+#: body torque or dipole keeps its direction; ``"clip"``, each actuator at its
+#: own limit alone, so the direction may change.
+SATURATION_MODES = ("scale", "clip")
 
 
 def _per_wheel(
@@ -86,12 +93,23 @@ class ReactionWheels:
     bias_momentum : float or array_like (n,)
         Target wheel momenta [N m s] for the null-space management (only its
         null-space component matters).
+    torque_saturation : {"scale", "clip"}
+        How a command beyond a motor's ``torque_max`` is limited
+        (:meth:`allocate_components`). ``"scale"`` (the default): one common
+        factor brings every motor within its limit, so the body torque keeps
+        the commanded direction and loses only magnitude. ``"clip"``: each
+        motor torque is clipped at its own limit, as a wheel's drive
+        electronics do (and Basilisk's ``reactionWheelStateEffector``): the
+        motors within their limits keep their torque, so the body torque
+        turns away from the command. Either way a wheel at its speed limit
+        refuses torque that would spin it faster.
 
     Raises
     ------
     ValueError
         Negative or non-finite limits or friction, axes of rank below 3,
-        zero-length axes, or mismatched per-wheel lengths.
+        zero-length axes, mismatched per-wheel lengths, or a
+        ``torque_saturation`` not in :data:`SATURATION_MODES`.
     """
 
     def __init__(
@@ -106,7 +124,10 @@ class ReactionWheels:
         coulomb_smoothing_speed: float = 1.0,
         null_space_gain: float = 0.0,
         bias_momentum: ArrayLike = 0.0,
+        torque_saturation: str = "scale",
     ) -> None:
+        if torque_saturation not in SATURATION_MODES:
+            raise ValueError(f"torque_saturation must be one of {SATURATION_MODES}, got {torque_saturation!r}")
         axes = as_float_array(axes_B, "axes_B")
         if axes.ndim != 2 or axes.shape[1] != 3 or axes.shape[0] < 1:
             raise ValueError(f"axes_B must have shape (n_wheels, 3), got shape {axes.shape}")
@@ -134,6 +155,7 @@ class ReactionWheels:
         if bias.shape not in ((), (1,), (n,)):
             raise ValueError(f"bias_momentum must be a scalar or one value per wheel ({n}), got shape {bias.shape}")
         self.bias_momentum = np.broadcast_to(bias, (n,)).astype(float)
+        self.torque_saturation = torque_saturation
         self.distribution = axes.T.copy()  # A, 3 x n: body torque = -A u
         self.allocation = np.linalg.pinv(self.distribution)  # A^+, n x 3, minimum-norm
         self.null_projector = np.eye(n) - self.allocation @ self.distribution
@@ -163,7 +185,7 @@ class ReactionWheels:
             Largest wheel momentum relative to the body [N m s].
         **kw
             Further keyword arguments of :class:`ReactionWheels`
-            (friction, null-space management).
+            (friction, null-space management, torque saturation).
 
         Returns
         -------
@@ -207,7 +229,7 @@ class ReactionWheels:
             strictly between 0 and 90.
         **kw
             Further keyword arguments of :class:`ReactionWheels`
-            (friction, null-space management).
+            (friction, null-space management, torque saturation).
 
         Returns
         -------
@@ -228,8 +250,14 @@ class ReactionWheels:
         return cls(axes, spin_inertia=spin_inertia, torque_max=torque_max, momentum_max=momentum_max, **kw)
 
     def __repr__(self) -> str:
+        # Every parameter, floats exact (lists, not numpy's 8-digit print): a scenario's fingerprint
+        # names its wheels with this repr, so two wheel sets that fly differently must not share it.
         return (
-            f"ReactionWheels(n_wheels={self.n_wheels}, torque_max={self.torque_max}, momentum_max={self.momentum_max})"
+            f"ReactionWheels({self.axes_B.tolist()}, spin_inertia={self.spin_inertia.tolist()}, "
+            f"torque_max={self.torque_max.tolist()}, momentum_max={self.momentum_max.tolist()}, "
+            f"viscous_friction={self.viscous_friction.tolist()}, coulomb_friction={self.coulomb_friction.tolist()}, "
+            f"coulomb_smoothing_speed={self.coulomb_smoothing_speed!r}, null_space_gain={self.null_space_gain!r}, "
+            f"bias_momentum={self.bias_momentum.tolist()}, torque_saturation={self.torque_saturation!r})"
         )
 
     # -- plant coupling ---------------------------------------------------------
@@ -411,9 +439,12 @@ class ReactionWheels:
            the command is re-allocated to the other wheels (minimum norm with
            that wheel's torque zero) when they still span three dimensions,
            as in a four-wheel pyramid: the body torque keeps its direction.
-        3. One common scale factor keeps every wheel within its torque
-           limit, so the body torque keeps its direction and loses only
-           magnitude.
+        3. The torque limits, by :attr:`torque_saturation`: ``"scale"``, one
+           common factor ``1 / max(1, max_i |u_i| / u_max,i)`` keeps every
+           wheel within its limit, so the body torque keeps its direction and
+           loses only magnitude; ``"clip"``, each ``u_i`` clipped to
+           ``[-u_max,i, u_max,i]`` alone, so the wheels within their limits
+           keep their torque and the body torque may turn.
         4. Any wheel still at its speed limit refuses torque that would spin
            it faster (a motor driver at its back-EMF limit; this last cut can
            change the torque direction when no re-allocation was possible).
@@ -456,13 +487,16 @@ class ReactionWheels:
             )
             alternative = self._minimum_norm(self._allocation_without[i], torque_command)
             u = [blocked * a + (1.0 - blocked) * b for a, b in zip(alternative, u)]
-        # Common scale so that max_i |u_i| / u_max_i <= 1 (direction preserved).
-        ratio = None
-        for i in range(n):
-            r = bk.fabs(u[i]) / self.torque_max[i]
-            ratio = r if ratio is None else bk.fmax(ratio, r)
-        scale = 1.0 / bk.fmax(ratio, 1.0)
-        u = [ui * scale for ui in u]
+        if self.torque_saturation == "scale":
+            # Common scale so that max_i |u_i| / u_max_i <= 1 (direction preserved).
+            ratio = None
+            for i in range(n):
+                r = bk.fabs(u[i]) / self.torque_max[i]
+                ratio = r if ratio is None else bk.fmax(ratio, r)
+            scale = 1.0 / bk.fmax(ratio, 1.0)
+            u = [ui * scale for ui in u]
+        else:
+            u = [bk.clip(ui, -self.torque_max[i], self.torque_max[i]) for i, ui in enumerate(u)]
         out = []
         for i in range(n):
             over = bk.if_else(speed[i] >= limits[i], bk.fmin(u[i], 0.0), u[i])
@@ -531,8 +565,10 @@ class ReactionWheels:
     def torque_envelope(self) -> NDArray[np.float64]:
         """Largest body torque per body axis [N m] reachable within the wheel torque limits.
 
-        For axis ``e_k`` this is ``1 / max_i |(A^+ e_k)_i| / u_max_i``: the
-        direction-preserving allocation saturates exactly there.
+        For axis ``e_k`` this is ``1 / max_i |(A^+ e_k)_i| / u_max_i``: up to
+        there the allocation delivers the command unchanged (either
+        :attr:`torque_saturation`); beyond it ``"scale"`` holds the direction
+        at this magnitude and ``"clip"`` lets the direction turn.
 
         Returns
         -------
@@ -545,9 +581,6 @@ class ReactionWheels:
 
 # ---------------------------------------------------------------------------
 # Magnetorquers
-
-#: How :meth:`Magnetorquers.command_components` keeps the rods within their limits.
-MAGNETORQUER_SATURATION = ("scale", "clip")
 
 
 class Magnetorquers:
@@ -604,8 +637,8 @@ class Magnetorquers:
         lengths = np.linalg.norm(axes, axis=1)
         if np.any(lengths == 0):
             raise ValueError(f"axes_B must hold non-zero axes; rod {int(np.argmin(lengths))} has a zero axis")
-        if saturation not in MAGNETORQUER_SATURATION:
-            raise ValueError(f"saturation must be one of {MAGNETORQUER_SATURATION}, got {saturation!r}")
+        if saturation not in SATURATION_MODES:
+            raise ValueError(f"saturation must be one of {SATURATION_MODES}, got {saturation!r}")
         self.axes_B = axes / lengths[:, None]
         self.n_rods = self.axes_B.shape[0]
         self.dipole_max_Am2 = _per_wheel(dipole_max_Am2, self.n_rods, "dipole_max_Am2", item="rod")

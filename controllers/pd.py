@@ -366,8 +366,9 @@ class RateLimitedPD:
     axis, and it needs no latching.
 
     Actuator torque limits are left to the actuators; a direction-preserving
-    allocation (:class:`attitude.actuators.ReactionWheels`) keeps the torque
-    along ``J e(0)``. The torque peaks at the start of a rate-limited slew at
+    allocation (:class:`attitude.actuators.ReactionWheels` with
+    ``torque_saturation="scale"``, the default) keeps the torque along
+    ``J e(0)``. The torque peaks at the start of a rate-limited slew at
     ``c rate_max |J e(0)|/|e(0)|`` (without gyroscopic term).
 
     Parameters

@@ -95,7 +95,8 @@ def reaction_wheels(wheels: WheelsConfig) -> ReactionWheels:
     wheels : WheelsConfig
         Layout, spin inertia [kg m^2], torque limit [N m], momentum limit
         [N m s], friction [N m s/rad, N m], null-space gain [1/s], bias
-        momentum [N m s] (already SI) and pyramid elevation [deg].
+        momentum [N m s] (already SI), pyramid elevation [deg] and torque
+        saturation mode.
 
     Returns
     -------
@@ -106,6 +107,7 @@ def reaction_wheels(wheels: WheelsConfig) -> ReactionWheels:
         "coulomb_friction": np.array(wheels.coulomb_friction_Nm, dtype=np.float64),
         "null_space_gain": wheels.null_space_gain_per_s,
         "bias_momentum": np.array(wheels.bias_momentum_Nms, dtype=np.float64),
+        "torque_saturation": wheels.torque_saturation,
     }
     kw["spin_inertia"] = np.array(wheels.spin_inertia_kg_m2, dtype=np.float64)
     kw["torque_max"] = np.array(wheels.torque_max_Nm, dtype=np.float64)

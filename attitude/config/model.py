@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from attitude import quaternion as quat
-from attitude.actuators import MAGNETORQUER_SATURATION, ReactionWheels
+from attitude.actuators import ReactionWheels
 from attitude.environment.epoch import DEFAULT_EPOCH
 from attitude.environment.surface import DEFAULT_DRAG_COEFFICIENT
 from attitude.sensors import ARCSEC, STAR_TRACKER_PRESETS
@@ -39,7 +39,6 @@ __all__ = [
     "ORBIT_KEYS",
     "ORBIT_KINDS",
     "PYRAMID_ELEVATION_DEG",
-    "SATURATION_MODES",
     "WHEEL_LAYOUTS",
     "CoarseSunSensorsConfig",
     "ControlConfig",
@@ -154,6 +153,9 @@ class WheelsConfig:
     bias_momentum_Nms : float or tuple of float, optional
         Target wheel momenta of the null-space management (one value, or per wheel) [N m s] (key
         ``wheels.bias_momentum_Nms``).
+    torque_saturation : str, optional
+        'scale' (one factor keeps the body torque's direction) or 'clip' (each motor at its own limit)
+        (key ``wheels.torque_saturation``; :data:`attitude.actuators.SATURATION_MODES`).
     """
 
     layout: str
@@ -167,6 +169,7 @@ class WheelsConfig:
     coulomb_friction_Nm: PerWheel = 0.0
     null_space_gain_per_s: float = 0.0
     bias_momentum_Nms: PerWheel = 0.0
+    torque_saturation: str = "scale"
 
 
 #: The datasheet figures of ``[gyro]`` (keywords of :meth:`attitude.sensors.Gyro.from_datasheet`, in file units).
@@ -354,8 +357,6 @@ MAGNETIC_FIELD_MODELS = ("igrf", "dipole", "none")
 ATMOSPHERE_MODELS = ("exponential", "nrlmsis", "none")
 #: ``environment.eclipse`` models.
 ECLIPSE_MODELS = ("conical", "cylindrical", "none")
-#: ``magnetorquers.saturation`` modes (:data:`attitude.actuators.MAGNETORQUER_SATURATION`).
-SATURATION_MODES = MAGNETORQUER_SATURATION
 #: ``orbit.epoch_utc`` when the file leaves it out: :data:`attitude.environment.epoch.DEFAULT_EPOCH` in ISO 8601.
 DEFAULT_EPOCH_UTC = DEFAULT_EPOCH.utc.strftime("%Y-%m-%dT%H:%M:%SZ")
 #: NRLMSIS space weather when the file leaves it out: mean solar activity (F10.7 = 150 sfu) and a quiet
@@ -585,7 +586,7 @@ class MagnetorquersConfig:
     axes_B : tuple of tuple of float or None, optional
         Rod axes in body axes (key ``magnetorquers.axes_B``); None: the body axes.
     saturation : str, optional
-        'scale' or 'clip' (key ``magnetorquers.saturation``).
+        'scale' or 'clip' (key ``magnetorquers.saturation``; :data:`attitude.actuators.SATURATION_MODES`).
     """
 
     dipole_max_Am2: PerWheel

@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from attitude.actuators import SATURATION_MODES
 from attitude.config import build
 from attitude.config.model import (
     ATMOSPHERE_MODELS,
@@ -36,7 +37,6 @@ from attitude.config.model import (
     ORBIT_KEYS,
     ORBIT_KINDS,
     PYRAMID_ELEVATION_DEG,
-    SATURATION_MODES,
     WHEEL_LAYOUTS,
     CoarseSunSensorsConfig,
     ControlConfig,
@@ -389,11 +389,19 @@ def _read_wheels(r: _Reader, t: _Table) -> WheelsConfig:
         bias_momentum_Nms=t.get(
             "bias_momentum_Nms", lambda v, k: r.scalar_or_list(v, k, n, "wheel"), required=False, default=0.0
         ),
+        torque_saturation=_read_saturation(r, t, "torque_saturation"),
     )
     _positive(r, t.key("null_space_gain_per_s"), config.null_space_gain_per_s, allow_zero=True, unit="1/s")
     key = t.key("axes_B") if layout == "custom" else t.key("layout")
     _try_build(r, key, lambda: build.reaction_wheels(config))
     return config
+
+
+def _read_saturation(r: _Reader, t: _Table, name: str) -> str:
+    """A saturation mode (:data:`attitude.actuators.SATURATION_MODES`), 'scale' when left out."""
+    return t.get(
+        name, lambda v, k: r.string(v, k, SATURATION_MODES, "saturation mode"), required=False, default="scale"
+    )
 
 
 def _read_preset(r: _Reader, t: _Table, presets: Mapping[str, Any], what: str) -> str | None:
@@ -874,9 +882,7 @@ def _read_magnetorquers(r: _Reader, t: _Table) -> MagnetorquersConfig:
     _positive(r, t.key("dipole_max_Am2"), dipole, unit="A m^2")
     quantum = t.get("quantum_Am2", lambda v, k: r.scalar_or_list(v, k, n, "rod"), required=False)
     _positive(r, t.key("quantum_Am2"), quantum, unit="A m^2")
-    saturation = t.get(
-        "saturation", lambda v, k: r.string(v, k, SATURATION_MODES, "saturation mode"), required=False, default="scale"
-    )
+    saturation = _read_saturation(r, t, "saturation")
     config = MagnetorquersConfig(dipole_max_Am2=dipole, quantum_Am2=quantum, axes_B=axes, saturation=saturation)
     _try_build(r, t.path, lambda: build.magnetorquers(config))
     return config

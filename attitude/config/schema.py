@@ -64,6 +64,10 @@ CONFIG_KEYS: dict[str, tuple[str, str]] = {
         "N m s",
         "target wheel momenta of the null-space management (one value, or per wheel)",
     ),
+    "wheels.torque_saturation": (
+        "",
+        "'scale' (one factor keeps the body torque's direction) or 'clip' (each motor at its own limit alone)",
+    ),
     # gyro
     "gyro": ("", "rate gyro (Farrenkopf model)"),
     "gyro.preset": ("", "gyro grade: " + ", ".join(repr(k) for k in GYRO_PRESETS) + "; figures below override it"),

@@ -104,6 +104,7 @@ def config_to_toml(config: SpacecraftConfig) -> str:
         "coulomb_friction_Nm",
         "null_space_gain_per_s",
         "bias_momentum_Nms",
+        "torque_saturation",
     ):
         w.key("wheels", name, getattr(wc, name))
 

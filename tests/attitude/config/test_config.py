@@ -256,6 +256,22 @@ def test_variant_round_trips_and_builds():
     assert parse_config(config_to_toml(config), "again.toml") == config
 
 
+def test_wheel_torque_saturation_is_read_built_and_written_back():
+    """``wheels.torque_saturation``: 'scale' when left out (the results of before), 'clip' kept by a round trip."""
+    assert default_config().wheels_config.torque_saturation == "scale"
+    assert assembly.reaction_wheels(default_config()).torque_saturation == "scale"
+    text = DEFAULT_TEXT.replace(
+        "\nmomentum_max_Nms = 0.050", '\ntorque_saturation = "clip"\nmomentum_max_Nms = 0.050', 1
+    )
+    config = parse_config(text, "clip.toml")
+    assert config.wheels_config.torque_saturation == "clip"
+    assert assembly.reaction_wheels(config).torque_saturation == "clip"
+    written = config_to_toml(config)
+    assert re.search(r'^torque_saturation = "clip"  # ', written, re.M)
+    again = parse_config(written, "again.toml")
+    assert again == config and again.wheels_config.torque_saturation == "clip"
+
+
 def test_slew_axis_angle_is_a_body_rotation():
     """``q_target = q_start ⊗ q(axis_B, angle)``: the body axis stays fixed in inertial space."""
     data = copy.deepcopy(DEFAULT_DATA)
@@ -445,6 +461,18 @@ BAD = [
         _replace('layout = "pyramid"', 'layout = "pyramidal"'),
         "wheels.layout",
         "did you mean 'pyramid'?",
+    ),
+    (
+        "unknown wheel torque saturation",
+        _replace("\nmomentum_max_Nms = 0.050", '\ntorque_saturation = "clamp"\nmomentum_max_Nms = 0.050'),
+        "wheels.torque_saturation",
+        "unknown saturation mode 'clamp'; did you mean 'clip'? Valid: 'scale', 'clip'",
+    ),
+    (
+        "wheel torque saturation not a string",
+        _replace("\nmomentum_max_Nms = 0.050", "\ntorque_saturation = 1\nmomentum_max_Nms = 0.050"),
+        "wheels.torque_saturation",
+        "expected a string (one of 'scale', 'clip'), got the integer 1",
     ),
     (
         "rank-deficient wheel axes",
