@@ -556,13 +556,13 @@ def _flown_rates(
     rate, turn, excess : ndarray, shape batch + (n - 1,)
         [rad/s], [rad/s], [rad^5/s^5].
     """
-    if kind == "callable":
-        ends = rule_rates(sampled_body, omega)
+    if kind != "grid":
+        # Every sample under the same torque (none counted for a callable): each is evaluated once, as the end
+        # of one interval and the start of the next.
+        ends = rule_rates(sampled_body, omega, torque=None if kind == "callable" else np.asarray(tq)[..., None, :])
         flown = [np.maximum(value[..., :-1], value[..., 1:]) for value in ends]
     else:
-        held = tq if kind == "const" else np.moveaxis(tq[:-1], 0, -2)  # interval k flies under tq[k]
-        if kind == "const":
-            held = np.asarray(held)[..., None, :]
+        held = np.moveaxis(tq[:-1], 0, -2)  # interval k flies under tq[k]
         starts = rule_rates(sampled_body, omega[..., :-1, :], torque=held)
         stops = rule_rates(sampled_body, omega[..., 1:, :], torque=held)
         flown = [np.maximum(a, b) for a, b in zip(starts, stops)]
