@@ -4,8 +4,8 @@ The models (rigid body, wheels, built-in control laws) are written once on
 lists of components and evaluate on numpy arrays (batched simulation) and on
 casadi symbols (exact Jacobians, optimisation, compiled closed loops). Plain
 ``+ - * / **`` work on both; the few functions below dispatch on the type of
-their argument so that saturation, square roots and smooth signs have one
-definition too.
+their argument so that saturation, square roots, smooth signs and the sine
+and cosine of the quaternion exponential have one definition too.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ import numpy as np
 __all__ = [
     "atan2",
     "clip",
+    "cos",
     "cross",
     "fabs",
     "floor",
@@ -26,6 +27,7 @@ __all__ = [
     "if_else",
     "is_finite",
     "is_symbolic",
+    "sin",
     "sqrt",
     "tanh",
 ]
@@ -63,6 +65,38 @@ def sqrt(x: Any) -> Any:
         ``sqrt(x)``, casadi if ``x`` is symbolic.
     """
     return ca.sqrt(x) if is_symbolic(x) else np.sqrt(x)
+
+
+def sin(x: Any) -> Any:
+    """Sine.
+
+    Parameters
+    ----------
+    x : numpy array_like or casadi SX/MX/DM
+        Angle [rad].
+
+    Returns
+    -------
+    ndarray or casadi object
+        ``sin(x)``, casadi if ``x`` is symbolic.
+    """
+    return ca.sin(x) if is_symbolic(x) else np.sin(x)
+
+
+def cos(x: Any) -> Any:
+    """Cosine.
+
+    Parameters
+    ----------
+    x : numpy array_like or casadi SX/MX/DM
+        Angle [rad].
+
+    Returns
+    -------
+    ndarray or casadi object
+        ``cos(x)``, casadi if ``x`` is symbolic.
+    """
+    return ca.cos(x) if is_symbolic(x) else np.cos(x)
 
 
 def tanh(x: Any) -> Any:

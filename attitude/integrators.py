@@ -11,7 +11,9 @@ Three integrators serve three purposes:
 * :func:`rkmk4_step`: a Runge-Kutta-Munthe-Kaas step of order 4 on the Lie
   group SU(2) x R^3. The attitude moves only by multiplication with the
   quaternion exponential of an increment, so ``|q| = 1`` is kept to rounding
-  error with no renormalisation.
+  error with no renormalisation. Written on components with the functions
+  of :mod:`attitude.backend` as RK4 is, so the same step runs on batched
+  numpy arrays and compiled in casadi (:func:`casadi_rkmk4_step`).
 * the adaptive reference, scipy ``solve_ivp`` with DOP853, lives in
   :mod:`attitude.propagate`.
 """
@@ -39,6 +41,7 @@ __all__ = [
     "StepSizeWarning",
     "attitude_error_text",
     "casadi_rk4_step",
+    "casadi_rkmk4_step",
     "check_error_budget",
     "fifth_derivative_excess",
     "gyroscopic_turn_rate",
@@ -118,36 +121,39 @@ def _dexpinv(theta: Components, omega: Components) -> Components:
 
 def rkmk4_step(
     body: RigidBody,
-    torque: Callable[[Any, Components, Components], Components],
+    torque: Callable[[Any, Components, Components], Components | None],
     t: Any,
     q: Components,
     omega: Components,
-    dt: float,
+    dt: Any,
 ) -> tuple[Components, Components]:
-    """One Runge-Kutta-Munthe-Kaas step of order 4 (numpy components).
+    """One Runge-Kutta-Munthe-Kaas step of order 4 on components (numpy arrays or casadi scalars).
 
     The attitude is advanced as ``q ⊗ exp(theta/2)`` where the rotation
     vector ``theta`` is integrated in the Lie algebra with the classical RK4
     tableau, so ``|q|`` is preserved to rounding error without renormalising.
+    Only ``+ - * /`` and :mod:`attitude.backend` functions: the one definition
+    of the step for the batched numpy path and the compiled one
+    (:func:`casadi_rkmk4_step`).
 
     Parameters
     ----------
     body : RigidBody
         The plant (Euler's equations).
     torque : callable
-        ``torque(t, q, omega) -> tau`` on component lists [N m].
-    t : float
+        ``torque(t, q, omega) -> tau`` on component lists [N m] (None for torque-free).
+    t : float or casadi scalar
         Time at the start of the step [s].
-    q, omega : list of arrays
+    q, omega : list of numpy arrays or casadi scalars
         Attitude quaternion ``q_BN`` (4) and body rate ``omega_BN_B`` (3)
         [rad/s] components.
-    dt : float
+    dt : float or casadi scalar
         Step size [s].
 
     Returns
     -------
-    q, omega : lists of arrays
-        Quaternion (4) and body rate (3) [rad/s] components after the step.
+    q, omega : lists
+        Quaternion (4) and body rate (3) [rad/s] components after the step, same backend as ``q``.
     """
     zero = [0.0 * omega[0]] * 3
     stages = ((0.0, None, 0.0), (0.5, 0, 0.5), (0.5, 1, 0.5), (1.0, 2, 1.0))
@@ -163,9 +169,12 @@ def rkmk4_step(
         tau = torque(t + c * dt, q_stage, w_stage)
         ks.append(_dexpinv(theta, w_stage))
         ls.append(body.omega_dot_components(w_stage, tau))
-    b = (1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0)
-    theta = [dt * sum(bi * k[i] for bi, k in zip(b, ks)) for i in range(3)]
-    omega_new = [omega[i] + dt * sum(bi * lv[i] for bi, lv in zip(b, ls)) for i in range(3)]
+    # The weights combined as rk4_step combines them. Not as sum(b_i * l_i): casadi folds a constant times a
+    # constant-scaled node (b_i * (c * y) -> (b_i c) * y, as Euler's equations of a diagonal inertia give),
+    # which rounds differently from numpy; here no constant multiplies such a node on either backend.
+    sixth = dt / 6.0
+    theta = [sixth * (a + 2.0 * (b + c) + d) for a, b, c, d in zip(*ks)]
+    omega_new = [w + sixth * (a + 2.0 * (b + c) + d) for w, a, b, c, d in zip(omega, *ls)]
     q_new = quaternion_multiply_components(q, exp_rotation_vector_components(theta))
     return q_new, omega_new
 
@@ -196,8 +205,43 @@ def casadi_rk4_step(body: RigidBody, substeps: int = 1) -> ca.Function:
     ValueError
         If ``body`` is a batch of inertias.
     """
+    return _casadi_step(body, "rk4", substeps)
+
+
+def casadi_rkmk4_step(body: RigidBody, substeps: int = 1) -> ca.Function:
+    """The RKMK4 step (:func:`rkmk4_step`, no renormalisation) as a casadi ``SX`` Function.
+
+    ``step(x[7], tau[3], dt) -> x_next[7]`` advances ``[q, omega]`` by ``dt``
+    [s] under a torque ``tau`` [N m] held constant over the step: the same
+    arithmetic as the numpy evaluation of :func:`rkmk4_step`, so
+    ``step.mapaccum(n)`` runs a geometric trajectory in compiled code.
+
+    Parameters
+    ----------
+    body : RigidBody
+        A single (not batched) body.
+    substeps : int
+        Equal RKMK4 sub-steps taken inside one call.
+
+    Returns
+    -------
+    casadi.Function
+        ``step(x[7], tau[3], dt) -> x_next[7]`` with
+        ``x = [q_BN (4), omega_BN_B (3) [rad/s]]``, ``tau`` [N m] and ``dt`` [s].
+
+    Raises
+    ------
+    ValueError
+        If ``body`` is a batch of inertias.
+    """
+    return _casadi_step(body, "geometric", substeps)
+
+
+def _casadi_step(body: RigidBody, method: str, substeps: int) -> ca.Function:
+    """``step(x[7], tau[3], dt) -> x_next[7]``: RK4 (renormalised) or RKMK4, ``substeps`` steps of ``dt / substeps``."""
+    name = {"rk4": "rk4_step", "geometric": "rkmk4_step"}[method]
     if body.batch_shape:
-        raise ValueError("casadi_rk4_step needs a single body, not a batch of inertias")
+        raise ValueError(f"casadi_{name} needs a single body, not a batch of inertias")
     x = ca.SX.sym("x", 7)
     tau = ca.SX.sym("tau", 3)
     dt = ca.SX.sym("dt")
@@ -209,8 +253,12 @@ def casadi_rk4_step(body: RigidBody, substeps: int = 1) -> ca.Function:
 
     xc = split_components(x, 7)
     for _ in range(substeps):
-        xc = normalize_quaternion_components(rk4_step(derivative, 0.0, xc, h))
-    return ca.Function("rk4_step", [x, tau, dt], [ca.vertcat(*xc)], ["x", "tau", "dt"], ["x_next"])
+        if method == "rk4":
+            xc = normalize_quaternion_components(rk4_step(derivative, 0.0, xc, h))
+        else:
+            q, w = rkmk4_step(body, lambda _t, _q, _w: tau_c, 0.0, xc[:4], xc[4:], h)
+            xc = [*q, *w]
+    return ca.Function(name, [x, tau, dt], [ca.vertcat(*xc)], ["x", "tau", "dt"], ["x_next"])
 
 
 # -- The step-size rule of the fixed-step methods (docs/rk4_step_rule.md) -----

@@ -5,15 +5,19 @@ Three methods, one set of equations (:mod:`attitude.rigid_body`):
 ========== ================================================================
 method     what it is for
 ========== ================================================================
-"rk4"      fixed-step RK4 with quaternion renormalisation; a single body
-           with a constant or sampled torque runs entirely in compiled casadi
-           code (``Function.mapaccum``), a batch runs one vectorised numpy
-           step for all bodies
+"rk4"      fixed-step RK4 with quaternion renormalisation
 "geometric" fixed-step RKMK4 (order 4), ``|q| = 1`` to rounding error with
            no renormalisation
 "adaptive" scipy ``solve_ivp`` (DOP853) with ``rtol``/``atol``: the accuracy
            reference
 ========== ================================================================
+
+Both fixed-step methods run a single body with a constant or sampled torque
+entirely in compiled casadi code (``Function.mapaccum`` of
+:func:`attitude.integrators.casadi_rk4_step` or
+:func:`attitude.integrators.casadi_rkmk4_step`), and a batch (or a callable
+torque) as one vectorised numpy step for all bodies: the same step
+definition, evaluated by the two backends.
 
 Torque may be None (torque-free), a constant ``(3,)`` or ``batch + (3,)``,
 an array on the time grid ``(len(t),) + batch + (3,)`` held constant over
@@ -45,6 +49,7 @@ from attitude.integrators import (
     StepSizeWarning,
     attitude_error_text,
     casadi_rk4_step,
+    casadi_rkmk4_step,
     check_error_budget,
     normalize_quaternion_components,
     predicted_attitude_error,
@@ -467,8 +472,8 @@ def _propagate_fixed(
     sampled_body = body if not body.batch_shape else RigidBody(body.inertia[..., None, :, :])
     met = True
     for passes in range(1, RULE_PASSES + 1):
-        if method == "rk4" and not batch and kind != "callable":
-            q, omega, info, peaks = _propagate_rk4_casadi(body, q0, omega0, t, kind, tq, subs)
+        if not batch and kind != "callable":
+            q, omega, info, peaks = _propagate_casadi(body, q0, omega0, t, kind, tq, subs, method)
         else:
             # A diverging run overflows; _check_finite reports it as an error.
             with np.errstate(over="ignore", invalid="ignore"):
@@ -551,13 +556,13 @@ def _flown_rates(
     rate, turn, excess : ndarray, shape batch + (n - 1,)
         [rad/s], [rad/s], [rad^5/s^5].
     """
-    if kind == "callable":
-        ends = rule_rates(sampled_body, omega)
+    if kind != "grid":
+        # Every sample under the same torque (none counted for a callable): each is evaluated once, as the end
+        # of one interval and the start of the next.
+        ends = rule_rates(sampled_body, omega, torque=None if kind == "callable" else np.asarray(tq)[..., None, :])
         flown = [np.maximum(value[..., :-1], value[..., 1:]) for value in ends]
     else:
-        held = tq if kind == "const" else np.moveaxis(tq[:-1], 0, -2)  # interval k flies under tq[k]
-        if kind == "const":
-            held = np.asarray(held)[..., None, :]
+        held = np.moveaxis(tq[:-1], 0, -2)  # interval k flies under tq[k]
         starts = rule_rates(sampled_body, omega[..., :-1, :], torque=held)
         stops = rule_rates(sampled_body, omega[..., 1:, :], torque=held)
         flown = [np.maximum(a, b) for a, b in zip(starts, stops)]
@@ -726,19 +731,23 @@ def _call_torque(
 
 
 # Steps per compiled casadi call for a single body. The accumulated map is
-# built once per body and reused; the last call is padded with dt = 0 steps,
-# which leave the state unchanged.
+# built once per body and method and reused; the last call is padded with
+# dt = 0 steps, which leave the state unchanged (an RKMK4 step of dt = 0
+# multiplies by exp(0) = [1, 0, 0, 0] exactly).
 CASADI_CHUNK = 1024
-_CASADI_CACHE: weakref.WeakKeyDictionary[RigidBody, ca.Function] = weakref.WeakKeyDictionary()
+_CASADI_CACHE: weakref.WeakKeyDictionary[RigidBody, dict[str, ca.Function]] = weakref.WeakKeyDictionary()
+_CASADI_STEPS = {"rk4": casadi_rk4_step, "geometric": casadi_rkmk4_step}
 
 
-def _casadi_rk4_chunk(body: RigidBody) -> ca.Function:
-    """Cached ``casadi_rk4_step(body).mapaccum(CASADI_CHUNK)`` for a single body.
+def _casadi_chunk(body: RigidBody, method: str) -> ca.Function:
+    """Cached ``step(body).mapaccum(CASADI_CHUNK)`` of a fixed-step method for a single body.
 
     Parameters
     ----------
     body : RigidBody
         A single (not batched) body; the cache holds it weakly.
+    method : {"rk4", "geometric"}
+        :func:`attitude.integrators.casadi_rk4_step` or :func:`attitude.integrators.casadi_rkmk4_step`.
 
     Returns
     -------
@@ -746,14 +755,13 @@ def _casadi_rk4_chunk(body: RigidBody) -> ca.Function:
         ``(x[7], tau[3 x CASADI_CHUNK], dt[1 x CASADI_CHUNK]) -> x[7 x CASADI_CHUNK]``
         (the states after each step; ``tau`` [N m], ``dt`` [s]).
     """
-    fun = _CASADI_CACHE.get(body)
-    if fun is None:
-        fun = casadi_rk4_step(body).mapaccum(CASADI_CHUNK)
-        _CASADI_CACHE[body] = fun
-    return fun
+    funs = _CASADI_CACHE.setdefault(body, {})
+    if method not in funs:
+        funs[method] = _CASADI_STEPS[method](body).mapaccum(CASADI_CHUNK)
+    return funs[method]
 
 
-def _propagate_rk4_casadi(
+def _propagate_casadi(
     body: RigidBody,
     q0: NDArray[np.float64],
     omega0: NDArray[np.float64],
@@ -761,8 +769,9 @@ def _propagate_rk4_casadi(
     kind: str,
     tq: NDArray[np.float64],
     subs: NDArray[np.int64],
+    method: str,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any]]:
-    """Fixed-step RK4 of a single body in compiled casadi code (``mapaccum``).
+    """Fixed-step RK4 or RKMK4 of a single body in compiled casadi code (``mapaccum``).
 
     Parameters
     ----------
@@ -780,6 +789,8 @@ def _propagate_rk4_casadi(
         Constant torque, or torque on the time grid held over each interval [N m].
     subs : ndarray of int, shape (n - 1,)
         Equal steps per output interval.
+    method : {"rk4", "geometric"}
+        RK4 with renormalisation, or RKMK4.
 
     Returns
     -------
@@ -799,7 +810,7 @@ def _propagate_rk4_casadi(
     else:
         tau_fine = np.concatenate([np.repeat(tq[:-1], subs, axis=0), np.zeros((n_pad, 3))])
     tau_fine = np.ascontiguousarray(tau_fine.T)
-    chunk = _casadi_rk4_chunk(body)
+    chunk = _casadi_chunk(body, method)
     xs = np.empty((7, n_fine + n_pad))
     x = np.concatenate([q0, omega0])
     for lo in range(0, n_fine + n_pad, CASADI_CHUNK):

@@ -133,25 +133,29 @@ _EXP_SERIES_HALF_ANGLE = 1e-4
 
 
 def exp_rotation_vector_components(phi: list, half_angle: Any = None) -> list:
-    """Unit quaternion ``[cos(|phi|/2), sin(|phi|/2) phi/|phi|]`` of a rotation vector [rad] (numpy).
+    """Unit quaternion ``[cos(|phi|/2), sin(|phi|/2) phi/|phi|]`` of a rotation vector [rad].
 
-    A series replaces ``sin(h)/h`` for half-angles ``h < 1e-4`` rad
-    (``1 - h^2/6``; the omitted ``h^4/120`` is below 1e-18), so ``phi = 0`` is
-    exact. ``half_angle`` (``|phi|/2``) may be given when already known (e.g.
-    from a scale-safe norm).
+    Backend-neutral (:mod:`attitude.backend`): numpy arrays, Python floats or
+    casadi symbols, the same arithmetic on each (the compiled geometric
+    propagation evaluates it in casadi). A series replaces ``sin(h)/h`` for
+    half-angles ``h < 1e-4`` rad (``1 - h^2/6``; the omitted ``h^4/120`` is
+    below 1e-18), so ``phi = 0`` is exact. ``half_angle`` (``|phi|/2``) may be
+    given when already known (e.g. from a scale-safe norm).
     """
     if half_angle is None:
-        half = 0.5 * (phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2]) ** 0.5
+        squared = phi[0] * phi[0] + phi[1] * phi[1] + phi[2] * phi[2]
+        # numpy evaluates an array's ** 0.5 as sqrt; casadi would keep it a pow: sqrt on both.
+        half = 0.5 * (squared**0.5 if type(squared) is float else bk.sqrt(squared))
     else:
         half = half_angle
     if type(half) is float:  # one rotation in Python floats (not numpy scalars): math, no per-call overhead
         sinc = 1.0 - half * half / 6.0 if half < _EXP_SERIES_HALF_ANGLE else math.sin(half) / half
         return [math.cos(half), 0.5 * sinc * phi[0], 0.5 * sinc * phi[1], 0.5 * sinc * phi[2]]
     small = half < _EXP_SERIES_HALF_ANGLE
-    tiny = np.where(small, half, 0.0)  # keeps the unused series branch finite for huge angles
-    sinc = np.where(small, 1.0 - tiny * tiny / 6.0, np.sin(half) / np.where(small, 1.0, half))
+    tiny = bk.if_else(small, half, 0.0)  # keeps the unused series branch finite for huge angles
+    sinc = bk.if_else(small, 1.0 - tiny * tiny / 6.0, bk.sin(half) / bk.if_else(small, 1.0, half))
     s = 0.5 * sinc
-    return [np.cos(half), s * phi[0], s * phi[1], s * phi[2]]
+    return [bk.cos(half), s * phi[0], s * phi[1], s * phi[2]]
 
 
 def log_vector_components(q: list) -> list:

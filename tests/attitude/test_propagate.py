@@ -12,15 +12,20 @@ What each group checks against:
   rtol 1e-13 as the accuracy reference.
 * Batches: a batch equals the single propagations (casadi per body vs vectorised numpy, rounding
   only), across chunk boundaries, dispersed inertias and two batch dimensions.
+* The compiled geometric path (one body, casadi ``mapaccum``) against RKMK4 as the numpy
+  implementation wrote it before it was compiled, re-written here in plain Python floats: the
+  torque-free case of Basilisk's benchmark over 600 s, rounding only.
 * Invariants: the geometric integrator keeps ``|q| = 1`` to rounding without renormalisation (a
-  product of unit quaternions), and the reported drift of the torque-free invariants (rotational
-  kinetic energy and the inertial angular momentum, conserved by Euler's equations).
+  product of unit quaternions), batched in numpy and compiled for one body, and the reported drift
+  of the torque-free invariants (rotational kinetic energy and the inertial angular momentum,
+  conserved by Euler's equations).
 * Results: save/load round trip bit for bit, the figure's panels.
 * Bad input (also as hypothesis properties): errors name the argument, the rule and the value
   (DESIGN.md); a step far outside RK4's stability region and a non-finite torque raise instead of
   returning NaN.
 """
 
+import math
 import re
 
 import numpy as np
@@ -54,8 +59,8 @@ class TestTorqueInputs:
         const = propagate(BODY, Q0, W0, self.t, tau, method=method)
         grid = propagate(BODY, Q0, W0, self.t, np.tile(tau, (self.t.size, 1)), method=method)
         call = propagate(BODY, Q0, W0, self.t, lambda t, q, w: tau, method=method)
-        # rk4: casadi (const, grid) vs numpy (callable) evaluate the same
-        # arithmetic, so agreement is to rounding; adaptive takes different
+        # rk4, geometric: casadi (const, grid) vs numpy (callable) evaluate the
+        # same arithmetic, so agreement is to rounding; adaptive takes different
         # steps per call pattern, so it agrees to its tolerance (rtol 1e-10).
         tol = 1e-8 if method == "adaptive" else 1e-12
         np.testing.assert_allclose(grid.omega, const.omega, atol=tol)
@@ -101,8 +106,8 @@ class TestBatches:
         assert batch.q.shape == (7, 101, 4)
         for i in range(7):
             single = propagate(BODY, q0[i], w0[i], self.t, tau[i], method=method, **off)
-            # For rk4 the single body runs in casadi and the batch in numpy:
-            # same arithmetic, different evaluators, rounding-level agreement.
+            # The single body runs in casadi and the batch in numpy (in the principal frame):
+            # same step definition, different evaluators, rounding-level agreement.
             np.testing.assert_allclose(batch.q[i], single.q, rtol=0, atol=1e-12)
             np.testing.assert_allclose(batch.omega[i], single.omega, rtol=0, atol=1e-12)
 
@@ -164,6 +169,77 @@ class TestGeometricIntegrator:
         # truncation error, orders of magnitude above rounding.
         rk4_raw = np.linalg.norm(_raw_rk4_quaternion(q0[0], w0, 0.1, 2000), axis=-1)
         assert np.max(np.abs(rk4_raw - 1.0)) > 1e-10
+
+    def test_one_body_runs_compiled_and_keeps_the_norm(self):
+        # One body takes the compiled path (casadi mapaccum of casadi_rkmk4_step): the same tumble and bound as the
+        # batch above, since the compiled step multiplies unit quaternions too (measured at most 5.7e-15 here).
+        t = np.linspace(0.0, 200.0, 2001)
+        w0 = np.array([0.5, 1.5, -0.8])
+        for q0 in quat.random(4, rng=3):
+            traj = propagate(BODY, q0, w0, t, method="geometric", attitude_error_budget_rad=np.inf)
+            assert traj.info["engine"] == "casadi mapaccum"
+            assert traj.invariant_drift()["quaternion_norm"] < 1e-14
+
+    def test_compiled_equals_the_previous_numpy_implementation(self):
+        # Basilisk's torque-free benchmark case: I = diag(100, 200, 300) kg m^2, omega0 = [0.1, 0.01, 0.01] rad/s,
+        # 0.1 s steps for 600 s, against RKMK4 as the numpy path computed it before it was compiled (weights summed
+        # as b_i k_i, exp by sin and cos), re-written on Python floats.
+        body = RigidBody(np.diag([100.0, 200.0, 300.0]))
+        q0 = quat.from_axis_angle([1.0, -2.0, 0.5], 0.8)
+        w0 = np.array([0.1, 0.01, 0.01])
+        t = np.arange(6001) * 0.1
+        traj = propagate(body, q0, w0, t, method="geometric")
+        assert traj.info["engine"] == "casadi mapaccum" and not traj.info["step_rule"]["substeps_added"]
+        q_ref, w_ref = _previous_rkmk4((100.0, 200.0, 300.0), q0, w0, 0.1, 6000)
+        # Rounding only: ~1e-16 per step, as a random walk over 6000 steps (~1e-14 rad) plus the attitude a rate
+        # off by ~1e-16 rad/s turns over 600 s (6e-14 rad); measured 2.7e-14 rad and 3.6e-16 rad/s. The method's
+        # own error is ~1e-8 rad here, and leaving out the step's theta x (theta x omega) / 12 term moves the
+        # attitude by 4.5e-9 rad: a difference in the arithmetic beyond rounding is far above these bounds.
+        assert np.max(quat.error_angle(q_ref, traj.q)) < 1e-12
+        np.testing.assert_allclose(traj.omega, w_ref, rtol=0, atol=1e-14)
+
+
+def _previous_rkmk4(moments, q0, w0, h, n):
+    """Torque-free RKMK4 of a principal-axis body on Python floats: ``n`` steps of ``h`` [s], every state returned.
+
+    ``theta' = omega + theta x omega / 2 + theta x (theta x omega) / 12`` in the Lie algebra with the classical
+    RK4 tableau (Munthe-Kaas, Appl. Numer. Math. 29, 1999; Iserles et al., Acta Numerica 9, 2000),
+    ``q <- q ⊗ exp(theta / 2)``.
+    """
+    weights = (1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0)
+    i1, i2, i3 = moments
+
+    def cross(a, b):
+        return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+    def euler(w):  # Euler's equations, torque-free, principal axes
+        return ((i2 - i3) * w[1] * w[2] / i1, (i3 - i1) * w[2] * w[0] / i2, (i1 - i2) * w[0] * w[1] / i3)
+
+    q, w = tuple(float(v) for v in q0), tuple(float(v) for v in w0)
+    out_q, out_w = [q], [w]
+    for _ in range(n):
+        ks, ls = [], []
+        for c, prev in ((0.0, None), (0.5, 0), (0.5, 1), (1.0, 2)):
+            theta = (0.0, 0.0, 0.0) if prev is None else tuple(c * h * v for v in ks[prev])
+            w_stage = w if prev is None else tuple(a + c * h * b for a, b in zip(w, ls[prev]))
+            c1 = cross(theta, w_stage)
+            c2 = cross(theta, c1)
+            ks.append(tuple(a + b / 2.0 + d / 12.0 for a, b, d in zip(w_stage, c1, c2)))
+            ls.append(euler(w_stage))
+        theta = [h * sum(b * k[i] for b, k in zip(weights, ks)) for i in range(3)]
+        w = tuple(w[i] + h * sum(b * lv[i] for b, lv in zip(weights, ls)) for i in range(3))
+        angle = math.sqrt(sum(v * v for v in theta))
+        s = math.sin(angle / 2.0) / angle if angle > 0.0 else 0.5
+        p = (math.cos(angle / 2.0), s * theta[0], s * theta[1], s * theta[2])
+        q = (
+            q[0] * p[0] - q[1] * p[1] - q[2] * p[2] - q[3] * p[3],
+            q[0] * p[1] + q[1] * p[0] + q[2] * p[3] - q[3] * p[2],
+            q[0] * p[2] - q[1] * p[3] + q[2] * p[0] + q[3] * p[1],
+            q[0] * p[3] + q[1] * p[2] - q[2] * p[1] + q[3] * p[0],
+        )
+        out_q.append(q)
+        out_w.append(w)
+    return np.array(out_q), np.array(out_w)
 
 
 class TestResults:
@@ -501,7 +577,12 @@ class TestStepSizeRule:
         t = np.array([0.0, 20.0])
         with pytest.warns(StepSizeWarning, match="step-size rule"):
             traj = propagate(
-                self.SPIN_BODY, [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0], t, torque=torque, max_step=0.5,
+                self.SPIN_BODY,
+                [1.0, 0.0, 0.0, 0.0],
+                [0.0, 0.0, 0.0],
+                t,
+                torque=torque,
+                max_step=0.5,
                 attitude_error_budget_rad=budget,
             )
         ref = self._reference(self.SPIN_BODY, [0.0, 0.0, 0.0], t, torque)
@@ -517,7 +598,12 @@ class TestStepSizeRule:
         t = np.arange(0.0, 30.01, 0.5)
         with pytest.warns(StepSizeWarning, match="step-size rule"):
             traj = propagate(
-                body, [1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 5.0], t, torque=[2.0, 0.0, 0.0], method="geometric",
+                body,
+                [1.0, 0.0, 0.0, 0.0],
+                [0.0, 0.0, 5.0],
+                t,
+                torque=[2.0, 0.0, 0.0],
+                method="geometric",
                 attitude_error_budget_rad=budget,
             )
         ref = self._reference(body, [0.0, 0.0, 5.0], t, [2.0, 0.0, 0.0])
