@@ -27,8 +27,11 @@ definitions as the Python path, and a test proves the two agree.
 from __future__ import annotations
 
 import dataclasses
+import pickle
+import threading
 import time
 import warnings
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -580,6 +583,71 @@ def _check_rule_steps(steps: int, substeps: int) -> None:
         )
 
 
+#: Closed loops of the compiled path kept per process, by content (:func:`_closed_loop_key`).
+_LOOPS: OrderedDict[tuple, _ClosedLoop] = OrderedDict()
+_LOOPS_KEPT = 8
+_LOOPS_LOCK = threading.Lock()
+
+
+class _ClosedLoop:
+    """The compiled path's tick as a casadi function, its command output and its folds over many ticks."""
+
+    def __init__(self, model, flight, controller, disturbance, dt, substeps, m, n_row, n_law) -> None:
+        law = flight.dipole_controller
+        x = ca.SX.sym("x", model.n_x)
+        p = ca.SX.sym("p", m + n_row + n_law)
+        xc = split_components(x, model.n_x)
+        pc = split_components(p, m + n_row + n_law)
+        h_body = model.body_momentum(xc)
+        tau_cmd = controller.torque_components(xc[:4], xc[4:7], h_body, pc[:m])
+        u, tau_app = model.command(tau_cmd, xc)
+        tau_ext = [0.0, 0.0, 0.0] if disturbance is None else [float(v) for v in disturbance]
+        extra: list = []
+        if flight.active:
+            row = pc[m : m + n_row]
+            field_B, _ = flight.environment.body_vectors_components(xc[:4], row)
+            m_cmd = m_B = None
+            if law is not None:
+                m_cmd = law.dipole_components(field_B, h_body, pc[m + n_row :])
+                m_B = flight.magnetorquers.dipole_components(flight.magnetorquers.command_components(m_cmd))
+            torques, field_B, _, tau_m = flight.compiled_pieces(xc[:4], row, m_B)
+            for i in range(flight.n_sources):
+                tau_ext = [a + b for a, b in zip(tau_ext, torques[3 * i : 3 * i + 3])]
+            tau_ext = [a + b for a, b in zip(tau_ext, tau_m)]
+            zero = [0.0 * field_B[0]] * 3
+            extra = [*torques, *field_B, *(m_cmd or zero), *(m_B or zero), *tau_m]
+        commands = ca.vertcat(*tau_cmd, *tau_app, *u, *extra)
+        x_next = model.compiled_step(substeps)(x, ca.vertcat(*u), ca.vertcat(*tau_ext), dt)
+        # Common subexpressions shared: the wheel allocation repeats terms (about 8 % fewer VM instructions).
+        self.function = ca.Function("closed_loop", [x, p], [x_next, commands], {"cse": True})
+        self.commands = ca.Function("command", [x, p], [commands])
+        self.n_u = len(u)
+        self._folds: dict[int, ca.Function] = {}
+
+    def fold(self, ticks: int) -> ca.Function:
+        """The tick folded over ``ticks`` ticks (``mapaccum``), built once."""
+        if ticks not in self._folds:
+            self._folds[ticks] = self.function.mapaccum(ticks)
+        return self._folds[ticks]
+
+
+def _closed_loop_key(model, flight, controller, disturbance, dt, substeps, m, n_row, n_law) -> tuple | None:
+    """What the compiled path's closed loop is built from, or None where it is not cached.
+
+    A run in orbit is not cached (its tick holds the environment's models), nor a controller that cannot be
+    pickled (its content is the key: the same gains rebuilt by a new script reuse the loop).
+    """
+    plant = model.identity(substeps)
+    if flight.active or plant is None:
+        return None
+    try:
+        law = pickle.dumps(controller)
+    except Exception:  # e.g. a reference given as a lambda
+        return None
+    ext = None if disturbance is None else np.asarray(disturbance, dtype=float).tobytes()
+    return (type(controller).__qualname__, law, plant, ext, float(dt), m, n_row, n_law)
+
+
 def _run_compiled(
     model, flight, controller, sensors, estimator, disturbance, q0, omega0, h0, dt, n_ticks, substeps, every, rng
 ):
@@ -596,43 +664,25 @@ def _run_compiled(
             as_float_array(law.compiled_inputs(t), "dipole_controller.compiled_inputs(t)")
         ).reshape(-1, n_ticks + 1)
     n_law = law_inputs.shape[0]
-    x = ca.SX.sym("x", model.n_x)
-    p = ca.SX.sym("p", m + n_row + n_law)
-    xc = split_components(x, model.n_x)
-    pc = split_components(p, m + n_row + n_law)
-    h_body = model.body_momentum(xc)
-    tau_cmd = controller.torque_components(xc[:4], xc[4:7], h_body, pc[:m])
-    u, tau_app = model.command(tau_cmd, xc)
-    tau_ext = [0.0, 0.0, 0.0] if disturbance is None else [float(v) for v in disturbance]
-    extra: list = []
-    if flight.active:
-        row = pc[m : m + n_row]
-        field_B, _ = flight.environment.body_vectors_components(xc[:4], row)
-        m_cmd = m_B = None
-        if law is not None:
-            m_cmd = law.dipole_components(field_B, h_body, pc[m + n_row :])
-            m_B = flight.magnetorquers.dipole_components(flight.magnetorquers.command_components(m_cmd))
-        torques, field_B, _, tau_m = flight.compiled_pieces(xc[:4], row, m_B)
-        for i in range(flight.n_sources):
-            tau_ext = [a + b for a, b in zip(tau_ext, torques[3 * i : 3 * i + 3])]
-        tau_ext = [a + b for a, b in zip(tau_ext, tau_m)]
-        zero = [0.0 * field_B[0]] * 3
-        extra = [*torques, *field_B, *(m_cmd or zero), *(m_B or zero), *tau_m]
-    commands = ca.vertcat(*tau_cmd, *tau_app, *u, *extra)
-    x_next = model.compiled_step(substeps)(x, ca.vertcat(*u), ca.vertcat(*tau_ext), dt)
-    closed_loop = ca.Function("closed_loop", [x, p], [x_next, commands])
+    key = _closed_loop_key(model, flight, controller, disturbance, dt, substeps, m, n_row, n_law)
+    with _LOOPS_LOCK:
+        loop = None if key is None else _LOOPS.get(key)
+    if loop is None:
+        loop = _ClosedLoop(model, flight, controller, disturbance, dt, substeps, m, n_row, n_law)
+        if key is not None:
+            with _LOOPS_LOCK:
+                _LOOPS[key] = loop
+                while len(_LOOPS) > _LOOPS_KEPT:
+                    _LOOPS.popitem(last=False)
+    closed_loop, commands_fn, n_u = loop.function, loop.commands, loop.n_u
     columns = inputs if not flight.active else np.concatenate([inputs, flight.rows.T, law_inputs], axis=0)
     x_start = np.concatenate([q0, omega0, h0])
     x_all = np.empty((n_ticks + 1, model.n_x))
     x_all[0] = x_start
-    out = np.empty((n_ticks, commands.numel()))
-    # Folds of FOLD_TICKS ticks: building a mapaccum over the whole run costs as much as running it.
-    folds: dict[int, ca.Function] = {}
+    out = np.empty((n_ticks, closed_loop.size1_out(1)))
     for start in range(0, n_ticks, FOLD_TICKS):
         ticks = min(FOLD_TICKS, n_ticks - start)
-        if ticks not in folds:
-            folds[ticks] = closed_loop.mapaccum(ticks)
-        x_fold, out_fold = folds[ticks](x_all[start], columns[:, start : start + ticks])
+        x_fold, out_fold = loop.fold(ticks)(x_all[start], columns[:, start : start + ticks])
         x_all[start + 1 : start + ticks + 1] = x_fold.full().T
         out[start : start + ticks] = out_fold.full().T
     finite = np.all(np.isfinite(x_all), axis=1)
@@ -640,9 +690,8 @@ def _run_compiled(
         k = int(np.argmin(finite))
         _diverged(t[k], x_all[k - 1])
     # The command at the final time, as the Python path computes it.
-    last = np.array(ca.Function("command", [x, p], [commands])(x_all[-1], columns[:, -1])).T
+    last = commands_fn(x_all[-1], columns[:, -1]).full().T
     out = np.concatenate([out, last], axis=0)
-    n_u = len(u)
     tau_c, tau_a, uu = out[:, :3], out[:, 3:6], out[:, 6 : 6 + n_u]
     orbit = None
     if flight.active:

@@ -109,7 +109,7 @@ class PlantModel:
             :meth:`hold_step` on symbols, for the compiled engine paths.
         """
         if substeps not in self._steps:
-            key = self._step_key(substeps)
+            key = self.identity(substeps)
             with _SHARED_STEPS_LOCK:
                 shared = None if key is None else _SHARED_STEPS.get(key)
             if shared is not None:
@@ -131,8 +131,20 @@ class PlantModel:
                         del _SHARED_STEPS[next(iter(_SHARED_STEPS))]
         return self._steps[substeps]
 
-    def _step_key(self, substeps: int) -> tuple | None:
-        """What a hold step is built from (None for a symbolic body, which is not shared)."""
+    def identity(self, substeps: int) -> tuple | None:
+        """What a hold step of this plant is built from: a key for caches of compiled functions.
+
+        Parameters
+        ----------
+        substeps : int
+            RK4 steps per hold step.
+
+        Returns
+        -------
+        tuple or None
+            ``(substeps, inertia bytes, pickled wheels)``; None for a symbolic
+            body (:class:`attitude.rigid_body.ParametricBody`), which is not shared.
+        """
         inertia = getattr(self.body, "inertia", None)
         if not isinstance(inertia, np.ndarray):
             return None

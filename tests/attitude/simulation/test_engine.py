@@ -52,6 +52,26 @@ class TestEngines:
         np.testing.assert_allclose(fast.h_wheels, slow.h_wheels, atol=1e-12)
         np.testing.assert_allclose(fast.torque_applied, slow.torque_applied, atol=1e-12)
 
+    def test_the_compiled_loop_is_reused_only_for_the_same_content(self):
+        """The compiled path keeps built closed loops by content: a controller whose gains changed in place, or
+        a new one with other gains, must fly its own law (checked against the Python path, which builds
+        nothing), and a rebuilt controller with the same gains flies the loop built before."""
+        w0 = np.array([0.01, -0.02, 0.005])
+
+        def both(controller):
+            fast = simulate(BODY, quat.identity(), w0, 60.0, controller=controller, wheels=WHEELS)
+            slow = simulate(BODY, quat.identity(), w0, 60.0, controller=controller, wheels=WHEELS, engine="python")
+            np.testing.assert_allclose(fast.q, slow.q, atol=1e-12)
+            return fast
+
+        first = both(pd())
+        again = both(pd())
+        np.testing.assert_array_equal(first.q, again.q)
+        controller = pd()
+        controller.K[:] = 3.0 * controller.K  # stiffer, changed in place after construction
+        stiffer = both(controller)
+        assert np.max(np.abs(stiffer.q - first.q)) > 1e-3
+
     def test_pd_regulates_to_the_target_with_wheels(self):
         result = simulate(BODY, quat.identity(), np.zeros(3), 300.0, controller=pd(), wheels=WHEELS)
         assert np.degrees(result.error_angle[0]) == pytest.approx(30.0, abs=1e-9)
