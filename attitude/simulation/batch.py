@@ -65,7 +65,13 @@ from numpy.typing import ArrayLike, NDArray
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
 from attitude.environment.orbit_environment import SURFACE_PARAMETERS, OrbitEnvironment
-from attitude.integrators import ATTITUDE_ERROR_BUDGET_RAD, StepSizeWarning, attitude_error_text, check_error_budget
+from attitude.integrators import (
+    ATTITUDE_ERROR_BUDGET_RAD,
+    MAX_RULE_SUBSTEPS,
+    StepSizeWarning,
+    attitude_error_text,
+    check_error_budget,
+)
 from attitude.progress import Throttle
 from attitude.rigid_body import RigidBody, symmetric_entries
 from attitude.simulation.codegen import CompilationError
@@ -73,7 +79,7 @@ from attitude.simulation.engine import settling_time_after, ticks_per_period, wh
 from attitude.simulation.kernel import METRICS, CompiledTicks, command, disturbance_torques, environment_key, observe
 from attitude.simulation.plant import PlantModel
 from attitude.simulation.protocols import CompiledController
-from attitude.simulation.step_rule import batch_broken, batch_substeps
+from attitude.simulation.step_rule import batch_broken, batch_needed_substeps, batch_substeps
 from attitude.validation import as_float_array, check_positive
 
 __all__ = [
@@ -223,10 +229,15 @@ def simulate_batch(
         (docs/rk4_step_rule.md; ``inf`` turns the rule off). Checked before
         the run on every run's initial state (``substeps`` raised for the
         batch with a :class:`attitude.integrators.StepSizeWarning` where it is
-        broken) and after it on every run's peak rate: a run that may have
-        broken it mid-run is reported as failed (NaN metrics,
-        ``info["step_rule_broken"]``) with a warning; its final state is
-        returned as run and is not within the budget: do not use it.
+        broken) and after it on every run's peak rate: the runs that may have
+        broken it mid-run fly again, at the step count the largest of their
+        peak rates needs (``info["step_rule_rerun_substeps"]``, with a
+        warning), as the single-run compiled path does. A run still over the
+        budget then (or needing more than
+        :data:`attitude.integrators.MAX_RULE_SUBSTEPS` times ``substeps``) is
+        reported as failed (NaN metrics, ``info["step_rule_broken"]``) with a
+        warning; its final state is returned as run and is not within the
+        budget: do not use it.
     progress : callable, optional
         ``progress(fraction)``: called with the fraction of the runs' ticks
         simulated (over all chunks), at most every
@@ -339,6 +350,54 @@ def simulate_batch(
         for name, rows in recorded.items():
             histories[name][sl] = np.stack(rows, axis=1)
     broken, bound = batch_broken(loop.model, metrics["rate_peak"], dt, n_ticks, substeps, budget)
+    rerun_steps = None
+    if np.any(broken) and getattr(_RERUNS, "depth", 0) < RULE_RERUNS:
+        # As the single-run compiled path: runs whose peak rate broke the rule fly again, all of them at the
+        # step count the largest of their peak rates needs (each run is a pure function of its inputs).
+        needed = batch_needed_substeps(loop.model, metrics["rate_peak"], dt, n_ticks, substeps, budget)
+        again = broken & (needed <= MAX_RULE_SUBSTEPS * substeps)
+        if np.any(again):
+            rerun_steps = int(np.max(needed[again]))
+            idx = np.flatnonzero(again)
+            _RERUNS.depth = getattr(_RERUNS, "depth", 0) + 1
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", StepSizeWarning)  # said once below, for the whole batch
+                    sub = simulate_batch(
+                        body if not body.batch_shape else RigidBody(body.inertia[idx]),
+                        q0[idx],
+                        omega0[idx],
+                        duration,
+                        controller=controller,
+                        wheels=wheels,
+                        h_wheels0=h0[idx],
+                        dt=dt,
+                        substeps=rerun_steps,
+                        disturbance=None if tau_ext is None else tau_ext[idx],
+                        pointing_threshold=pointing_threshold,
+                        history_stride=history_stride,
+                        backend=backend,
+                        environment=environment,
+                        surface_parameters=None if surface is None else surface[idx],
+                        attitude_error_budget_rad=budget,
+                    )
+            finally:
+                _RERUNS.depth -= 1
+            for name in metrics:
+                metrics[name][idx] = sub.metrics[name]
+            final[idx] = np.concatenate([sub.q, sub.omega, sub.h_wheels], axis=1)
+            diverged[idx] = sub.diverged_at
+            for name in histories:
+                histories[name][idx] = sub.histories[name]
+            broken[idx] = sub.info["step_rule_broken"]
+            bound[idx] = sub.info["step_rule_error_bound_rad"]
+            warnings.warn(
+                f"{idx.size} run(s) of the batch broke the step-size rule mid-run (docs/rk4_step_rule.md; "
+                f"peak body rate up to {float(np.max(sub.metrics['rate_peak'])):.3g} rad/s at {substeps} RK4 "
+                f"step(s) per tick of {dt:.3g} s): flown again at {rerun_steps} steps per tick",
+                StepSizeWarning,
+                stacklevel=2,
+            )
     broken |= refused & np.isnan(diverged)
     if np.any(broken):
         peak = metrics["rate_peak"].copy()
@@ -358,6 +417,7 @@ def simulate_batch(
         "dt": dt,
         "substeps": substeps,
         "step_rule_broken": broken,
+        "step_rule_rerun_substeps": rerun_steps,
         "step_rule_error_bound_rad": bound,
         "chunk": size,
         "backend": "numpy" if ticks is None else "compiled",
@@ -417,6 +477,10 @@ def environment_inputs(
         )
     return surface
 
+
+#: Times a batch flies again the runs that broke the step-size rule (at the count their peak rates need).
+RULE_RERUNS = 1
+_RERUNS = threading.local()  # depth of the rerun in this thread
 
 _TICKS_CACHE: dict[bytes, CompiledTicks] = {}
 _TICKS_LOCK = threading.Lock()

@@ -34,6 +34,7 @@ from attitude.simulation.plant import PlantModel
 __all__ = [
     "TickRule",
     "batch_broken",
+    "batch_needed_substeps",
     "batch_substeps",
     "history_substeps",
     "tick_advance",
@@ -435,12 +436,7 @@ def batch_substeps(
     i_min = np.linalg.eigvalsh(model.body.inertia)[..., 0]
     energy = np.einsum("...i,...ij,...j->...", omega0, model.body.inertia, omega0)
     rate = np.maximum(np.linalg.norm(omega0, axis=-1), np.sqrt(energy / i_min))
-    nu = _batch_turn_bound(model, rate)
-    duration = n_ticks * dt
-    error = predicted_attitude_error(rate[:, None], duration, nu[:, None], substeps=n_ticks * substeps)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        theta_s = (1920.0 * budget_rad / ((1.0 + 2.0 * nu * duration) * rate * duration)) ** 0.25
-        needed = np.where(error > budget_rad, np.ceil(rate * dt / theta_s), substeps)
+    needed = batch_needed_substeps(model, rate, dt, n_ticks, substeps, budget_rad)
     refused = needed > MAX_RULE_SUBSTEPS * substeps
     steps = int(max(substeps, np.max(needed[~refused], initial=substeps)))
     if steps == substeps and not np.any(refused):
@@ -461,6 +457,39 @@ def batch_substeps(
         )
     warnings.warn(message, StepSizeWarning, stacklevel=3)
     return steps, refused
+
+
+def batch_needed_substeps(
+    model: PlantModel, rate: NDArray[np.float64], dt: float, n_ticks: int, substeps: int, budget_rad: float
+) -> NDArray[np.float64]:
+    """RK4 steps per tick each run of a batch needs at a body rate held over the run (the batch bound).
+
+    Parameters
+    ----------
+    model : PlantModel
+        The plant.
+    rate : ndarray (N,)
+        Each run's body rate [rad/s] (the largest assumed or reached).
+    dt : float
+        Tick [s].
+    n_ticks : int
+        Ticks in the run.
+    substeps : int
+        RK4 steps per tick asked for (returned where they meet the budget).
+    budget_rad : float
+        Accumulated attitude-error budget [rad].
+
+    Returns
+    -------
+    ndarray (N,)
+        Steps per tick (whole numbers as floats; NaN where the rate is not finite).
+    """
+    nu = _batch_turn_bound(model, rate)
+    duration = n_ticks * dt
+    error = predicted_attitude_error(rate[:, None], duration, nu[:, None], substeps=n_ticks * substeps)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        theta_s = (1920.0 * budget_rad / ((1.0 + 2.0 * nu * duration) * rate * duration)) ** 0.25
+        return np.where(error > budget_rad, np.ceil(rate * dt / theta_s), substeps)
 
 
 def batch_broken(
