@@ -88,7 +88,7 @@ def versus_basilisk(
         reference = load_basilisk_reference()
     median = None
     if reference is None:
-        said = f"no ratio: {REFERENCE_FILE.name} is absent (Basilisk not measured on this machine)"
+        said = f"no ratio: benchmarks/{REFERENCE_FILE.name} is absent"
     else:
         try:
             median = float(reference["cases"][case]["sim_s_per_cpu_s"]["median"])

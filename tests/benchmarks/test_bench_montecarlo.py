@@ -7,15 +7,10 @@ campaign's ``cpu_s`` must be that burnt CPU plus the campaign's own small
 overhead: about 1x. Counting the in-process runs both in ``process_time``
 and again as the runs' own measured CPU (the mistake this guards against)
 gives about 2x; losing the workers' CPU gives about 0x.
-
-And the peer: every speed figure names its Basilisk case, with a null ratio
-and a reason when ``benchmarks/basilisk_reference.json`` is absent, and the
-ratio to the case's median when it is there.
 """
 
 from __future__ import annotations
 
-import json
 import time
 
 import pytest
@@ -23,7 +18,7 @@ import pytest
 from attitude.montecarlo.campaign import Campaign
 from attitude.montecarlo.dispersions import Uniform
 from attitude.montecarlo.executors import RunOutput
-from benchmarks import _peer, bench_montecarlo
+from benchmarks import bench_montecarlo
 
 #: CPU each run burns [s]: long enough that the campaign's own overhead (parameters, records, table: well
 #: under a millisecond per run here) is a few per cent of it.
@@ -77,37 +72,3 @@ def test_campaign_cpu_counts_the_runs_once(kwargs, executor):
     # The runs' own measure sees the same work (each run's process_time where it ran).
     assert LOW * known <= figures["cpu_s_in_runs"] <= HIGH * known
     assert figures["sim_s_per_cpu_s"] == pytest.approx(RUNS * 1.0 / figures["cpu_s"])
-
-
-def test_a_figure_without_the_reference_file_has_no_ratio_and_says_why(tmp_path, monkeypatch):
-    """No reference: the case is named, the ratio is null and the note says the file is absent."""
-    monkeypatch.setattr(_peer, "REFERENCE_FILE", tmp_path / "basilisk_reference.json")
-    peer = _peer.versus_basilisk(300_000.0, "rw_no_earth")
-    assert peer["basilisk_case"] == "rw_no_earth"
-    assert peer["ratio_to_basilisk"] is None and peer["basilisk_sim_s_per_cpu_s"] is None
-    assert "absent" in peer["basilisk_note"]
-
-
-def test_a_figure_is_divided_by_its_own_case(tmp_path, monkeypatch):
-    """With the file: the ratio is the figure over the named case's median, not another case's."""
-    path = tmp_path / "basilisk_reference.json"
-    cases = {"torquefree": 20_000.0, "closed_nodelay": 8_300.0, "rw_no_earth": 5_000.0}
-    path.write_text(
-        json.dumps(
-            {
-                "machine": "test box",
-                "date": "2025-01-01",
-                "cases": {k: {"sim_s_per_cpu_s": {"median": v}} for k, v in cases.items()},
-            }
-        )
-    )
-    monkeypatch.setattr(_peer, "REFERENCE_FILE", path)
-    peer = _peer.versus_basilisk(300_000.0, "rw_no_earth", note="differs")
-    assert peer["basilisk_sim_s_per_cpu_s"] == 5_000.0
-    assert peer["ratio_to_basilisk"] == 300_000.0 / 5_000.0
-    assert "test box" in peer["basilisk_note"] and "differs" in peer["basilisk_note"]
-    with pytest.raises(ValueError, match="case must be one of"):
-        _peer.versus_basilisk(1.0, "rw_with_earth")
-    path.write_text("{}")
-    with pytest.raises(ValueError, match="'cases'"):
-        _peer.load_basilisk_reference(path)
