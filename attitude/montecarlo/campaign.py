@@ -105,6 +105,7 @@ from attitude.montecarlo.executors import (
     run_processes,
     run_serial,
 )
+from attitude.montecarlo.histories import StoredHistories
 from attitude.montecarlo.identity import UnidentifiableScenario, UnidentifiableScenarioWarning, scenario_identity
 from attitude.montecarlo.results import CampaignResult, Requirement, RunReplay, check_metric_name
 from attitude.results import provenance
@@ -323,6 +324,7 @@ def run_campaign(
     runs_per_task: int | None = None,
     out_dir: str | Path | None = None,
     resume: bool = True,
+    histories_on_disk: bool | None = None,
     progress: bool | None = None,
     max_retries: int = 2,
     mp_context: Any = None,
@@ -349,6 +351,16 @@ def run_campaign(
         Directory for the checkpoint and the result files.
     resume : bool
         Skip the runs already in ``out_dir``'s checkpoint (same campaign only).
+    histories_on_disk : bool, optional
+        Where the runs' time histories stay (when the scenario returns them).
+        True (needs ``out_dir``): in the checkpoint's files, each task's
+        written as it finishes (:mod:`attitude.montecarlo.histories`), so the
+        campaign's memory does not grow with them; ``result.histories`` reads
+        a run's back when asked for (the files must stay). False: in memory,
+        as ``result.histories`` dicts of arrays. Default: True with an
+        ``out_dir``, False without. On disk, memory holds about one task's
+        histories at a time: with ``vectorized``, lower ``runs_per_task`` to
+        lower it.
     progress : bool, optional
         Progress bar on stderr (tqdm): runs done of the total, errors,
         elapsed time and ETA; a resumed campaign's bar starts at the runs
@@ -395,6 +407,12 @@ def run_campaign(
         raise ValueError(f"runs_per_task must be a positive integer, got {runs_per_task!r}")
     if workers is None:
         workers = 1 if vectorized else usable_cpus()
+    if histories_on_disk is None:
+        histories_on_disk = out_dir is not None
+    if not isinstance(histories_on_disk, bool):
+        raise ValueError(f"histories_on_disk must be True, False or None, got {histories_on_disk!r}")
+    if histories_on_disk and out_dir is None:
+        raise ValueError("histories_on_disk=True needs an out_dir to write the histories to, got out_dir=None")
 
     wall0, cpu0 = time.perf_counter(), time.process_time()
     checkpoint = None
@@ -408,7 +426,9 @@ def run_campaign(
         if resume:
             lost = (WORKER_DIED, CLUSTER_FAILED)  # infrastructure, not the scenario: try again
             done = {
-                r: rec for r, rec in checkpoint.load().items() if r < campaign.runs and not rec.error.startswith(lost)
+                r: rec
+                for r, rec in checkpoint.load(read_histories=not histories_on_disk).items()
+                if r < campaign.runs and not rec.error.startswith(lost)
             }
         checkpoint.start(resume)
         if checkpoint.fingerprint is None:
@@ -427,7 +447,13 @@ def run_campaign(
     tasks = _Tasks(campaign, done, runs_per_task, rows)
     bar = Progress(campaign.runs, None if progress is None else bool(progress), initial=resumed)
     reserved = campaign.parameter_columns()
-    collector = Collector(bar, checkpoint, done, check_metric=lambda name: check_metric_name(name, reserved))
+    collector = Collector(
+        bar,
+        checkpoint,
+        done,
+        check_metric=lambda name: check_metric_name(name, reserved),
+        keep_histories=not histories_on_disk,
+    )
     # Whatever ends the loop (an error, Ctrl-C), the bar's line is finished and the
     # checkpoint's file handle closed: what was appended is already on disk.
     try:
@@ -469,11 +495,13 @@ def run_campaign(
         "runs_per_task": runs_per_task,
         "interrupted": interrupted,
         "resumed_runs": resumed,
+        "histories_on_disk": histories_on_disk,
         "wall_time_s": time.perf_counter() - wall0,
         "parent_cpu_time_s": time.process_time() - cpu0,
         "provenance": provenance(*(campaign.input_file or ())),  # versions, date, the input's hash
     }
-    result = _assemble(campaign, rows, collector.records, info)
+    on_disk = checkpoint.history_files if histories_on_disk and checkpoint is not None else None
+    result = _assemble(campaign, rows, collector.records, info, on_disk)
     if out_dir is not None:
         result.save(out_dir)
     return result
@@ -546,7 +574,11 @@ class _Tasks(Sequence[list[tuple[int, dict[str, Any]]]]):
 
 
 def _assemble(
-    campaign: Campaign, rows: dict[int, list[float]], records: dict[int, RunRecord], info: dict[str, Any]
+    campaign: Campaign,
+    rows: dict[int, list[float]],
+    records: dict[int, RunRecord],
+    info: dict[str, Any],
+    history_files: dict[int, Path] | None = None,
 ) -> CampaignResult:
     n = campaign.runs
     columns = parameter_columns(campaign.dispersions)
@@ -564,13 +596,16 @@ def _assemble(
     attempts = np.zeros(n, dtype=np.int64)
     cpu = np.full(n, np.nan)
     wall = np.full(n, np.nan)
-    histories = {}
+    in_memory = {}
     for r, rec in records.items():
         status[r], errors[r], attempts[r], cpu[r], wall[r] = rec.status, rec.error, rec.attempts, rec.cpu_s, rec.wall_s
         for m, v in rec.metrics.items():
             metrics[m][r] = v
         if rec.history is not None:
-            histories[r] = rec.history
+            in_memory[r] = rec.history
+    histories: Mapping[int, Mapping[str, np.ndarray]] = dict(sorted(in_memory.items()))
+    if history_files is not None:  # on disk: the records let them go (histories_on_disk)
+        histories = StoredHistories({r: history_files[r] for r in records if r in history_files})
     return CampaignResult(
         seed=campaign.seed,
         parameters={c: table[:, j].copy() for j, c in enumerate(columns)},
@@ -581,6 +616,6 @@ def _assemble(
         cpu_s=cpu,
         wall_s=wall,
         requirements=tuple(campaign.requirements),
-        histories=dict(sorted(histories.items())),
+        histories=histories,
         info=info,
     )

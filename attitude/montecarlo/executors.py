@@ -49,8 +49,12 @@ Checkpoint
 ----------
 With an output directory, every completed record is appended to
 ``checkpoint.jsonl`` (one JSON line per run, flushed at once; floats are
-written with ``repr`` so they load back bit for bit) and its time history to
-``checkpoint_histories/run_NNNNNN.npz``. The first line holds the campaign
+written with ``repr`` so they load back bit for bit), and the time histories
+of a finished task's runs to one file, ``checkpoint_histories/runs_NNNNNN.npz``
+(NNNNNN its first run; :mod:`attitude.montecarlo.histories`), written before
+their lines, whose ``history`` names it. The campaign may then let the
+histories go from memory (:class:`Collector`, ``keep_histories=False``) and
+read them back from these files. The first line holds the campaign
 fingerprint, and what it hashes part by part (the seed, each dispersion, the
 scenario's identity, the mode); a later campaign with the same fingerprint in
 the same directory skips the runs found there, except those lost to a dead
@@ -100,6 +104,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from attitude.montecarlo.dispersions import scenario_generator
+from attitude.montecarlo.histories import StoredHistories, write_histories
 from attitude.progress import REFRESH_PERIOD_S, progress_bar
 
 __all__ = [
@@ -120,6 +125,8 @@ CHECKPOINT_FILE = "checkpoint.jsonl"
 WORKER_DIED = "worker process died"
 CLUSTER_FAILED = "task failed on the cluster"
 _HISTORY_DIR = "checkpoint_histories"
+#: Format of the checkpoint (its header's ``format``): 2 names each run's history file (1: one file per run).
+_CHECKPOINT_FORMAT = 2
 #: Fewest tasks kept in flight on a Dask cluster (``run_dask``); more with more worker threads.
 _DASK_WINDOW_MIN = 256
 
@@ -180,7 +187,14 @@ class RunRecord:
     wall_s: float = math.nan
     history: dict[str, np.ndarray] | None = None
 
-    def to_json(self) -> str:
+    def to_json(self, history_file: str | None = None) -> str:
+        """The record as one JSON line of the checkpoint (``history``: the file holding its history, or null).
+
+        Parameters
+        ----------
+        history_file : str, optional
+            Name of the file of ``checkpoint_histories/`` that holds the run's history.
+        """
         return json.dumps(
             {
                 "run": self.run,
@@ -190,7 +204,7 @@ class RunRecord:
                 "attempts": self.attempts,
                 "cpu_s": self.cpu_s,
                 "wall_s": self.wall_s,
-                "history": self.history is not None,
+                "history": history_file,
             }
         )
 
@@ -401,10 +415,21 @@ class Checkpoint:
         self.fingerprint = fingerprint
         self.unidentified = unidentified
         self.identity = None if identity is None else dict(identity)
+        #: Run -> the file of ``checkpoint_histories/`` holding its history (the runs loaded and appended).
+        self.history_files: dict[int, Path] = {}
         self._file: TextIO | None = None
 
-    def load(self) -> dict[int, RunRecord]:
-        """Records already in the checkpoint (a torn last line, from a crash mid-write, is ignored)."""
+    def load(self, read_histories: bool = True) -> dict[int, RunRecord]:
+        """Records already in the checkpoint (a torn last line, from a crash mid-write, is ignored).
+
+        A record whose history file is missing is left out (the run is done again).
+
+        Parameters
+        ----------
+        read_histories : bool, optional
+            Read the runs' histories into their records; False leaves them in
+            their files (:attr:`history_files`; the records' ``history`` None).
+        """
         if not self.path.exists():
             return {}
         records: dict[int, RunRecord] = {}
@@ -429,21 +454,31 @@ class Checkpoint:
                 f"out_dir {str(self.dir)!r} holds the checkpoint of a different campaign{differs}; use another "
                 "out_dir, or resume=False to start afresh"
             )
+        files: dict[int, Path] = {}
         for line in lines[1:]:
             try:
                 d = json.loads(line)
             except json.JSONDecodeError:
                 continue
-            history = None
+            run = d["run"]
             if d.get("history"):
-                path = self._history_path(d["run"])
-                if not path.exists():
+                # A file name; True in a checkpoint of format 1, whose files held one run each.
+                name = d["history"]
+                path = self._history_path(run) if name is True else self.dir / _HISTORY_DIR / str(name)
+                if (name is not True and Path(str(name)).name != name) or not path.exists():
+                    records.pop(run, None)
+                    files.pop(run, None)
                     continue  # the run's history was lost: redo the run
-                with np.load(path, allow_pickle=False) as data:
-                    history = {k: np.array(data[k]) for k in data.files}
-            records[d["run"]] = RunRecord(
-                d["run"], d["status"], d["metrics"], d["error"], d["attempts"], d["cpu_s"], d["wall_s"], history
-            )
+                files[run] = path
+            else:
+                files.pop(run, None)
+            records[run] = RunRecord(run, d["status"], d["metrics"], d["error"], d["attempts"], d["cpu_s"], d["wall_s"])
+        self.history_files.update(files)
+        if read_histories:
+            stored = StoredHistories(files)  # in run order: each file is opened once
+            for run in stored:
+                records[run].history = stored[run]
+            stored.close()
         return records
 
     def start(self, resume: bool) -> None:
@@ -458,7 +493,7 @@ class Checkpoint:
             self._file = self.path.open("a")
             return
         self._file = self.path.open("w")
-        header: dict[str, Any] = {"fingerprint": self.fingerprint, "format": 1}
+        header: dict[str, Any] = {"fingerprint": self.fingerprint, "format": _CHECKPOINT_FORMAT}
         if self.fingerprint is None:
             header["unidentified"] = self.unidentified
         if self.identity is not None:
@@ -470,20 +505,26 @@ class Checkpoint:
         return self.dir / _HISTORY_DIR / f"run_{run:06d}.npz"
 
     def append(self, records: Iterable[RunRecord]) -> None:
-        """Append completed records (and their histories) to the checkpoint, flushed at once.
+        """Append completed records to the checkpoint, flushed at once; their histories go to one file first.
 
         Parameters
         ----------
         records : iterable of RunRecord
-            The completed runs.
+            The completed runs (a finished task's).
         """
         assert self._file is not None
+        records = list(records)
+        kept = [r for r in records if r.history is not None]
+        name = None
+        if kept:
+            # Before the lines that name it: a line on disk always has its history.
+            name = f"runs_{min(r.run for r in kept):06d}.npz"
+            path = self.dir / _HISTORY_DIR / name
+            path.parent.mkdir(exist_ok=True)
+            write_histories(path, ((r.run, r.history) for r in kept))
+            self.history_files.update(dict.fromkeys((r.run for r in kept), path))
         for r in records:
-            if r.history is not None:
-                path = self._history_path(r.run)
-                path.parent.mkdir(exist_ok=True)
-                np.savez(path, allow_pickle=False, **r.history)
-            self._file.write(r.to_json() + "\n")
+            self._file.write(r.to_json(None if r.history is None else name) + "\n")
         self._file.flush()
         os.fsync(self._file.fileno())
 
@@ -574,6 +615,11 @@ class Collector:
         ``check_metric(name)`` raises ValueError for a metric name the table
         reserves; a run that returns one is recorded as an error with that
         message (module docstring).
+    keep_histories : bool, optional
+        Keep each record's history in memory (default). False (needs a
+        checkpoint): once the checkpoint has written a task's histories to
+        its file, the records let them go (``history`` None), so memory does
+        not grow with them; they stay in ``checkpoint.history_files``.
     """
 
     def __init__(
@@ -582,11 +628,15 @@ class Collector:
         checkpoint: Checkpoint | None,
         records: dict[int, RunRecord],
         check_metric: Callable[[str], None] | None = None,
+        keep_histories: bool = True,
     ) -> None:
+        if not keep_histories and checkpoint is None:
+            raise ValueError("keep_histories=False needs a checkpoint: the histories would be lost")
         self.progress = progress
         self.checkpoint = checkpoint
         self.records = records
         self.check_metric = check_metric
+        self.keep_histories = keep_histories
         self.errors = sum(r.status != "ok" for r in records.values())
         self.progress.update(len(records), self.errors)
 
@@ -643,6 +693,9 @@ class Collector:
             self.errors += r.status != "ok"
         if self.checkpoint is not None:
             self.checkpoint.append(records)
+            if not self.keep_histories:
+                for r in records:
+                    r.history = None  # on disk now (checkpoint.history_files)
         self.progress.update(len(self.records) + in_flight, self.errors)
 
 

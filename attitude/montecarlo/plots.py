@@ -32,7 +32,7 @@ class CampaignData(Protocol):
     metrics: dict[str, NDArray[np.float64]]
     status: NDArray[Any]
     requirements: tuple[Any, ...]
-    histories: dict[int, dict[str, NDArray[Any]]]
+    histories: Mapping[int, Mapping[str, NDArray[Any]]]
 
     @property
     def runs(self) -> int: ...

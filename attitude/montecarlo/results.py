@@ -12,7 +12,9 @@ Files written by :meth:`CampaignResult.save` into the output directory:
 ``statistics.json`` percentiles per metric (SI) and the success bounds
 ``summary.txt``     the statistics in words (review units)
 ``histories.npz``   time histories (``run000012/t``, ``run000012/error_angle``
-                    ...), when the scenario returned them
+                    ...), when the scenario returned them; written a run at a
+                    time and read back a run at a time
+                    (:mod:`attitude.montecarlo.histories`)
 ================== ==========================================================
 
 The table's columns: ``run``; ``seed`` (the master seed) and ``spawn_key``
@@ -60,6 +62,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from attitude.montecarlo.dispersions import scenario_spawn_key
+from attitude.montecarlo.histories import StoredHistories, write_histories
 from attitude.montecarlo.statistics import DEFAULT_PERCENTILES, percentiles, success_lower_bound, success_statement
 from attitude.montecarlo.units import display_unit, quantity_of_column, table_column
 
@@ -244,8 +247,11 @@ class CampaignResult:
         time of the run in its worker [s] (a vectorised batch's time is
         shared equally by its runs).
     requirements : tuple of Requirement
-    histories : dict
-        Run index -> dict of time histories (only runs that returned one).
+    histories : mapping
+        Run index -> dict of time histories (only runs that returned one). A
+        dict in memory, or a :class:`attitude.montecarlo.histories.StoredHistories`
+        that reads a run's from its file when asked for (a campaign run with
+        ``histories_on_disk``, and every :meth:`load`).
     info : dict
         Executor, workers, wall time, interruption, resumed runs ...
     """
@@ -259,7 +265,7 @@ class CampaignResult:
     cpu_s: NDArray[np.float64]
     wall_s: NDArray[np.float64]
     requirements: tuple[Requirement, ...] = ()
-    histories: dict[int, dict[str, NDArray[Any]]] = field(default_factory=dict)
+    histories: Mapping[int, Mapping[str, NDArray[Any]]] = field(default_factory=dict)
     info: dict[str, Any] = field(default_factory=dict)
 
     # -- the table --------------------------------------------------------------
@@ -588,13 +594,17 @@ class CampaignResult:
         (out / "statistics.json").write_text(json.dumps(self.statistics(), indent=2) + "\n")
         (out / "summary.txt").write_text(self.summary() + "\n")
         if self.histories:
-            arrays = {f"run{run:06d}/{k}": v for run, h in sorted(self.histories.items()) for k, v in h.items()}
-            np.savez_compressed(out / "histories.npz", **arrays)
+            # A run at a time: histories on disk are never all in memory at once.
+            runs = ((run, self.histories[run]) for run in sorted(self.histories))
+            write_histories(out / "histories.npz", runs, compress=True)
         return out
 
     @classmethod
     def load(cls, out_dir: str | Path) -> CampaignResult:
         """Read a directory written by :meth:`save`.
+
+        The histories stay in ``histories.npz``: ``result.histories[run]``
+        reads that run's when asked for (:class:`attitude.montecarlo.histories.StoredHistories`).
 
         Parameters
         ----------
@@ -620,12 +630,9 @@ class CampaignResult:
             file_column, scale = columns.get(name, (name, 1.0))
             return np.array([_si_value(r[file_column], scale) for r in rows]) if rows else np.zeros(0)
 
-        histories: dict[int, dict[str, NDArray[Any]]] = {}
-        if (out / "histories.npz").exists():
-            with np.load(out / "histories.npz", allow_pickle=False) as data:
-                for key in data.files:
-                    run, name = key.split("/", 1)
-                    histories.setdefault(int(run[3:]), {})[name] = np.array(data[key])
+        histories: Mapping[int, Mapping[str, NDArray[Any]]] = {}
+        if (out / "histories.npz").exists():  # read a run at a time, when asked for
+            histories = StoredHistories.from_file(out / "histories.npz")
         return cls(
             seed=int(meta["seed"]),
             parameters={c: quantity(c) for c in meta["parameters"]},
