@@ -10,7 +10,10 @@ The direction cosine matrix ``C_BN`` maps N components to B components, so
 
 Every function accepts leading batch dimensions (``(..., 4)`` quaternions,
 ``(..., 3)`` vectors, ``(..., 3, 3)`` matrices), broadcasts them, and never
-mutates its inputs. Quaternions passed in as attitudes must have unit norm
+mutates its inputs; the exceptions say so in their names: ``*_components``
+(the one definition of the algebra, on lists of numbers, arrays or casadi
+expressions) and ``*_floats`` (one quaternion in Python floats, rounded
+exactly as the array function, for code that runs at every tick). Quaternions passed in as attitudes must have unit norm
 to within :data:`UNIT_NORM_TOLERANCE`; functions that accept any non-zero
 quaternion say so.
 """
