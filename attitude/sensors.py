@@ -1143,7 +1143,7 @@ class Gyro:
             :meth:`reset` before a new run) or ``truth.omega`` is invalid.
         """
         gen = as_generator(rng)
-        t = t if type(t) is float and math.isfinite(t) else float(as_float_array(t, "t"))
+        t = float(t) if isinstance(t, float) and math.isfinite(t) else float(as_float_array(t, "t"))
         omega_floats = finite_floats(truth.omega, 3)
         q_floats = None
         if self.sampling == "mean" and omega_floats is not None:

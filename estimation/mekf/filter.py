@@ -333,12 +333,13 @@ def initial_covariance(*, attitude_sigma: float, bias_sigma: float) -> NDArray[n
     return np.diag([a**2] * 3 + [b**2] * 3)
 
 
-def _vector_model(
-    q_hat: NDArray[np.float64], m: VectorMeasurement
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Residual (2,), attitude Jacobian (2, 3), noise (2, 2) and ``b . b_hat`` of one vector sample (hot path)."""
+def _vector_basis(q_hat: list[float], m: VectorMeasurement) -> tuple[list[float], list[float], list[float], float]:
+    """Residual ``[z0, z1]``, basis rows ``t1``, ``t2`` and ``b . b_hat`` of one vector sample, in Python floats.
+
+    The attitude Jacobian is ``h = [-t2; t1]`` (the hot path of the filter reads the floats).
+    """
     # b_hat = C_BN(q_hat) r_N, by the one rotation of attitude.quaternion (on Python floats).
-    p0, p1, p2 = quat.rotate_inverse_components(q_hat.tolist(), m.reference_N.tolist())
+    p0, p1, p2 = quat.rotate_inverse_components(q_hat, m.reference_N.tolist())
     # t1 = b_hat x e / |.|, e the axis least aligned with b_hat (|b_hat x e| >= sqrt(2/3): no cancellation);
     # t2 = b_hat x t1, so (t1, t2, b_hat) is right-handed and orthonormal.
     a0, a1, a2 = abs(p0), abs(p1), abs(p2)
@@ -353,15 +354,25 @@ def _vector_model(
     v0, v1, v2 = p1 * u2 - p2 * u1, p2 * u0 - p0 * u2, p0 * u1 - p1 * u0
     b0, b1, b2 = m.vector_B.tolist()
     # z = T (b - b_hat) = T b, since T b_hat = 0; T [b_hat x] has the rows t1 x b_hat = -t2 and t2 x b_hat = t1.
-    res = np.array([u0 * b0 + u1 * b1 + u2 * b2, v0 * b0 + v1 * b1 + v2 * b2])
-    h = np.array([[-v0, -v1, -v2], [u0, u1, u2]])
+    z = [u0 * b0 + u1 * b1 + u2 * b2, v0 * b0 + v1 * b1 + v2 * b2]
+    return z, [u0, u1, u2], [v0, v1, v2], p0 * b0 + p1 * b1 + p2 * b2
+
+
+def _vector_noise(m: VectorMeasurement, t1: list[float], t2: list[float]) -> NDArray[np.float64]:
+    """The noise ``R = T R3 T^T`` (2, 2) of the residual, ``T = [t1; t2]``."""
     if m.covariance is None:
         s2 = m.sigma * m.sigma  # T sigma^2 (I - b b^T) T^T = sigma^2 I, exactly, with b the predicted vector
-        r = np.array([[s2, 0.0], [0.0, s2]])
-    else:
-        tt = np.array([[u0, u1, u2], [v0, v1, v2]])
-        r = tt @ m.covariance @ tt.T
-    return res, h, r, p0 * b0 + p1 * b1 + p2 * b2
+        return np.array([[s2, 0.0], [0.0, s2]])
+    tt = np.array([t1, t2])
+    return tt @ m.covariance @ tt.T
+
+
+def _vector_model(
+    q_hat: NDArray[np.float64], m: VectorMeasurement
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], float]:
+    """Residual (2,), attitude Jacobian (2, 3), noise (2, 2) and ``b . b_hat`` of one vector sample."""
+    z, t1, t2, cosine = _vector_basis(q_hat.tolist(), m)
+    return np.array(z), np.array([[-c for c in t2], t1]), _vector_noise(m, t1, t2), cosine
 
 
 def vector_update_model(
@@ -860,7 +871,7 @@ class MEKF:
             wrong shape or (tracker) a finite non-unit norm, or a vector
             sample is malformed (:class:`VectorMeasurement`).
         """
-        t = t if type(t) is float and math.isfinite(t) else float(as_float_array(t, "t"))
+        t = float(t) if isinstance(t, float) and math.isfinite(t) else float(as_float_array(t, "t"))
         if self._t is not None and t < self._t:
             raise ValueError(f"t must not go backwards: t = {t!r} s < previous time {self._t!r} s")
         rate = self._accept_gyro(gyro)
@@ -1011,15 +1022,26 @@ class MEKF:
         kf.x = np.zeros(6)
 
     def _correct_vector(self, m: VectorMeasurement, name: str, t: float) -> None:
-        z, h, r, cosine = _vector_model(self._q, m)
+        (z0, z1), t1, t2, cosine = _vector_basis(self._q.tolist(), m)
         p = self._kf.P
-        pht = p[:, :3] @ h.T  # P H^T (6, 2); H = [h 0]
-        (s00, s01), (s10, s11) = (h @ pht[:3] + r).tolist()
-        z0, z1 = z.tolist()
+        # P H^T (6, 2) with H = [h 0], h = [-t2; t1]; the 2 x 2 algebra in Python floats.
+        pht = p[:, :3] @ np.array([[-t2[0], t1[0]], [-t2[1], t1[1]], [-t2[2], t1[2]]])
+        rows = pht.tolist()
+        (r00, r01), (r10, r11) = (
+            ((m.sigma * m.sigma, 0.0), (0.0, m.sigma * m.sigma))
+            if m.covariance is None
+            else _vector_noise(m, t1, t2).tolist()
+        )
+        (a0, b0), (a1, b1), (a2, b2) = rows[0], rows[1], rows[2]
+        s00 = -(t2[0] * a0 + t2[1] * a1 + t2[2] * a2) + r00
+        s01 = -(t2[0] * b0 + t2[1] * b1 + t2[2] * b2) + r01
+        s10 = t1[0] * a0 + t1[1] * a1 + t1[2] * a2 + r10
+        s11 = t1[0] * b0 + t1[1] * b1 + t1[2] * b2 + r11
         # 2 x 2 inverse in closed form (S is symmetric positive definite: R is).
         det = s00 * s11 - s01 * s10
-        si = np.array([[s11 / det, -s01 / det], [-s10 / det, s00 / det]])
-        c0, c1 = (si @ z).tolist()
+        si = ((s11 / det, -s01 / det), (-s10 / det, s00 / det))
+        c0 = si[0][0] * z0 + si[0][1] * z1
+        c1 = si[1][0] * z0 + si[1][1] * z1
         nis_value = z0 * c0 + z1 * c1
         if cosine <= 0.0:
             # More than 90 deg from the prediction: the projected residual of a reversed vector is as small
@@ -1033,10 +1055,10 @@ class MEKF:
             self._counts["vector_gated"] += 1
             return
         self._vnis.append(nis_value)
-        dx = pht[:, 0] * c0 + pht[:, 1] * c1  # K z, K = P H^T S^-1
+        dx = [a * c0 + b * c1 for a, b in rows]  # K z, K = P H^T S^-1
         # P - K S K^T = P - (P H^T) S^-1 (P H^T)^T: with the optimal gain the same as the Joseph form filterpy
         # uses for the tracker, at a fraction of the cost; symmetrised in the reset.
-        self._reset(dx[:3].tolist(), dx[3:].tolist(), p - pht @ si @ pht.T)
+        self._reset(dx[:3], dx[3:], p - (pht @ np.array(si)) @ pht.T)
         self._counts["vector_updates"] += 1
 
     # -- reporting --------------------------------------------------------------------
