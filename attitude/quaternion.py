@@ -10,7 +10,10 @@ The direction cosine matrix ``C_BN`` maps N components to B components, so
 
 Every function accepts leading batch dimensions (``(..., 4)`` quaternions,
 ``(..., 3)`` vectors, ``(..., 3, 3)`` matrices), broadcasts them, and never
-mutates its inputs. Quaternions passed in as attitudes must have unit norm
+mutates its inputs; the exceptions say so in their names: ``*_components``
+(the one definition of the algebra, on lists of numbers, arrays or casadi
+expressions) and ``*_floats`` (one quaternion in Python floats, rounded
+exactly as the array function, for code that runs at every tick). Quaternions passed in as attitudes must have unit norm
 to within :data:`UNIT_NORM_TOLERANCE`; functions that accept any non-zero
 quaternion say so.
 """
@@ -41,6 +44,7 @@ __all__ = [
     "from_dcm",
     "from_mrp",
     "from_rotation_vector",
+    "from_rotation_vector_floats",
     "identity",
     "inverse",
     "log",
@@ -51,12 +55,14 @@ __all__ = [
     "random",
     "rotate",
     "rotate_inverse",
+    "rotation_vector_floats",
     "shortest",
     "slerp",
     "to_axis_angle",
     "to_dcm",
     "to_mrp",
     "to_rotation_vector",
+    "unit_floats",
     "unit_vector_angle",
 ]
 
@@ -174,6 +180,106 @@ def log_vector_components(q: list) -> list:
     zero = vn == 0
     scale = np.where(zero, 0.0, theta / np.where(zero, 1.0, vn))
     return [np.where(zero, theta, scale * x), scale * y, scale * z]
+
+
+# ---------------------------------------------------------------------------
+# One quaternion in Python floats, rounded exactly as the array functions round it.
+#
+# A sensor sampled at every tick would pay numpy's per-call overhead dozens of times for four
+# numbers. These run the array functions' operations in the same order on Python floats (+ - * /
+# and sqrt are correctly rounded either way) and call numpy's ufuncs for atan2, hypot, sin and cos
+# (numpy's kernels need not agree with the math module's to the last bit), so a sample formed
+# through them is bit-identical to one formed by the array functions, and to a batch of runs
+# (tests/attitude/test_quaternion.py checks each against its array function). No checks: the
+# callers pass finite floats (attitude.validation.finite_floats).
+# ---------------------------------------------------------------------------
+
+
+def _norm_floats(v: list[float]) -> float:
+    """:func:`_norm` of one 3- or 4-vector of Python floats, rounded as it (scaled by the largest magnitude)."""
+    if len(v) == 4:
+        a, b, c, d = v
+        scale = max(abs(a), abs(b), abs(c), abs(d))
+        if scale > 0:  # (the array function divides by 1.0 otherwise: exact)
+            a, b, c, d = a / scale, b / scale, c / scale, d / scale
+        return scale * math.sqrt(a * a + b * b + c * c + d * d)
+    a, b, c = v
+    scale = max(abs(a), abs(b), abs(c))
+    if scale > 0:
+        a, b, c = a / scale, b / scale, c / scale
+    return scale * math.sqrt(a * a + b * b + c * c)
+
+
+def unit_floats(q: list[float], tolerance: float = UNIT_NORM_TOLERANCE) -> list[float] | None:
+    """:func:`as_unit_quaternion` of one quaternion of finite Python floats, bit for bit; None if not unit.
+
+    Parameters
+    ----------
+    q : list of 4 float
+        Finite components ``[w, x, y, z]``.
+    tolerance : float
+        Accepted deviation of ``|q|`` from 1.
+
+    Returns
+    -------
+    list of 4 float or None
+        ``q / |q|``; None when ``| |q| - 1 | > tolerance`` (the caller lets
+        :func:`as_unit_quaternion` raise its error).
+    """
+    n = _norm_floats(q)
+    if abs(n - 1.0) > tolerance:
+        return None
+    return [c / n for c in q]
+
+
+def rotation_vector_floats(q: list[float]) -> list[float] | None:
+    """:func:`to_rotation_vector` of one quaternion of finite Python floats [rad], bit for bit; None if not unit.
+
+    Parameters
+    ----------
+    q : list of 4 float
+        Components ``[w, x, y, z]`` of a unit quaternion (normalised here, as
+        :func:`to_rotation_vector` does).
+
+    Returns
+    -------
+    list of 3 float or None
+        The rotation vector on the shortest way [rad]; None when ``q`` is
+        not unit within :data:`UNIT_NORM_TOLERANCE`.
+    """
+    unit = unit_floats(q)
+    if unit is None:
+        return None
+    w, x, y, z = unit if unit[0] >= 0 else [-c for c in unit]
+    vn = float(np.hypot(np.hypot(x, y), z))
+    theta = float(np.arctan2(vn, w))
+    if vn == 0:
+        return [2.0 * theta, 2.0 * (0.0 * y), 2.0 * (0.0 * z)]
+    scale = theta / vn
+    return [2.0 * (scale * x), 2.0 * (scale * y), 2.0 * (scale * z)]
+
+
+def from_rotation_vector_floats(rotvec: list[float]) -> list[float]:
+    """:func:`from_rotation_vector` of one rotation vector of finite Python floats [rad], bit for bit.
+
+    Parameters
+    ----------
+    rotvec : list of 3 float
+        Rotation vector ``angle * axis`` [rad].
+
+    Returns
+    -------
+    list of 4 float
+        The unit quaternion ``[w, x, y, z]``.
+    """
+    v = [0.5 * c for c in rotvec]
+    half = _norm_floats(v)
+    if half < _EXP_SERIES_HALF_ANGLE:
+        sinc = 1.0 - half * half / 6.0
+    else:
+        sinc = float(np.sin(half)) / half
+    s = 0.5 * sinc
+    return [float(np.cos(half)), s * (2.0 * v[0]), s * (2.0 * v[1]), s * (2.0 * v[2])]
 
 
 def _split(x: NDArray[np.float64]) -> list:

@@ -13,6 +13,7 @@ sampling, deterministic errors, star-tracker noise, batches of runs).
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -29,6 +30,7 @@ from attitude.validation import (
     check_positive,
     check_vector,
     describe,
+    finite_floats,
     positive_scalar,
     scalar_time,
 )
@@ -388,7 +390,6 @@ def _per_axis(value: ArrayLike, name: str) -> NDArray[np.float64]:
     return out
 
 
-
 def _misalignment_matrix(value: ArrayLike) -> NDArray[np.float64]:
     arr = as_float_array(value, "misalignment")
     if arr.shape == (3,):
@@ -469,6 +470,9 @@ def farrenkopf_process_noise(sigma_v2: float, sigma_u2: float, dt: float) -> NDA
 _DIAG_A = np.arange(3)
 _DIAG_B = np.arange(3, 6)
 
+
+#: Sample intervals whose Gauss-Markov coefficients a gyro keeps (:meth:`Gyro._gm_coefficients`).
+_GM_CACHE_SIZE = 64
 
 #: Gyro sampling models (see :class:`Gyro`).
 GYRO_SAMPLING = ("instantaneous", "mean")
@@ -576,7 +580,7 @@ class Gyro:
         self.correlation_time = float(time_b)
         #: Rows of standard normals per sample: [N_u, N_v], plus the Gauss-Markov pair [N_b1, N_b2].
         self._normal_rows = 4 if self.sigma_b > 0 else 2
-        self._gm_cache: tuple[float, tuple[float, float, float, float, float]] | None = None
+        self._gm_cache: dict[float, tuple[float, float, float, float, float]] = {}
         self.initial_bias = _per_axis(bias, "bias")
         self.scale_factor = _per_axis(scale_factor, "scale_factor")
         if np.any(self.scale_factor <= -1.0):
@@ -939,10 +943,17 @@ class Gyro:
         self._q_last: NDArray[np.float64] | None = None
 
     def _gm_coefficients(self, h: float) -> tuple[float, float, float, float, float]:
-        """:func:`_gm_step_coefficients` for this gyro, the latest interval cached (the engine's is constant)."""
-        if self._gm_cache is None or self._gm_cache[0] != h:
-            self._gm_cache = (h, _gm_step_coefficients(h, self.sigma_b, self.correlation_time))
-        return self._gm_cache[1]
+        """:func:`_gm_step_coefficients` for this gyro, cached by interval.
+
+        The engine's ticks ``k dt`` differ by a handful of distinct floats
+        (14 over 6000 ticks of 0.1 s), so a small cache keeps them all.
+        """
+        coefficients = self._gm_cache.get(h)
+        if coefficients is None:
+            if len(self._gm_cache) >= _GM_CACHE_SIZE:
+                self._gm_cache.clear()
+            coefficients = self._gm_cache[h] = _gm_step_coefficients(h, self.sigma_b, self.correlation_time)
+        return coefficients
 
     def _markov_errors(
         self, markov0: NDArray[np.float64], dt_bias: NDArray[np.float64], normals: NDArray[np.float64]
@@ -1062,6 +1073,51 @@ class Gyro:
         markov_t = None if states is None else states[..., -1, :]
         return self._output(omega, errors[..., 0, :], transfer), biases[..., -1, :], markov_t
 
+    def _sample_floats(
+        self, t: float, omega: list[float], q: list[float] | None, normals: list[list[float]]
+    ) -> NDArray[np.float64]:
+        """:meth:`_sample` of one gyro in Python floats, the same operations in the same order; updates the bias.
+
+        ``omega`` (3) the true rate, ``q`` (4) the normalised attitude (None
+        unless ``sampling="mean"``), ``normals`` the rows ``[N_u, N_v]`` (and
+        ``[N_b1, N_b2]``) of 3. A sample is bit-identical to :meth:`_sample`'s
+        (tests/attitude/test_sensors.py), hence to :class:`GyroBatch`'s.
+        """
+        t_last = self._t_last
+        if q is not None and self._q_last is not None:
+            increment = quat.multiply_components(quat.conjugate_components(self._q_last.tolist()), q)
+            rotvec = quat.rotation_vector_floats(increment)
+            if rotvec is None:  # not unit: the array function raises its error
+                rotvec = quat.to_rotation_vector(np.array(increment)).tolist()
+            dt = t - t_last
+            omega = [c / dt for c in rotvec]
+        if t_last is None:
+            dt_bias, dt_noise = 0.0, self.period
+        else:
+            dt_bias = dt_noise = t - t_last
+        n_u, n_v = normals[0], normals[1]
+        step = self.sigma_u * math.sqrt(dt_bias)
+        bias0 = self._bias.tolist()
+        bias1 = [b + step * n for b, n in zip(bias0, n_u)]
+        white = math.sqrt(self.sigma_v**2 / dt_noise + self.sigma_u**2 * dt_noise / 12.0)
+        errors = [0.5 * (b0 + b1) + white * n for b0, b1, n in zip(bias0, bias1, n_v)]
+        if self.sigma_b != 0.0:
+            phi, s, a, c, d = self._gm_coefficients(dt_bias)
+            markov0 = self._markov.tolist()
+            n_b1, n_b2 = normals[2], normals[3]
+            self._markov = np.array([phi * m + s * n1 for m, n1 in zip(markov0, n_b1)])
+            errors = [e + (a * m + c * n1 + d * n2) for e, m, n1, n2 in zip(errors, markov0, n_b1, n_b2)]
+        self._bias = np.array(bias1)
+        o0, o1, o2 = omega
+        raw = [o0 * r0 + o1 * r1 + o2 * r2 + e for (r0, r1, r2), e in zip(self.transfer_matrix.tolist(), errors)]
+        if self.quantization > 0:
+            lsb = self.quantization
+            raw = [round(v / lsb) * lsb for v in raw]
+        if math.isfinite(self.saturation):
+            top = self.saturation
+            raw = [min(max(v, -top), top) for v in raw]
+        return np.array(raw)
+
     def measure(self, t: float, truth: Any, rng: Any = None) -> NDArray[np.float64]:
         """One rate sample [rad/s] at time ``t`` [s] (the engine's sensor protocol).
 
@@ -1087,7 +1143,20 @@ class Gyro:
             :meth:`reset` before a new run) or ``truth.omega`` is invalid.
         """
         gen = as_generator(rng)
-        t = float(as_float_array(t, "t"))
+        t = float(t) if isinstance(t, float) and math.isfinite(t) else float(as_float_array(t, "t"))
+        omega_floats = finite_floats(truth.omega, 3)
+        q_floats = None
+        if self.sampling == "mean" and omega_floats is not None:
+            q_in = finite_floats(truth.q, 4)
+            q_floats = None if q_in is None else quat.unit_floats(q_in)
+        if omega_floats is not None and (q_floats is not None or self.sampling != "mean"):
+            # One sample in Python floats: the operations of _sample in the same order (bit for bit).
+            _check_after(t, self._t_last, f"gyro {self.name!r}")
+            normals = gen.standard_normal((self._normal_rows, 3)).tolist()
+            out = self._sample_floats(t, omega_floats, q_floats, normals)
+            self._t_last = t
+            self._q_last = None if q_floats is None else np.array(q_floats)
+            return out
         omega = check_vector(truth.omega, "truth.omega", 3)
         q = quat.as_unit_quaternion(truth.q, "truth.q") if self.sampling == "mean" else None
         _check_after(t, self._t_last, f"gyro {self.name!r}")
@@ -1756,11 +1825,43 @@ class StarTracker:
         rng : Generator, int or None
             Random source.
         """
+        q_in = finite_floats(truth.q, 4)
+        q_floats = None if q_in is None else quat.unit_floats(q_in)
+        if q_floats is not None:
+            blinded = self._blinded_floats(t, q_floats)
+            if blinded is not None:
+                # The array path's operations in Python floats (bit for bit; tests/attitude/test_sensors.py).
+                if blinded:
+                    return None
+                return self._noisy_floats(q_floats, as_generator(rng).standard_normal(3).tolist())
         q = quat.as_unit_quaternion(truth.q, "truth.q")
         if self._blinded(t, q):
             return None
         # Normalised once, as add_noise does: a sequence of measurements is bit-identical to one batch call.
         return self._noisy(q, as_generator(rng).standard_normal(3))
+
+    def _blinded_floats(self, t: float, q: list[float]) -> bool | None:
+        """:meth:`_blinded` of one normalised attitude in Python floats, bit for bit (None: take the array path)."""
+        sun_N = self.sun_direction_at(t)
+        if sun_N is None:
+            return False
+        # rotate_inverse normalises q, and rotate its conjugate, once more each: so does this.
+        q_unit = quat.unit_floats(q)
+        conj = None if q_unit is None else quat.unit_floats(quat.conjugate_components(q_unit))
+        if conj is None:
+            return None
+        s0, s1, s2 = quat.rotate_components(conj, sun_N.tolist())
+        b0, b1, b2 = self.boresight_B.tolist()
+        cos_part = s0 * b0 + s1 * b1 + s2 * b2
+        c0, c1, c2 = s1 * b2 - s2 * b1, s2 * b0 - s0 * b2, s0 * b1 - s1 * b0
+        sin_part = math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+        return bool(np.arctan2(sin_part, cos_part) < self.sun_exclusion)
+
+    def _noisy_floats(self, q: list[float], normals: list[float]) -> NDArray[np.float64]:
+        """:meth:`_noisy` of one normalised attitude and 3 normals in Python floats, bit for bit."""
+        d0, d1, d2 = normals[0] * self.sigma_cross, normals[1] * self.sigma_cross, normals[2] * self.sigma_roll
+        dtheta_B = [d0 * c0 + d1 * c1 + d2 * c2 for c0, c1, c2 in self.C_BS.tolist()]
+        return np.array(quat.multiply_components(q, quat.from_rotation_vector_floats(dtheta_B)))
 
     def measure_batch(
         self, t: float, q_BN: ArrayLike, normals: ArrayLike | NormalStreams

@@ -7,6 +7,7 @@ broken and the offending value, instead of propagating NaN.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -20,6 +21,7 @@ __all__ = [
     "check_time_grid",
     "check_vector",
     "describe",
+    "finite_floats",
     "positive_scalar",
     "scalar_angle",
     "scalar_time",
@@ -111,6 +113,32 @@ def check_vector(value: ArrayLike, name: str, length: int) -> NDArray[np.float64
     if arr.ndim == 0 or arr.shape[-1] != length:
         raise ValueError(f"{name} must have shape (..., {length}), got shape {arr.shape}")
     return arr
+
+
+def finite_floats(value: Any, length: int) -> list[float] | None:
+    """``value`` as ``length`` Python floats when it is a finite float64 array of shape ``(length,)``, else None.
+
+    The per-tick fast check of a sensor or filter input: a caller that gets
+    None takes its array path, whose checks (:func:`check_vector`) raise the
+    error that names the argument (or accept the other shapes it allows).
+
+    Parameters
+    ----------
+    value : object
+        The input (typically an ndarray of shape ``(length,)``).
+    length : int
+        Required number of entries.
+
+    Returns
+    -------
+    list of float or None
+        The entries, all finite; None for anything else (NaN or inf included).
+    """
+    if type(value) is np.ndarray and value.dtype == np.float64 and value.shape == (length,):
+        out = value.tolist()
+        if all(map(math.isfinite, out)):
+            return out
+    return None
 
 
 def check_direction(value: ArrayLike, name: str) -> NDArray[np.float64]:

@@ -63,7 +63,10 @@ def quaternion_error_components(q_ref: Components, q: Components) -> tuple[Compo
     """
     conj = [q_ref[0], -q_ref[1], -q_ref[2], -q_ref[3]]
     e = quat.multiply_components(conj, q)
-    sign = bk.if_else(e[0] < 0, -1.0, 1.0)
+    if isinstance(e[0], float):  # one attitude in numbers: a branch (np.where would turn them into 0-d arrays)
+        sign = -1.0 if e[0] < 0 else 1.0
+    else:
+        sign = bk.if_else(e[0] < 0, -1.0, 1.0)
     return [sign * c for c in e], e
 
 
@@ -208,17 +211,20 @@ class QuaternionPD:
         q_e, _ = quaternion_error_components(inputs[:4], q)
         w_ref_b = quat.rotate_inverse_components(q_e, inputs[4:7])
         w_e = [w - r for w, r in zip(omega, w_ref_b)]
+        # The gains as Python floats (read at every call: the fields may be reassigned), not numpy scalars.
+        gain_k, gain_c = self.K.tolist(), self.C.tolist()
         tau = []
         for i in range(3):
             acc = 0.0 * omega[0]
             for j in range(3):
-                if self.K[i, j] != 0.0:
-                    acc = acc - self.K[i, j] * q_e[1 + j]
-                if self.C[i, j] != 0.0:
-                    acc = acc - self.C[i, j] * w_e[j]
+                if gain_k[i][j] != 0.0:
+                    acc = acc - gain_k[i][j] * q_e[1 + j]
+                if gain_c[i][j] != 0.0:
+                    acc = acc - gain_c[i][j] * w_e[j]
             tau.append(acc)
         if self.gyroscopic:
-            h_tot = [sum(self.inertia[i, j] * omega[j] for j in range(3)) + h_body[i] for i in range(3)]
+            inertia = self.inertia.tolist()
+            h_tot = [sum(inertia[i][j] * omega[j] for j in range(3)) + h_body[i] for i in range(3)]
             tau = [a + b for a, b in zip(tau, cross(omega, h_tot))]
         return tau
 

@@ -37,7 +37,7 @@ from attitude import quaternion as quat
 from attitude.rigid_body import skew
 from attitude.sensors import Gyro, StarTracker, farrenkopf_process_noise
 from attitude.simulation.protocols import Estimate, VectorMeasurement
-from attitude.validation import as_float_array, check_covariance, check_positive, positive_scalar
+from attitude.validation import as_float_array, check_covariance, check_positive, finite_floats, positive_scalar
 from estimation.consistency import GATE_PROBABILITY, NIS_CAP, NisHealth, gate_threshold, nis_health
 
 __all__ = [
@@ -57,6 +57,8 @@ _I3 = np.eye(3)
 MEASUREMENT_MATRIX = np.hstack([_I3, np.zeros((3, 3))])
 MEASUREMENT_MATRIX.flags.writeable = False
 _RESETS = ("first_order", "second_order")
+#: Steps whose process noise a filter keeps (the engine's ticks differ by a handful of distinct floats).
+_Q_CACHE_SIZE = 64
 #: Accepted deviation of a tracker quaternion's norm from 1 (that of attitude.quaternion).
 _UNIT_TOL = quat.UNIT_NORM_TOLERANCE
 _COUNT_KEYS = (
@@ -110,12 +112,51 @@ def _normalize(q: NDArray[np.float64]) -> NDArray[np.float64]:
     return q / np.sqrt(np.sum(q * q, axis=-1, keepdims=True))
 
 
+def _compose_floats(q: list[float], phi: list[float]) -> list[float]:
+    """``normalise(q ⊗ exp(phi / 2))`` for one quaternion (4) and rotation vector (3) of Python floats."""
+    dq = quat.exp_rotation_vector_components(phi)  # Python floats: the math module's sin and cos
+    w, x, y, z = quat.multiply_components(q, dq)
+    n = math.sqrt(w * w + x * x + y * y + z * z)
+    return [w / n, x / n, y / n, z / n]
+
+
 def _compose_one(q: NDArray[np.float64], phi: NDArray[np.float64]) -> NDArray[np.float64]:
     """``normalise(q ⊗ exp(phi / 2))`` for one quaternion (4,) and rotation vector (3,)."""
-    dq = quat.exp_rotation_vector_components([float(phi[0]), float(phi[1]), float(phi[2])])
-    w, x, y, z = quat.multiply_components([float(c) for c in q], [float(c) for c in dq])
-    n = math.sqrt(w * w + x * x + y * y + z * z)
-    return np.array([w / n, x / n, y / n, z / n])
+    return np.array(_compose_floats([float(c) for c in q], [float(phi[0]), float(phi[1]), float(phi[2])]))
+
+
+def _residual_floats(q_ref: list[float], q: list[float]) -> list[float]:
+    """:func:`attitude_residual` of one pair of unit quaternions of Python floats [rad] (the per-step path)."""
+    w, x, y, z = quat.multiply_components(quat.conjugate_components(q_ref), q)
+    if w < 0.0:  # the shortest way
+        w, x, y, z = -w, -x, -y, -z
+    vn = math.hypot(x, y, z)
+    if vn == 0.0:
+        return [0.0, 0.0, 0.0]  # w > 0 here (unit q): no rotation
+    scale = 2.0 * math.atan2(vn, w) / vn
+    return [scale * x, scale * y, scale * z]
+
+
+def _inverse_3x3_array(s: NDArray[np.float64]) -> NDArray[np.float64]:
+    """:func:`_inverse_3x3` of a (3, 3) array (filterpy's ``inv`` for the tracker update)."""
+    return np.array(_inverse_3x3(s.tolist()))
+
+
+def _inverse_3x3(s: list[list[float]]) -> list[list[float]]:
+    """Inverse of a symmetric positive-definite 3 x 3 matrix of Python floats, by its cofactors.
+
+    For the innovation covariance ``P_att + R`` (``R`` positive definite, so ``S`` is
+    well conditioned): the cofactor formula rounds to a few ulps of ``numpy.linalg.inv``'s
+    LU solution there (tests/estimation/mekf/test_filter.py).
+    """
+    (a, b, c), (d, e, f), (g, h, i) = s
+    c00, c01, c02 = e * i - f * h, f * g - d * i, d * h - e * g
+    det = a * c00 + b * c01 + c * c02
+    return [
+        [c00 / det, (c * h - b * i) / det, (b * f - c * e) / det],
+        [c01 / det, (a * i - c * g) / det, (c * d - a * f) / det],
+        [c02 / det, (b * g - a * h) / det, (a * e - b * d) / det],
+    ]
 
 
 def compose_rotation_vector(q: NDArray[np.float64], phi: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -218,10 +259,16 @@ def error_transition(w: NDArray[np.float64], dt: Any) -> NDArray[np.float64]:
     return out
 
 
-def _transition_one(w: NDArray[np.float64], dt: float) -> NDArray[np.float64]:
-    """:func:`error_transition` for one rate (3,) and a scalar step, with Python scalars (the per-step path)."""
-    wx, wy, wz = float(w[0]) * dt, float(w[1]) * dt, float(w[2]) * dt
-    a = math.sqrt(wx * wx + wy * wy + wz * wz)
+def _transition_one(w: Any, dt: float) -> NDArray[np.float64]:
+    """:func:`error_transition` for one rate (3) and a scalar step, in Python floats (the per-step path).
+
+    With ``k = w dt = (x, y, z)``, ``[k x]^2 = k k^T - |k|^2 I`` written out, so
+    ``Phi11 = I - c1 [k x] + c2 [k x]^2`` and ``Phi12 = dt (-I + c2 [k x] - c3 [k x]^2)``
+    take a few dozen multiplications instead of numpy's small-matrix calls.
+    """
+    x, y, z = float(w[0]) * dt, float(w[1]) * dt, float(w[2]) * dt
+    xx, yy, zz = x * x, y * y, z * z
+    a = math.sqrt(xx + yy + zz)
     if a < 1e-2:
         a2 = a * a
         c1 = 1.0 - a2 / 6.0 + a2 * a2 / 120.0
@@ -231,13 +278,20 @@ def _transition_one(w: NDArray[np.float64], dt: float) -> NDArray[np.float64]:
         c1 = math.sin(a) / a
         c2 = 2.0 * math.sin(0.5 * a) ** 2 / (a * a)
         c3 = (a - math.sin(a)) / a**3
-    k = skew(np.array([wx, wy, wz]))
-    k2 = k @ k
-    out = np.zeros((6, 6))
-    out[:3, :3] = _I3 - c1 * k + c2 * k2
-    out[:3, 3:] = dt * (-_I3 + c2 * k - c3 * k2)
-    out[3:, 3:] = _I3
-    return out
+    xy, xz, yz = x * y, x * z, y * z
+    return np.array(
+        [
+            [1.0 - c2 * (yy + zz), c1 * z + c2 * xy, c2 * xz - c1 * y,
+             dt * (c3 * (yy + zz) - 1.0), -dt * (c2 * z + c3 * xy), dt * (c2 * y - c3 * xz)],
+            [c2 * xy - c1 * z, 1.0 - c2 * (xx + zz), c1 * x + c2 * yz,
+             dt * (c2 * z - c3 * xy), dt * (c3 * (xx + zz) - 1.0), -dt * (c2 * x + c3 * yz)],
+            [c1 * y + c2 * xz, c2 * yz - c1 * x, 1.0 - c2 * (xx + yy),
+             -dt * (c2 * y + c3 * xz), dt * (c2 * x - c3 * yz), dt * (c3 * (xx + yy) - 1.0)],
+            [0.0, 0.0, 0.0, 1.0, 0.0, 0.0],
+            [0.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+            [0.0, 0.0, 0.0, 0.0, 0.0, 1.0],
+        ]
+    )  # fmt: skip
 
 
 def process_noise(*, sigma_v: float, sigma_u: float, dt: float) -> NDArray[np.float64]:
@@ -279,12 +333,13 @@ def initial_covariance(*, attitude_sigma: float, bias_sigma: float) -> NDArray[n
     return np.diag([a**2] * 3 + [b**2] * 3)
 
 
-def _vector_model(
-    q_hat: NDArray[np.float64], m: VectorMeasurement
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Residual (2,), attitude Jacobian (2, 3), noise (2, 2) and ``b . b_hat`` of one vector sample (hot path)."""
+def _vector_basis(q_hat: list[float], m: VectorMeasurement) -> tuple[list[float], list[float], list[float], float]:
+    """Residual ``[z0, z1]``, basis rows ``t1``, ``t2`` and ``b . b_hat`` of one vector sample, in Python floats.
+
+    The attitude Jacobian is ``h = [-t2; t1]`` (the hot path of the filter reads the floats).
+    """
     # b_hat = C_BN(q_hat) r_N, by the one rotation of attitude.quaternion (on Python floats).
-    p0, p1, p2 = quat.rotate_inverse_components(q_hat.tolist(), m.reference_N.tolist())
+    p0, p1, p2 = quat.rotate_inverse_components(q_hat, m.reference_N.tolist())
     # t1 = b_hat x e / |.|, e the axis least aligned with b_hat (|b_hat x e| >= sqrt(2/3): no cancellation);
     # t2 = b_hat x t1, so (t1, t2, b_hat) is right-handed and orthonormal.
     a0, a1, a2 = abs(p0), abs(p1), abs(p2)
@@ -299,15 +354,25 @@ def _vector_model(
     v0, v1, v2 = p1 * u2 - p2 * u1, p2 * u0 - p0 * u2, p0 * u1 - p1 * u0
     b0, b1, b2 = m.vector_B.tolist()
     # z = T (b - b_hat) = T b, since T b_hat = 0; T [b_hat x] has the rows t1 x b_hat = -t2 and t2 x b_hat = t1.
-    res = np.array([u0 * b0 + u1 * b1 + u2 * b2, v0 * b0 + v1 * b1 + v2 * b2])
-    h = np.array([[-v0, -v1, -v2], [u0, u1, u2]])
+    z = [u0 * b0 + u1 * b1 + u2 * b2, v0 * b0 + v1 * b1 + v2 * b2]
+    return z, [u0, u1, u2], [v0, v1, v2], p0 * b0 + p1 * b1 + p2 * b2
+
+
+def _vector_noise(m: VectorMeasurement, t1: list[float], t2: list[float]) -> NDArray[np.float64]:
+    """The noise ``R = T R3 T^T`` (2, 2) of the residual, ``T = [t1; t2]``."""
     if m.covariance is None:
         s2 = m.sigma * m.sigma  # T sigma^2 (I - b b^T) T^T = sigma^2 I, exactly, with b the predicted vector
-        r = np.array([[s2, 0.0], [0.0, s2]])
-    else:
-        tt = np.array([[u0, u1, u2], [v0, v1, v2]])
-        r = tt @ m.covariance @ tt.T
-    return res, h, r, p0 * b0 + p1 * b1 + p2 * b2
+        return np.array([[s2, 0.0], [0.0, s2]])
+    tt = np.array([t1, t2])
+    return tt @ m.covariance @ tt.T
+
+
+def _vector_model(
+    q_hat: NDArray[np.float64], m: VectorMeasurement
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64], float]:
+    """Residual (2,), attitude Jacobian (2, 3), noise (2, 2) and ``b . b_hat`` of one vector sample."""
+    z, t1, t2, cosine = _vector_basis(q_hat.tolist(), m)
+    return np.array(z), np.array([[-c for c in t2], t1]), _vector_noise(m, t1, t2), cosine
 
 
 def vector_update_model(
@@ -547,7 +612,9 @@ class MEKF:
         kf.P = p0.copy()
         kf.H = MEASUREMENT_MATRIX.copy()
         kf.R = self.tracker_covariance.copy()
+        kf.inv = _inverse_3x3_array  # S is 3 x 3: its cofactors cost less than numpy.linalg.inv's call
         self._kf = kf
+        self._q_cache: dict[float, NDArray[np.float64]] = {}
         self._t: float | None = t0
         self._last_gyro: NDArray[np.float64] | None = None
         self._last_nis = np.nan
@@ -804,7 +871,7 @@ class MEKF:
             wrong shape or (tracker) a finite non-unit norm, or a vector
             sample is malformed (:class:`VectorMeasurement`).
         """
-        t = float(as_float_array(t, "t"))
+        t = float(t) if isinstance(t, float) and math.isfinite(t) else float(as_float_array(t, "t"))
         if self._t is not None and t < self._t:
             raise ValueError(f"t must not go backwards: t = {t!r} s < previous time {self._t!r} s")
         rate = self._accept_gyro(gyro)
@@ -831,33 +898,41 @@ class MEKF:
         if gyro is None:
             self._counts["gyro_missing"] += 1
             return None
-        g = as_float_array(gyro, "gyro sample", allow_nonfinite=True)
-        if g.shape != (3,):
-            raise ValueError(f"gyro sample must have shape (3,) [rad/s], got shape {g.shape}")
-        if not np.all(np.isfinite(g)):
-            self._counts["gyro_nan"] += 1
-            return None
-        if np.abs(g).max() > self.gyro_rate_max:
+        g = finite_floats(gyro, 3)
+        if g is None:
+            arr = as_float_array(gyro, "gyro sample", allow_nonfinite=True)
+            if arr.shape != (3,):
+                raise ValueError(f"gyro sample must have shape (3,) [rad/s], got shape {arr.shape}")
+            if not np.all(np.isfinite(arr)):
+                self._counts["gyro_nan"] += 1
+                return None
+            g = arr.tolist()
+        if max(abs(g[0]), abs(g[1]), abs(g[2])) > self.gyro_rate_max:
             self._counts["gyro_rejected"] += 1
             return None
-        return g.copy()
+        return np.array(g)
 
-    def _accept_tracker(self, tracker: ArrayLike | None) -> NDArray[np.float64] | None:
+    def _accept_tracker(self, tracker: ArrayLike | None) -> list[float] | None:
+        """The tracker sample as a normalised quaternion of Python floats (None: no sample or NaN)."""
         if tracker is None:
             self._counts["tracker_missing"] += 1
             return None
-        y = as_float_array(tracker, "tracker sample", allow_nonfinite=True)
-        if y.shape != (4,):
-            raise ValueError(f"tracker sample must have shape (4,) (quaternion q_BN), got shape {y.shape}")
-        if not np.all(np.isfinite(y)):
-            self._counts["tracker_nan"] += 1
-            return None
-        n = float(np.sqrt(y @ y))
+        y = finite_floats(tracker, 4)
+        if y is None:
+            arr = as_float_array(tracker, "tracker sample", allow_nonfinite=True)
+            if arr.shape != (4,):
+                raise ValueError(f"tracker sample must have shape (4,) (quaternion q_BN), got shape {arr.shape}")
+            if not np.all(np.isfinite(arr)):
+                self._counts["tracker_nan"] += 1
+                return None
+            y = arr.tolist()
+        w, x, yy, z = y
+        n = math.sqrt(w * w + x * x + yy * yy + z * z)
         if abs(n - 1.0) > _UNIT_TOL:
             raise ValueError(
                 f"tracker sample must be a unit quaternion (| |q| - 1 | <= {_UNIT_TOL:g}); found |q| = {n!r}"
             )
-        return y / n
+        return [w / n, x / n, yy / n, z / n]
 
     def _accept_vectors(self, vectors: Mapping[str, Any] | Sequence[Any] | None) -> list:
         if vectors is None:
@@ -883,19 +958,40 @@ class MEKF:
         return out
 
     def _propagate(self, rate: NDArray[np.float64], dt: float) -> None:
-        w = rate - self._b
-        self._q = _compose_one(self._q, w * dt)
+        # In Python floats (numpy's per-call cost dominates 3- and 4-vectors); filterpy forms F P F^T + Q.
+        r0, r1, r2 = rate.tolist()
+        b0, b1, b2 = self._b.tolist()
+        w = [r0 - b0, r1 - b1, r2 - b2]
+        self._q = np.array(_compose_floats(self._q.tolist(), [w[0] * dt, w[1] * dt, w[2] * dt]))
         kf = self._kf
         kf.F = _transition_one(w, dt)
-        kf.Q = farrenkopf_process_noise(self.sigma_v**2, self.sigma_u**2, dt)
+        kf.Q = self._process_noise(dt)
         kf.predict()
 
-    def _correct(self, q_meas: NDArray[np.float64], t: float) -> None:
+    def _process_noise(self, dt: float) -> NDArray[np.float64]:
+        """:func:`attitude.sensors.farrenkopf_process_noise` over ``dt`` [s], cached by step.
+
+        The engine's ticks ``k dt`` differ by a handful of distinct floats (14
+        over 6000 ticks of 0.1 s). filterpy reads ``Q`` without writing it, so
+        the cached array is shared.
+        """
+        q = self._q_cache.get(dt)
+        if q is None:
+            if len(self._q_cache) >= _Q_CACHE_SIZE:
+                self._q_cache.clear()
+            q = self._q_cache[dt] = farrenkopf_process_noise(self.sigma_v**2, self.sigma_u**2, dt)
+            q.flags.writeable = False
+        return q
+
+    def _correct(self, q_meas: list[float], t: float) -> None:
         kf = self._kf
-        z = attitude_residual(self._q, q_meas)
-        # The gate, before anything is applied (the S filterpy's update would form: H P H^T + R).
+        z_floats = _residual_floats(self._q.tolist(), q_meas)
+        z = np.array(z_floats)
+        # The gate, before anything is applied (the S filterpy's update forms: H P H^T + R, with H = [I 0]).
         s = kf.P[:3, :3] + kf.R
-        nis_gate = float(z @ np.linalg.inv(s) @ z)
+        si = _inverse_3x3(s.tolist())
+        z0, z1, z2 = z_floats
+        nis_gate = sum(zi * (r[0] * z0 + r[1] * z1 + r[2] * z2) for zi, r in zip(z_floats, si))
         if not nis_gate <= self.gate_threshold:
             nis_gate = nis_gate if nis_gate <= NIS_CAP else NIS_CAP
             self._last_nis, self._last_gated = nis_gate, True
@@ -904,20 +1000,20 @@ class MEKF:
             self._nis.append(nis_gate)
             self._counts["tracker_gated"] += 1
             return
-        kf.update(z)
-        nis_value = float(kf.y @ kf.SI @ kf.y)
-        self._last_innovation, self._last_S = np.array(kf.y, dtype=np.float64), np.array(kf.S, dtype=np.float64)
-        self._reset(kf.x[:3].copy(), kf.x[3:].copy(), kf.P)
-        self._last_nis = nis_value
+        kf.update(z)  # its S is this S (H P H^T with H = [I 0] is exact), inverted by _inverse_3x3_array
+        self._last_innovation, self._last_S = z, s
+        self._reset(kf.x[:3].tolist(), kf.x[3:].tolist(), kf.P)
+        self._last_nis = nis_gate
         self._nis_t.append(t)
-        self._nis.append(nis_value)
+        self._nis.append(nis_gate)
         self._counts["updates"] += 1
 
-    def _reset(self, dtheta: NDArray[np.float64], db: NDArray[np.float64], p: NDArray[np.float64]) -> None:
+    def _reset(self, dtheta: list[float], db: list[float], p: NDArray[np.float64]) -> None:
         """Move the estimated error into ``q_hat`` and ``b_hat``, reset the covariance and zero ``x``."""
         kf = self._kf
-        self._q = _compose_one(self._q, dtheta)
-        self._b = self._b + db
+        self._q = np.array(_compose_floats(self._q.tolist(), dtheta))
+        b0, b1, b2 = self._b.tolist()
+        self._b = np.array([b0 + db[0], b1 + db[1], b2 + db[2]])
         if self.covariance_reset == "second_order":
             g = np.eye(6)
             g[:3, :3] -= 0.5 * skew(dtheta)
@@ -926,15 +1022,26 @@ class MEKF:
         kf.x = np.zeros(6)
 
     def _correct_vector(self, m: VectorMeasurement, name: str, t: float) -> None:
-        z, h, r, cosine = _vector_model(self._q, m)
+        (z0, z1), t1, t2, cosine = _vector_basis(self._q.tolist(), m)
         p = self._kf.P
-        pht = p[:, :3] @ h.T  # P H^T (6, 2); H = [h 0]
-        (s00, s01), (s10, s11) = (h @ pht[:3] + r).tolist()
-        z0, z1 = z.tolist()
+        # P H^T (6, 2) with H = [h 0], h = [-t2; t1]; the 2 x 2 algebra in Python floats.
+        pht = p[:, :3] @ np.array([[-t2[0], t1[0]], [-t2[1], t1[1]], [-t2[2], t1[2]]])
+        rows = pht.tolist()
+        (r00, r01), (r10, r11) = (
+            ((m.sigma * m.sigma, 0.0), (0.0, m.sigma * m.sigma))
+            if m.covariance is None
+            else _vector_noise(m, t1, t2).tolist()
+        )
+        (a0, b0), (a1, b1), (a2, b2) = rows[0], rows[1], rows[2]
+        s00 = -(t2[0] * a0 + t2[1] * a1 + t2[2] * a2) + r00
+        s01 = -(t2[0] * b0 + t2[1] * b1 + t2[2] * b2) + r01
+        s10 = t1[0] * a0 + t1[1] * a1 + t1[2] * a2 + r10
+        s11 = t1[0] * b0 + t1[1] * b1 + t1[2] * b2 + r11
         # 2 x 2 inverse in closed form (S is symmetric positive definite: R is).
         det = s00 * s11 - s01 * s10
-        si = np.array([[s11 / det, -s01 / det], [-s10 / det, s00 / det]])
-        c0, c1 = (si @ z).tolist()
+        si = ((s11 / det, -s01 / det), (-s10 / det, s00 / det))
+        c0 = si[0][0] * z0 + si[0][1] * z1
+        c1 = si[1][0] * z0 + si[1][1] * z1
         nis_value = z0 * c0 + z1 * c1
         if cosine <= 0.0:
             # More than 90 deg from the prediction: the projected residual of a reversed vector is as small
@@ -948,10 +1055,10 @@ class MEKF:
             self._counts["vector_gated"] += 1
             return
         self._vnis.append(nis_value)
-        dx = pht[:, 0] * c0 + pht[:, 1] * c1  # K z, K = P H^T S^-1
+        dx = [a * c0 + b * c1 for a, b in rows]  # K z, K = P H^T S^-1
         # P - K S K^T = P - (P H^T) S^-1 (P H^T)^T: with the optimal gain the same as the Joseph form filterpy
         # uses for the tracker, at a fraction of the cost; symmetrised in the reset.
-        self._reset(dx[:3], dx[3:], p - pht @ si @ pht.T)
+        self._reset(dx[:3], dx[3:], p - (pht @ np.array(si)) @ pht.T)
         self._counts["vector_updates"] += 1
 
     # -- reporting --------------------------------------------------------------------

@@ -775,3 +775,44 @@ class TestExtremeMagnitudes:
     def test_overflowing_exponential_is_named(self):
         with pytest.raises(ValueError, match="q scalar part must be at most"):
             Q.exp([1000.0, 0.0, 0.0, 0.0])
+
+
+class TestFloatsMirrorTheArrayFunctions:
+    """One quaternion in Python floats (the sensors' per-tick path) rounds exactly as the array functions.
+
+    The reference is the array function itself on the same numbers: a sensor sample formed either way
+    must be the same bit for bit, which is what makes a batch of runs equal to one run at a time
+    (tests/attitude/test_sensors_batch.py), so the comparison is exact (``assert_array_equal``).
+    """
+
+    @staticmethod
+    def _cases() -> np.ndarray:
+        """Random rotations, their negatives (w < 0), near pi, tiny and zero rotations, scaled within tolerance."""
+        tiny = Q.from_rotation_vector(_rng.normal(size=(200, 3)) * 10.0 ** _rng.uniform(-12, -3, (200, 1)))
+        off_unit = P[:200] * (1.0 + _rng.uniform(-0.9, 0.9, (200, 1)) * Q.UNIT_NORM_TOLERANCE)
+        special = np.array([[1.0, 0.0, 0.0, 0.0], [-1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 0.0, -1.0]])
+        return np.concatenate([P[:1000], -P2[:500], NEAR_PI, tiny, off_unit, special])
+
+    def test_unit_floats(self):
+        for q in self._cases():
+            np.testing.assert_array_equal(Q.unit_floats(q.tolist()), Q.as_unit_quaternion(q))
+
+    def test_unit_floats_refuses_what_the_array_function_refuses(self):
+        # Beyond the tolerance the array function raises; the floats give None (the caller then raises).
+        q = (P[0] * (1.0 + 2.0 * Q.UNIT_NORM_TOLERANCE)).tolist()
+        assert Q.unit_floats(q) is None
+        with pytest.raises(ValueError, match=_UNIT):
+            Q.as_unit_quaternion(q)
+        assert Q.unit_floats([0.0, 0.0, 0.0, 0.0]) is None
+
+    def test_rotation_vector_floats(self):
+        for q in self._cases():
+            np.testing.assert_array_equal(Q.rotation_vector_floats(q.tolist()), Q.to_rotation_vector(q))
+        assert Q.rotation_vector_floats((2.0 * P[0]).tolist()) is None
+
+    def test_from_rotation_vector_floats(self):
+        # Across the series threshold (half-angle 1e-4), zero, and several turns.
+        sizes = 10.0 ** _rng.uniform(-12.0, 1.2, (2000, 1))
+        rotvecs = np.concatenate([_rng.normal(size=(2000, 3)) * sizes, np.zeros((1, 3)), [[2e-4, 0.0, 0.0]]])
+        for phi in rotvecs:
+            np.testing.assert_array_equal(Q.from_rotation_vector_floats(phi.tolist()), Q.from_rotation_vector(phi))

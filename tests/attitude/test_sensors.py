@@ -717,3 +717,91 @@ class TestGaussMarkov:
         assert Gyro.preset("navigation").sigma_b > 0
         with pytest.raises(ValueError, match="within sqrt"):
             Gyro.preset("navigation", bias_instability_time_s=3600.0)
+
+
+# ---------------------------------------------------------------------------
+# The per-tick float path against the array path
+
+
+class TestFloatPathIsTheArrayPath:
+    """``measure`` on float64 arrays runs one sample in Python floats; on anything else, the array code.
+
+    Both must give the same numbers bit for bit (a batch of runs relies on it). The reference is the
+    array path of the same sensor, reached by handing it the truth as Python lists (which the float
+    path does not take), with its own copy of the generator and sensor state.
+    """
+
+    @staticmethod
+    def wandering_truth(n, seed, scale=1.0):
+        """Attitudes turning by ~0.1 ``scale`` rad per sample, rates of ~0.5 ``scale`` rad/s, at uneven times.
+
+        A small ``scale`` leaves the samples made of the noise terms alone, whose last bits the true rate
+        would otherwise round away: a change of operation order shows there.
+        """
+        rng = np.random.default_rng(seed)
+        t = np.cumsum(rng.uniform(0.01, 0.3, n))
+        q = [quat.random(rng=rng)]
+        for _ in range(n - 1):
+            q.append(quat.multiply(q[-1], quat.from_rotation_vector(rng.normal(scale=0.1 * scale, size=3))))
+        omega = rng.normal(scale=0.5 * scale, size=(n, 3))
+        return t, np.array(q), omega
+
+    @pytest.mark.parametrize("sampling", ["mean", "instantaneous"])
+    @pytest.mark.parametrize("bias_model", ["gauss_markov", "random_walk"])  # with and without a Gauss-Markov term
+    @pytest.mark.parametrize("deterministic", [False, True])
+    @pytest.mark.parametrize("motion", [1.0, 1e-7])
+    def test_gyro(self, sampling, bias_model, deterministic, motion):
+        kw = {"bias_instability_model": bias_model}
+        if deterministic:  # scale factor, misalignment, quantisation and a saturation the rates reach
+            kw |= {"scale_factor_ppm": [300.0, -100.0, 50.0], "misalignment_rad": [1e-3, 0.0, -2e-3]}
+            kw |= {"quantization_deg_per_s": 1e-3, "saturation_deg_per_s": 40.0}
+        fast, slow = (Gyro.preset("mems", period=0.1, sampling=sampling, **kw) for _ in range(2))
+        assert (fast.sigma_b > 0) == (bias_model == "gauss_markov")
+        t, q, omega = self.wandering_truth(300, seed=7, scale=motion)
+        gen_fast, gen_slow = np.random.default_rng(3), np.random.default_rng(3)
+        for tk, qk, wk in zip(t, q, omega):
+            a = fast.measure(float(tk), Truth(tk, qk, wk, np.zeros(0)), gen_fast)
+            b = slow.measure(float(tk), Truth(tk, qk.tolist(), wk.tolist(), np.zeros(0)), gen_slow)
+            np.testing.assert_array_equal(a, b)
+            np.testing.assert_array_equal(fast.bias, slow.bias)
+        if deterministic and motion == 1.0:
+            assert np.any(np.abs(omega) > 40.0 * DEG), "the test should reach saturation"
+
+    def test_gyro_refuses_bad_truth_on_either_path(self):
+        gyro = Gyro.preset("mems", period=0.1, sampling="mean")
+        with pytest.raises(ValueError, match=r"truth\.omega must be finite"):
+            gyro.measure(0.0, truth(omega=[np.nan, 0.0, 0.0]))
+        with pytest.raises(ValueError, match=r"truth\.q must be a unit quaternion"):
+            gyro.measure(0.0, truth(q=[2.0, 0.0, 0.0, 0.0]))
+        assert gyro.measure(0.0, truth()).shape == (3,)  # nothing was consumed by the refusals
+
+    def test_star_tracker_noise_near_the_identity(self):
+        # Near the identity the measured vector part is the noise rotation alone: its last bits show (with a
+        # tilted boresight, every sensor axis has three non-zero body components).
+        tracker = StarTracker.preset(period=0.2, boresight_B=[0.3, -0.5, 0.8])
+        gen_fast, gen_slow = np.random.default_rng(6), np.random.default_rng(6)
+        for qk in quat.from_rotation_vector(np.random.default_rng(2).normal(scale=1e-9, size=(200, 3))):
+            a = tracker.measure(0.0, Truth(0.0, qk, np.zeros(3), np.zeros(0)), gen_fast)
+            np.testing.assert_array_equal(a, tracker.measure(0.0, Truth(0.0, qk.tolist(), np.zeros(3), []), gen_slow))
+
+    @pytest.mark.parametrize("sun", ["fixed", "moving", "none"])
+    def test_star_tracker(self, sun):
+        # A 60 deg cone about +z and a Sun the wandering attitudes bring in and out of it.
+        kw = {}
+        if sun != "none":
+            kw = {"sun_direction_N": [0.3, -0.2, 0.9], "sun_exclusion_deg": 60.0}
+            if sun == "moving":
+                kw["sun_direction_N"] = lambda t: [np.cos(0.1 * t), np.sin(0.1 * t), 0.5]
+        tracker = StarTracker.preset(period=0.2, **kw)
+        t, q, _ = self.wandering_truth(400, seed=11)
+        gen_fast, gen_slow = np.random.default_rng(5), np.random.default_rng(5)
+        blinded = 0
+        for tk, qk in zip(t, q):
+            a = tracker.measure(float(tk), Truth(tk, qk, np.zeros(3), np.zeros(0)), gen_fast)
+            b = tracker.measure(float(tk), Truth(tk, qk.tolist(), np.zeros(3), np.zeros(0)), gen_slow)
+            assert (a is None) == (b is None)
+            if a is None:
+                blinded += 1
+            else:
+                np.testing.assert_array_equal(a, b)
+        assert (blinded > 20) == (sun != "none") and blinded < 380  # both branches were taken

@@ -22,7 +22,8 @@ What each group checks against:
   toolkit's own (no published source): it flies the same eigenaxis slew and keeps stiffness on
   every axis where the published law leaves none.
 * Engines and latching: agreement between the compiled and Python engine paths (rounding only);
-  limits latched from each run's initial error.
+  limits latched from each run's initial error. One attitude in Python floats (the per-tick path,
+  a plain branch for the shortest way) gives the law's numpy evaluation bit for bit.
 * Bad input: errors name the argument, the rule and the value (DESIGN.md).
 """
 
@@ -358,3 +359,29 @@ class TestWieLu:
         args = {"wn": 0.1, "zeta": 0.9, "rate_max": RATE_MAX, "period": 0.1} | kwargs
         with pytest.raises(ValueError, match=match):
             RateLimitedPD.from_bandwidth(FULL, **args)
+
+
+class TestFloatsAndArrays:
+    @pytest.mark.parametrize("gyroscopic", [False, True])
+    def test_one_attitude_in_floats_is_the_array_evaluation(self, gyroscopic):
+        # The law on Python floats takes a branch for the sign of q_e,0 where arrays take np.where, and
+        # its gains as floats: the same operations on the same numbers, so the same torque bit for bit.
+        # Random errors on both sides of 180 deg (q_e,0 < 0 flips the sign), full inertia, random wheels.
+        pd = QuaternionPD.from_bandwidth(FULL, wn=WN, zeta=ZETA, period=0.1, gyroscopic=gyroscopic)
+        rng = np.random.default_rng(8)
+        q, q_ref = quat.random(200, rng=rng), quat.random(200, rng=rng)
+        omega, w_ref, h = (rng.normal(scale=0.1, size=(200, 3)) for _ in range(3))
+        flipped = 0
+        for k in range(200):
+            inputs = [*q_ref[k], *w_ref[k]]
+            floats = pd.torque_components(q[k].tolist(), omega[k].tolist(), h[k].tolist(), [float(c) for c in inputs])
+            arrays = pd.torque_components(
+                [np.array([c]) for c in q[k]],
+                [np.array([c]) for c in omega[k]],
+                [np.array([c]) for c in h[k]],
+                [np.array([c]) for c in inputs],
+            )
+            assert all(type(c) is float for c in floats)
+            np.testing.assert_array_equal(floats, np.concatenate(arrays))
+            flipped += quat.multiply(quat.conjugate(q_ref[k]), q[k])[0] < 0
+        assert 50 < flipped < 150  # both signs of the error quaternion's scalar part

@@ -169,6 +169,60 @@ class TestHelpers:
         # Phi11 is the transpose of the rotation over the step.
         np.testing.assert_allclose(reference[:3, :3], quat.to_dcm(quat.from_rotation_vector(w * dt)), atol=1e-13)
 
+    @given(st.integers(0, 2**32 - 1), st.sampled_from([0.0, 1e-6, 5e-3, 0.05, 1.0]))
+    def test_one_propagation_step_is_the_textbook_one(self, seed, angle):
+        # The per-step propagation (Python floats, cached Q) against an independent evaluation: Phi by
+        # expm, Q by the Farrenkopf formula (tested against Van Loan above), q by attitude.quaternion.
+        # Angles per step on both sides of the series threshold (1e-2 rad). Tolerances: entries of P are
+        # sums of a few dozen products, rounding ~1e-15 relative; q is O(1).
+        rng = np.random.default_rng(seed)
+        f, gyro, _ = small_filter(q0=quat.random(rng=rng), bias0=rng.normal(scale=1e-4, size=3))
+        f.step(1.0, np.zeros(3))
+        axis = rng.standard_normal(3)
+        dt = float(rng.uniform(0.01, 0.5))
+        rate = f.bias + axis / np.linalg.norm(axis) * angle / dt
+        q_prior, p_prior, b = f.q, f.P, f.bias
+        f.step(1.0 + dt, rate)
+        w = rate - b
+        a = np.zeros((6, 6))
+        a[:3, :3] = -skew(w)
+        a[:3, 3:] = -np.eye(3)
+        phi = expm(a * (1.0 + dt - 1.0))
+        q_noise = process_noise(sigma_v=gyro.sigma_v, sigma_u=f.sigma_u, dt=1.0 + dt - 1.0)
+        # Compared as correlations (P scaled by its standard deviations): entries O(1) whatever their unit, so
+        # that an off-diagonal term that cancels to ~1e-24 is judged against its row's and column's scale.
+        expected = phi @ p_prior @ phi.T + q_noise
+        scale = 1.0 / np.sqrt(np.outer(np.diag(expected), np.diag(expected)))
+        np.testing.assert_allclose(f.P * scale, expected * scale, rtol=0, atol=1e-12)
+        expected_q = quat.normalize(quat.multiply(q_prior, quat.from_rotation_vector(w * (1.0 + dt - 1.0))))
+        np.testing.assert_allclose(f.q, expected_q, atol=1e-15)
+        np.testing.assert_allclose(f.omega, w, rtol=0, atol=1e-18)
+
+    @given(st.integers(0, 2**32 - 1), st.sampled_from([1e-12, 1e-6, 1e-3, 1.0, 3.0]))
+    def test_residual_of_one_pair_is_attitude_residual(self, seed, angle):
+        # The per-step residual (Python floats, math.atan2) against the array function; w < 0 included
+        # (the measured quaternion's sign is arbitrary). Rotation vectors up to pi: rounding ~1e-15.
+        rng = np.random.default_rng(seed)
+        q_ref = quat.random(rng=rng)
+        q = quat.multiply(q_ref, quat.from_axis_angle(rng.standard_normal(3), angle))
+        for sign in (1.0, -1.0):
+            got = mk._residual_floats(q_ref.tolist(), (sign * q).tolist())
+            np.testing.assert_allclose(got, mk.attitude_residual(q_ref, sign * q), rtol=1e-13, atol=1e-15)
+        assert np.abs(mk._residual_floats(q_ref.tolist(), q_ref.tolist())).max() < 1e-15  # rounding of q* ⊗ q
+        for q_same in ([1.0, 0.0, 0.0, 0.0], [-1.0, 0.0, 0.0, 0.0]):  # no vector part at all: no rotation
+            assert mk._residual_floats([1.0, 0.0, 0.0, 0.0], q_same) == [0.0, 0.0, 0.0]
+
+    @given(st.integers(0, 2**32 - 1))
+    def test_innovation_covariance_inverse_is_numpys(self, seed):
+        # S = P_att + R with P from a micro-radian to a degree and R the tracker's: condition numbers up to
+        # ~1e7, where the cofactor formula and LU both keep ~1e-9 relative accuracy or better.
+        rng = np.random.default_rng(seed)
+        m = rng.standard_normal((3, 3)) * 10.0 ** rng.uniform(-6, -2)
+        s = m @ m.T + StarTracker.preset().covariance_B
+        inv = np.array(mk._inverse_3x3(s.tolist()))
+        np.testing.assert_allclose(inv, np.linalg.inv(s), rtol=1e-9, atol=0)
+        np.testing.assert_allclose(inv @ s, np.eye(3), atol=1e-8)
+
     def test_transition_matrix_batches(self):
         rng = np.random.default_rng(3)
         w = rng.standard_normal((4, 5, 3))
