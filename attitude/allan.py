@@ -38,7 +38,6 @@ _ONE_SIGMA = 0.6826894921370859  # erf(1 / sqrt(2))
 _MIN_ID_SAMPLES = 100
 
 
-
 def plateau_index(adev: ArrayLike) -> int:
     """Index of the first point where an Allan curve stops falling (the bias-instability plateau).
 
@@ -55,6 +54,7 @@ def plateau_index(adev: ArrayLike) -> int:
     adev = np.asarray(adev, dtype=float)
     rising = np.flatnonzero(np.diff(adev) >= 0.0)
     return int(rising[0]) if rising.size else adev.size - 1
+
 
 @dataclasses.dataclass(frozen=True)
 class AllanDeviation(ResultIO):

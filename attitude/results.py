@@ -65,6 +65,7 @@ def provenance(source: str | None = None, sha256: str | None = None) -> dict[str
         out["input"] = {"source": source, "sha256": sha256}
     return out
 
+
 T = TypeVar("T", bound="ResultIO")
 
 _META = "__meta__"

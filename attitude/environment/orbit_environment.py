@@ -429,16 +429,19 @@ class OrbitEnvironment:
         comps = self.torque_components(body, [q[:, i] for i in range(4)], list(cols), [float(v) for v in p])
         return {k: np.stack(np.broadcast_arrays(*v), axis=-1) for k, v in comps.items()}
 
-    def tick_function(self, body: RigidBody | ParametricBody) -> ca.Function:
-        """``(q, row, parameters) -> (torques (3 per source), field_B, sun_B)`` as one casadi Function.
+    def tick_function(self, body: RigidBody | ParametricBody | None) -> ca.Function:
+        """``(q, row, parameters[, body]) -> (torques (3 per source), field_B, sun_B)`` as one casadi Function.
 
         The single-run engine calls it once per tick (one call instead of a few
         hundred numpy operations on scalars).
 
         Parameters
         ----------
-        body : RigidBody or ParametricBody
-            Inertia for the gravity gradient.
+        body : RigidBody, ParametricBody or None
+            Inertia for the gravity gradient. None: the inertia is a fourth
+            input, the six entries of the whole body's inertia and of its
+            inverse (:func:`attitude.rigid_body.symmetric_entries`), so that
+            one compiled function serves every body.
 
         Returns
         -------
@@ -447,6 +450,11 @@ class OrbitEnvironment:
         q = ca.SX.sym("q", 4)
         row = ca.SX.sym("row", len(TRACK_COLUMNS))
         p = ca.SX.sym("p", len(SURFACE_PARAMETERS))
+        inputs = [q, row, p]
+        if body is None:
+            entries = ca.SX.sym("body", 12)
+            body = ParametricBody([entries[i] for i in range(6)], [entries[i] for i in range(6, 12)])
+            inputs.append(entries)
         qc = [q[i] for i in range(4)]
         rc = [row[i] for i in range(len(TRACK_COLUMNS))]
         torques = self.torque_components(body, qc, rc, [p[i] for i in range(len(SURFACE_PARAMETERS))])
@@ -454,7 +462,7 @@ class OrbitEnvironment:
         flat = [c for source in self.sources for c in torques[source]]
         return ca.Function(
             "environment",
-            [q, row, p],
+            inputs,
             [ca.vertcat(*flat) if flat else ca.SX(0, 1), ca.vertcat(*field_B), ca.vertcat(*sun_B)],
         )
 

@@ -788,6 +788,7 @@ def _run_python(
         const_dist = check_vector(disturbance, "disturbance", 3)
         runner.tau_ext[:] = const_dist
     if flight.active:
+        down_N = -flight.track.position_N / np.linalg.norm(flight.track.position_N, axis=-1, keepdims=True)
         env_torques = np.zeros((n_ticks + 1, flight.n_sources, 3))
         field_all = np.zeros((n_ticks + 1, 3))
         m_cmd_all = np.zeros((n_ticks + 1, 3))
@@ -802,9 +803,12 @@ def _run_python(
 
     def record(prefix: str, k: int, values: dict) -> None:
         for key, value in values.items():
-            arr = np.atleast_1d(np.asarray(value, dtype=float))
-            series = logs.setdefault(f"{prefix}.{key}", [None] * (n_ticks + 1))
-            series[k] = arr
+            name = f"{prefix}.{key}"
+            series = logs.get(name)
+            if series is None:  # allocated once per series, not per call
+                series = logs[name] = [None] * (n_ticks + 1)
+            arr = np.asarray(value, dtype=float)
+            series[k] = arr.reshape(1) if arr.ndim == 0 else arr
 
     truth = None
     for k in range(n_ticks + 1):
@@ -816,8 +820,7 @@ def _run_python(
             if flight.active:
                 torques_k, field_B, sun_B = flight.at_tick(k, q_unit)
                 env_torques[k], field_all[k] = torques_k, field_B
-                down_N = -flight.track.position_N[k] / np.linalg.norm(flight.track.position_N[k])
-                nadir_B = quat.rotate(quat.conjugate(q_unit), down_N)
+                nadir_B = np.array(quat.rotate_inverse_components(q_unit.tolist(), down_N[k].tolist()))
                 illumination = float(flight.track.illumination[k])
                 truth = Truth(tk, q_unit, x[4:7], x[7:], field_B, sun_B, illumination, nadir_B)
             else:

@@ -14,6 +14,7 @@ their size.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Mapping
 from typing import Any
 
@@ -24,7 +25,9 @@ from numpy.typing import ArrayLike, NDArray
 from attitude.actuators import Magnetorquers
 from attitude.environment.orbit_environment import SURFACE_PARAMETERS, OrbitEnvironment
 from attitude.environment.torques import magnetic_torque_components
-from attitude.rigid_body import RigidBody
+from attitude.rigid_body import RigidBody, symmetric_entries
+from attitude.simulation.codegen import BufferedFunction
+from attitude.simulation.kernel import environment_key
 from attitude.validation import as_float_array, check_vector
 
 __all__ = ["OrbitFlight"]
@@ -102,8 +105,9 @@ class OrbitFlight:
                     f"got {self.parameters.size}"
                 )
         self.sources = environment.sources
-        self._tick = environment.tick_function(body)
         self.n_sources = len(self.sources)
+        self._tick = _environment_tick(environment)
+        self._body_entries = np.concatenate([symmetric_entries(body.inertia), symmetric_entries(body.inertia_inv)])
 
     def at_tick(self, k: int, q: NDArray[np.float64]) -> tuple[NDArray, NDArray, NDArray]:
         """Disturbance torques (one row per source), field and Sun in body axes at tick ``k`` and attitude ``q``.
@@ -120,12 +124,14 @@ class OrbitFlight:
         tuple of ndarray
             ``(torques (n_sources, 3) [N m], field_B (3,) [T], sun_B (3,))``.
         """
-        torques, field_B, sun_B = self._tick(q, self.rows[k], self.parameters)
-        return (
-            np.asarray(torques).reshape(self.n_sources, 3),
-            np.asarray(field_B).reshape(3),
-            np.asarray(sun_B).reshape(3),
-        )
+        tick = self._tick
+        tick.inputs[0][:] = q
+        tick.inputs[1][:] = self.rows[k]
+        tick.inputs[2][:] = self.parameters
+        tick.inputs[3][:] = self._body_entries
+        tick()
+        torques, field_B, sun_B = tick.outputs
+        return torques.reshape(self.n_sources, 3).copy(), field_B.copy(), sun_B.copy()
 
     def dipole_command(
         self, t: float, samples: Mapping[str, Any], h_body: NDArray[np.float64], field_B: NDArray[np.float64]
@@ -208,3 +214,25 @@ class OrbitFlight:
         field_B, sun_B = self.environment.body_vectors_components(q, row)
         mtq = [0.0 * field_B[0]] * 3 if dipole_B is None else magnetic_torque_components(dipole_B, field_B)
         return [c for s in self.sources for c in torques[s]], field_B, sun_B, mtq
+
+
+#: The environment's per-tick function compiled, per environment structure (:func:`environment_key`), per process.
+_TICKS: dict[Any, BufferedFunction] = {}
+_TICKS_LOCK = threading.Lock()
+
+
+def _environment_tick(environment: OrbitEnvironment) -> BufferedFunction:
+    """:meth:`OrbitEnvironment.tick_function` with the inertia as an input, compiled once per structure.
+
+    Its buffers are this process's and thread's; :meth:`OrbitFlight.at_tick` writes every input at each call.
+    """
+    key = (environment_key(environment), threading.get_ident())
+    with _TICKS_LOCK:
+        tick = _TICKS.get(key)
+    if tick is None:
+        tick = BufferedFunction(environment.tick_function(None))
+        with _TICKS_LOCK:
+            if len(_TICKS) >= 8:
+                _TICKS.pop(next(iter(_TICKS)))
+            _TICKS[key] = tick
+    return tick

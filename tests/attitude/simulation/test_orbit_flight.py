@@ -374,3 +374,23 @@ def test_surface_sources_without_a_surface_and_unknown_sources_are_refused():
             OrbitEnvironment(ORBIT, sources=("gravity_gradient", source))
     with pytest.raises(ValueError, match=r"sources.*'drag'"):
         OrbitEnvironment(ORBIT, surface=SURFACE, sources=("gravity_gradient", "drag"))
+
+
+def test_the_compiled_environment_tick_equals_the_body_built_in_function():
+    """The engine's per-tick environment function, compiled to C with the inertia as an input (one library for
+    every body), against :meth:`OrbitEnvironment.tick_function` with the body built in and evaluated by casadi:
+    the same expressions, so rounding-level agreement (1e-14 relative) on random attitudes along the track."""
+    from attitude.simulation.orbit_flight import OrbitFlight
+
+    body = RigidBody([[12.0, 0.4, -0.3], [0.4, 9.0, 0.2], [-0.3, 0.2, 7.0]])
+    t = np.arange(0.0, 200.0, 10.0)
+    flight = OrbitFlight(ENV, body, t)
+    assert flight._tick.compiled
+    baked = ENV.tick_function(body)
+    rng = np.random.default_rng(3)
+    for k in range(t.size):
+        q = quat.normalize(rng.standard_normal(4))
+        torques, field_B, sun_B = flight.at_tick(k, q)
+        expected = [np.asarray(v, dtype=float).ravel() for v in baked(q, flight.rows[k], flight.parameters)]
+        for got, want in zip((torques.ravel(), field_B, sun_B), expected):
+            np.testing.assert_allclose(got, want, rtol=1e-14, atol=1e-14 * np.max(np.abs(want)))
