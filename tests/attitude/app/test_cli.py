@@ -263,6 +263,8 @@ def test_design_end_to_end(which, tmp_path):
 # Bad input: exit code 2, the message names the key and the file, no traceback
 
 GOOD_TEXT = default_config_text()
+#: The line number of the default file's [control] header (found, not hard-coded: the comments above move it).
+CONTROL_HEADER_LINE = GOOD_TEXT.splitlines().index("[control]") + 1
 #: rule -> ((line start in the default file, its replacement), texts the message must hold)
 BAD_FILES = {
     "unknown key": (("torque_max_Nm = 0.007", "torque_max_nm = 0.007"), ["wheels.torque_max_nm", "did you mean"]),
@@ -276,7 +278,10 @@ BAD_FILES = {
         ("torque_max_Nm = 0.007", 'torque_max_Nm = "7 mNm"'),
         ["wheels.torque_max_Nm", "units given"],
     ),
-    "TOML syntax": (("[control]", "[control"), ["line 118", "TOML syntax error"]),
+    "TOML syntax": (
+        ("[control]", "[control"),
+        [f"line {GOOD_TEXT.splitlines().index('[control]') + 1}", "TOML syntax error"],
+    ),
     "periods on one clock": (("period_s = 0.2", "period_s = 0.25"), ["star_tracker.period_s", "whole multiple"]),
 }
 
@@ -378,9 +383,10 @@ def test_design_refuses_sample_periods_a_thousand_times_too_short(tmp_path, caps
     with no word; it is refused up front, naming the shortest period, the tick count and the time."""
     text = default_config_text()
     lines = text.splitlines()
-    for i in (90, 108, 118):  # gyro, star tracker and control period_s (checked below)
-        assert lines[i].startswith("period_s = ")
-        lines[i] = "period_s = " + ("2e-5" if i == 108 else "1e-5")
+    periods = [i for i, line in enumerate(lines) if line.startswith("period_s = ")]
+    tables = {next(lines[j] for j in range(i, -1, -1) if lines[j].startswith("[")): i for i in periods}
+    for table in ("[gyro]", "[star_tracker]", "[control]"):  # the loop's periods (the others stay)
+        lines[tables[table]] = "period_s = " + ("2e-5" if table == "[star_tracker]" else "1e-5")
     path = tmp_path / "units.toml"
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
     assert main(["design", str(path), "--out", str(tmp_path / "out"), "--quick"]) == 2
