@@ -396,6 +396,10 @@ class LQRController:
     so a 359 degree error is a 1 degree error.
     """
 
+    #: The compiled path may keep this law's closed loop by the class and its pickle: the law reads nothing else
+    #: (attitude.simulation.engine caches the compiled loop; a user's law without this flag is rebuilt each run).
+    compiled_law_cacheable = True
+
     def __init__(
         self,
         design: LQRDesign,

@@ -111,6 +111,10 @@ class QuaternionPD:
         Add ``omega x (I omega + h)`` (requires ``inertia``).
     """
 
+    #: The compiled path may keep this law's closed loop by the class and its pickle: the law reads nothing else
+    #: (attitude.simulation.engine caches the compiled loop; a user's law without this flag is rebuilt each run).
+    compiled_law_cacheable = True
+
     K: NDArray[np.float64]
     C: NDArray[np.float64]
     period: float
@@ -407,6 +411,10 @@ class RateLimitedPD:
         Non-positive or non-scalar gains or rate limit, a bad inertia or
         quaternion, or an unknown ``saturation``.
     """
+
+    #: The compiled path may keep this law's closed loop by the class and its pickle: the law reads nothing else
+    #: (attitude.simulation.engine caches the compiled loop; a user's law without this flag is rebuilt each run).
+    compiled_law_cacheable = True
 
     def __init__(
         self,

@@ -74,6 +74,7 @@ from attitude.integrators import (
 )
 from attitude.progress import Throttle
 from attitude.rigid_body import RigidBody, symmetric_entries
+from attitude.simulation.build_cache import BuildCache
 from attitude.simulation.codegen import CompilationError
 from attitude.simulation.engine import settling_time_after, ticks_per_period, whole_ticks
 from attitude.simulation.kernel import METRICS, CompiledTicks, command, disturbance_torques, environment_key, observe
@@ -297,6 +298,7 @@ def simulate_batch(
     q_ref = np.asarray(controller.reference_samples(t)[0], float) if hasattr(controller, "reference_samples") else None
     plant = body if wheels is None else wheels.hub_body(body)
     budget = check_error_budget(attitude_error_budget_rad)
+    substeps_asked = substeps
     substeps, refused = batch_substeps(PlantModel(plant, wheels), omega0, dt, n_ticks, substeps, budget)
     rows = None if environment is None else environment.track(t).columns()
     loop = _Loop(PlantModel(plant, wheels), controller, t, inputs, q_ref, every, substeps, pointing_threshold, stride)
@@ -355,34 +357,33 @@ def simulate_batch(
         # As the single-run compiled path: runs whose peak rate broke the rule fly again, all of them at the
         # step count the largest of their peak rates needs (each run is a pure function of its inputs).
         needed = batch_needed_substeps(loop.model, metrics["rate_peak"], dt, n_ticks, substeps, budget)
-        again = broken & (needed <= MAX_RULE_SUBSTEPS * substeps)
+        again = broken & (needed <= MAX_RULE_SUBSTEPS * substeps_asked)
         if np.any(again):
             rerun_steps = int(np.max(needed[again]))
             idx = np.flatnonzero(again)
             _RERUNS.depth = getattr(_RERUNS, "depth", 0) + 1
             try:
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore", StepSizeWarning)  # said once below, for the whole batch
-                    sub = simulate_batch(
-                        body if not body.batch_shape else RigidBody(body.inertia[idx]),
-                        q0[idx],
-                        omega0[idx],
-                        duration,
-                        controller=controller,
-                        wheels=wheels,
-                        h_wheels0=h0[idx],
-                        dt=dt,
-                        substeps=rerun_steps,
-                        disturbance=None if tau_ext is None else tau_ext[idx],
-                        pointing_threshold=pointing_threshold,
-                        history_stride=history_stride,
-                        backend=backend,
-                        environment=environment,
-                        surface_parameters=None if surface is None else surface[idx],
-                        attitude_error_budget_rad=budget,
-                    )
+                sub = simulate_batch(
+                    body if not body.batch_shape else RigidBody(body.inertia[idx]),
+                    q0[idx],
+                    omega0[idx],
+                    duration,
+                    controller=controller,
+                    wheels=wheels,
+                    h_wheels0=h0[idx],
+                    dt=dt,
+                    substeps=rerun_steps,
+                    disturbance=None if tau_ext is None else tau_ext[idx],
+                    pointing_threshold=pointing_threshold,
+                    history_stride=history_stride,
+                    backend=backend,
+                    environment=environment,
+                    surface_parameters=None if surface is None else surface[idx],
+                    attitude_error_budget_rad=budget,
+                )
             finally:
                 _RERUNS.depth -= 1
+            flown_peak = metrics["rate_peak"].copy()
             for name in metrics:
                 metrics[name][idx] = sub.metrics[name]
             final[idx] = np.concatenate([sub.q, sub.omega, sub.h_wheels], axis=1)
@@ -393,7 +394,7 @@ def simulate_batch(
             bound[idx] = sub.info["step_rule_error_bound_rad"]
             warnings.warn(
                 f"{idx.size} run(s) of the batch broke the step-size rule mid-run (docs/rk4_step_rule.md; "
-                f"peak body rate up to {float(np.max(sub.metrics['rate_peak'])):.3g} rad/s at {substeps} RK4 "
+                f"peak body rate up to {float(np.max(flown_peak[idx])):.3g} rad/s at {substeps} RK4 "
                 f"step(s) per tick of {dt:.3g} s): flown again at {rerun_steps} steps per tick",
                 StepSizeWarning,
                 stacklevel=2,
@@ -401,6 +402,8 @@ def simulate_batch(
     broken |= refused & np.isnan(diverged)
     if np.any(broken):
         peak = metrics["rate_peak"].copy()
+        if rerun_steps is not None:  # a run still broken after its rerun: its peak as first flown
+            peak = np.where(np.isnan(peak), flown_peak, peak)
         for name in metrics:
             metrics[name][broken] = np.nan
         first = int(np.argmax(broken))
@@ -482,8 +485,8 @@ def environment_inputs(
 RULE_RERUNS = 1
 _RERUNS = threading.local()  # depth of the rerun in this thread
 
-_TICKS_CACHE: dict[bytes, CompiledTicks] = {}
-_TICKS_LOCK = threading.Lock()
+#: One CompiledTicks per loop structure, a few at a time (keep memory flat).
+_TICKS_CACHE: BuildCache[CompiledTicks] = BuildCache(4)
 
 
 def _compiled_ticks(
@@ -497,12 +500,9 @@ def _compiled_ticks(
     worker may run several batches in threads at once.
     """
     key = pickle.dumps((wheels, controller, n_inputs, has_reference, substeps, environment_key(environment)))
-    with _TICKS_LOCK:
-        if key not in _TICKS_CACHE:
-            if len(_TICKS_CACHE) >= 4:  # a few loop structures at a time; keep memory flat
-                _TICKS_CACHE.pop(next(iter(_TICKS_CACHE)))
-            _TICKS_CACHE[key] = CompiledTicks(wheels, controller, n_inputs, has_reference, substeps, environment)
-        return _TICKS_CACHE[key]
+    return _TICKS_CACHE.get(
+        key, lambda: CompiledTicks(wheels, controller, n_inputs, has_reference, substeps, environment)
+    )
 
 
 def _store(t, acc, err, sl, metrics, diverged) -> None:

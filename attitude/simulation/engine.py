@@ -28,10 +28,8 @@ from __future__ import annotations
 
 import dataclasses
 import pickle
-import threading
 import time
 import warnings
-from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -54,9 +52,17 @@ from attitude.integrators import (
 from attitude.results import ResultIO
 from attitude.rigid_body import RigidBody, split_components
 from attitude.rng import as_generator
+from attitude.simulation.build_cache import BuildCache
 from attitude.simulation.orbit_flight import OrbitFlight
 from attitude.simulation.plant import PlantModel
-from attitude.simulation.protocol_tick import TickRunner, protocol_tick
+from attitude.simulation.protocol_tick import (
+    COMMAND_NOT_FINITE,
+    DONE,
+    STATE_NOT_FINITE,
+    SUBSTEP,
+    TickRunner,
+    protocol_tick,
+)
 from attitude.simulation.protocols import (
     Controller,
     DipoleController,
@@ -511,7 +517,7 @@ def _orbit_histories(flight: OrbitFlight, torques, field_B, illumination, m_cmd,
 
 
 #: Ticks per casadi call of the compiled path.
-FOLD_TICKS = 100
+FOLD_TICKS = 600
 
 #: Most runs of the compiled path under the step-size rule (the first, and repeats when the rates reached
 #: ask for more steps than the initial rates did).
@@ -584,9 +590,7 @@ def _check_rule_steps(steps: int, substeps: int) -> None:
 
 
 #: Closed loops of the compiled path kept per process, by content (:func:`_closed_loop_key`).
-_LOOPS: OrderedDict[tuple, _ClosedLoop] = OrderedDict()
-_LOOPS_KEPT = 8
-_LOOPS_LOCK = threading.Lock()
+_LOOPS: BuildCache[_ClosedLoop] = BuildCache(8)
 
 
 class _ClosedLoop:
@@ -600,7 +604,8 @@ class _ClosedLoop:
         pc = split_components(p, m + n_row + n_law)
         h_body = model.body_momentum(xc)
         tau_cmd = controller.torque_components(xc[:4], xc[4:7], h_body, pc[:m])
-        u, tau_app = model.command(tau_cmd, xc)
+        u_sym, tau_app_sym = model.compiled_command()(ca.vertcat(*tau_cmd), x)
+        u, tau_app = split_components(u_sym, model.n_u), split_components(tau_app_sym, 3)
         tau_ext = [0.0, 0.0, 0.0] if disturbance is None else [float(v) for v in disturbance]
         extra: list = []
         if flight.active:
@@ -617,9 +622,8 @@ class _ClosedLoop:
             zero = [0.0 * field_B[0]] * 3
             extra = [*torques, *field_B, *(m_cmd or zero), *(m_B or zero), *tau_m]
         commands = ca.vertcat(*tau_cmd, *tau_app, *u, *extra)
-        x_next = model.compiled_step(substeps)(x, ca.vertcat(*u), ca.vertcat(*tau_ext), dt)
-        # Common subexpressions shared: the wheel allocation repeats terms (about 8 % fewer VM instructions).
-        self.function = ca.Function("closed_loop", [x, p], [x_next, commands], {"cse": True})
+        x_next = model.step_expression(x, u_sym, ca.vertcat(*tau_ext), dt, substeps)
+        self.function = ca.Function("closed_loop", [x, p], [x_next, commands])
         self.commands = ca.Function("command", [x, p], [commands])
         self.n_u = len(u)
         self._folds: dict[int, ca.Function] = {}
@@ -634,18 +638,21 @@ class _ClosedLoop:
 def _closed_loop_key(model, flight, controller, disturbance, dt, substeps, m, n_row, n_law) -> tuple | None:
     """What the compiled path's closed loop is built from, or None where it is not cached.
 
-    A run in orbit is not cached (its tick holds the environment's models), nor a controller that cannot be
-    pickled (its content is the key: the same gains rebuilt by a new script reuse the loop).
+    Only a controller whose class declares ``compiled_law_cacheable = True`` is cached: its law must depend on
+    nothing but its pickled state (the built-in laws), so that its class object and its pickle are the key (the
+    same gains rebuilt by a new script reuse the loop; a changed gain, or a class redefined in a notebook, does
+    not). A user's law may read globals or drop fields from its pickle: it is built every run. A run in orbit is
+    not cached (its tick holds the environment's models), nor a controller that cannot be pickled.
     """
     plant = model.identity(substeps)
-    if flight.active or plant is None:
+    if flight.active or plant is None or not getattr(type(controller), "compiled_law_cacheable", False):
         return None
     try:
         law = pickle.dumps(controller)
     except Exception:  # e.g. a reference given as a lambda
         return None
     ext = None if disturbance is None else np.asarray(disturbance, dtype=float).tobytes()
-    return (type(controller).__qualname__, law, plant, ext, float(dt), m, n_row, n_law)
+    return (type(controller), law, plant, ext, float(dt), m, n_row, n_law)
 
 
 def _run_compiled(
@@ -665,15 +672,11 @@ def _run_compiled(
         ).reshape(-1, n_ticks + 1)
     n_law = law_inputs.shape[0]
     key = _closed_loop_key(model, flight, controller, disturbance, dt, substeps, m, n_row, n_law)
-    with _LOOPS_LOCK:
-        loop = None if key is None else _LOOPS.get(key)
-    if loop is None:
-        loop = _ClosedLoop(model, flight, controller, disturbance, dt, substeps, m, n_row, n_law)
-        if key is not None:
-            with _LOOPS_LOCK:
-                _LOOPS[key] = loop
-                while len(_LOOPS) > _LOOPS_KEPT:
-                    _LOOPS.popitem(last=False)
+
+    def build() -> _ClosedLoop:
+        return _ClosedLoop(model, flight, controller, disturbance, dt, substeps, m, n_row, n_law)
+
+    loop = build() if key is None else _LOOPS.get(key, build)
     closed_loop, commands_fn, n_u = loop.function, loop.commands, loop.n_u
     columns = inputs if not flight.active else np.concatenate([inputs, flight.rows.T, law_inputs], axis=0)
     x_start = np.concatenate([q0, omega0, h0])
@@ -755,7 +758,7 @@ def _run_python(
     substeps,
     every,
     rng,
-    rule=None,
+    rule,
 ):
     """The protocol path: the user's objects in Python, the plant's part of each tick compiled.
 
@@ -772,12 +775,6 @@ def _run_python(
     runner = TickRunner(tick, model.body, x0, h_body0, n_ticks, dt, rule.budget)
     advance = runner.advance
     x_all = runner.x
-    # What the user's objects are handed: read-only views of the histories (a controller that kept or changed
-    # its estimate's arrays must not change the run's record).
-    x_seen = x_all.view()
-    x_seen.flags.writeable = False
-    h_body_seen = runner.h_body.view()
-    h_body_seen.flags.writeable = False
     tau_c_all = runner.torque_command
     est_q = np.empty((n_ticks + 1, 4)) if estimator is not None else None
     est_w = np.empty((n_ticks + 1, 3)) if estimator is not None else None
@@ -813,8 +810,10 @@ def _run_python(
     truth = None
     for k in range(n_ticks + 1):
         tk = k * dt
-        x = x_seen[k]
-        h_body = h_body_seen[k]
+        # What the user's objects are handed: copies (a controller or sensor may change its arrays in place,
+        # or keep them, without touching the run's record), shared by the truth and the estimate as before.
+        x = x_all[k].copy()
+        h_body = runner.h_body[k].copy()
         if needs_truth:
             q_unit = x[:4] / np.linalg.norm(x[:4])
             if flight.active:
@@ -888,13 +887,13 @@ def _run_python(
                     tau_ext = tau_ext + tau_m
                 runner.tau_ext[:] = tau_ext
         done = advance(k, sample_now)
-        if done == 1:
+        if done == DONE:
             continue
-        if done == -1:
+        if done == COMMAND_NOT_FINITE:
             check_vector(tau_c_all[k], "controller.torque(t, estimate)", 3)  # names the non-finite command
-        if done == -2:
+        if done == STATE_NOT_FINITE:
             _diverged(t[k + 1], x)
-        if done != 0:
+        if done != SUBSTEP:
             raise RuntimeError(f"the protocol tick failed at t = {tk:.6g} s (code {done})")
         # The rule asks for more than one hold step this tick: TickRule chooses the count (and warns).
         rule.turned, rule.swept, rule.varied, rule.largest = runner.rule.tolist()
@@ -948,7 +947,8 @@ def _run_python(
         packed,
         orbit,
     )
-    result.info["protocol_tick"] = "C" if runner.compiled else "casadi (no C compiler: " + str(tick.compile_error) + ")"
+    available = "C" if runner.compiled else f"casadi (the C tick is not available: {tick.compile_error})"
+    result.info["protocol_tick"] = available
     return result
 
 

@@ -26,6 +26,7 @@ from attitude.actuators import Magnetorquers
 from attitude.environment.orbit_environment import SURFACE_PARAMETERS, OrbitEnvironment
 from attitude.environment.torques import magnetic_torque_components
 from attitude.rigid_body import RigidBody, symmetric_entries
+from attitude.simulation.build_cache import BuildCache
 from attitude.simulation.codegen import BufferedFunction
 from attitude.simulation.kernel import environment_key
 from attitude.validation import as_float_array, check_vector
@@ -216,9 +217,9 @@ class OrbitFlight:
         return [c for s in self.sources for c in torques[s]], field_B, sun_B, mtq
 
 
-#: The environment's per-tick function compiled, per environment structure (:func:`environment_key`), per process.
-_TICKS: dict[Any, BufferedFunction] = {}
-_TICKS_LOCK = threading.Lock()
+#: The environment's per-tick function compiled, per environment structure (:func:`environment_key`) and thread
+#: (its buffers), per process.
+_TICKS: BuildCache[BufferedFunction] = BuildCache(16)
 
 
 def _environment_tick(environment: OrbitEnvironment) -> BufferedFunction:
@@ -227,12 +228,4 @@ def _environment_tick(environment: OrbitEnvironment) -> BufferedFunction:
     Its buffers are this process's and thread's; :meth:`OrbitFlight.at_tick` writes every input at each call.
     """
     key = (environment_key(environment), threading.get_ident())
-    with _TICKS_LOCK:
-        tick = _TICKS.get(key)
-    if tick is None:
-        tick = BufferedFunction(environment.tick_function(None))
-        with _TICKS_LOCK:
-            if len(_TICKS) >= 8:
-                _TICKS.pop(next(iter(_TICKS)))
-            _TICKS[key] = tick
-    return tick
+    return _TICKS.get(key, lambda: BufferedFunction(environment.tick_function(None)))

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import pickle
-import threading
 from typing import Any
 
 import casadi as ca
@@ -13,15 +12,14 @@ from numpy.typing import NDArray
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
 from attitude.integrators import normalize_quaternion_components, rk4_step
-from attitude.rigid_body import RigidBody, split_components
+from attitude.rigid_body import ParametricBody, RigidBody, split_components, symmetric_entries
+from attitude.simulation.build_cache import BuildCache
 
 __all__ = ["PlantModel"]
 
-#: Hold steps shared by plant models of the same body, wheels and step count in this process (building one
-#: costs some milliseconds, a good part of a compiled run): design loops and benchmarks fly one plant often.
-_SHARED_STEPS: dict[tuple, ca.Function] = {}
-_SHARED_STEPS_KEPT = 32
-_SHARED_STEPS_LOCK = threading.Lock()
+#: Hold steps and command allocations with the hub inertia as an input, per wheel set and step count: built once
+#: per process (building one costs milliseconds, a good part of a compiled run), whatever the body.
+_PARAMETRIC = BuildCache(32)
 
 
 class PlantModel:
@@ -45,7 +43,9 @@ class PlantModel:
         self.wheels = wheels
         self.n_w = 0 if wheels is None else wheels.n_wheels
         self.n_x = 7 + self.n_w
+        self.n_u = self.n_w if wheels is not None else 3
         self._steps: dict[int, ca.Function] = {}
+        self._wheels_key: bytes | None = None
 
     def derivative(self, x: list, u: list, tau_ext: list | None) -> list:
         """State derivative of the plant under held inputs.
@@ -109,27 +109,98 @@ class PlantModel:
             :meth:`hold_step` on symbols, for the compiled engine paths.
         """
         if substeps not in self._steps:
-            key = self.identity(substeps)
-            with _SHARED_STEPS_LOCK:
-                shared = None if key is None else _SHARED_STEPS.get(key)
-            if shared is not None:
-                self._steps[substeps] = shared
-                return shared
-            n_u = self.n_w if self.wheels is not None else 3
             x = ca.SX.sym("x", self.n_x)
-            u = ca.SX.sym("u", n_u)
+            u = ca.SX.sym("u", self.n_u)
             tau = ca.SX.sym("tau_ext", 3)
             dt = ca.SX.sym("dt")
-            xn = self.hold_step(
-                split_components(x, self.n_x), split_components(u, n_u), split_components(tau, 3), dt, substeps
-            )
-            self._steps[substeps] = ca.Function("hold_step", [x, u, tau, dt], [ca.vertcat(*xn)])
-            if key is not None:
-                with _SHARED_STEPS_LOCK:
-                    _SHARED_STEPS[key] = self._steps[substeps]
-                    while len(_SHARED_STEPS) > _SHARED_STEPS_KEPT:
-                        del _SHARED_STEPS[next(iter(_SHARED_STEPS))]
+            xn = self.step_expression(x, u, tau, dt, substeps)
+            self._steps[substeps] = ca.Function("hold_step", [x, u, tau, dt], [xn])
         return self._steps[substeps]
+
+    def step_expression(self, x: Any, u: Any, tau_ext: Any, dt: Any, substeps: int) -> Any:
+        """:meth:`hold_step` on casadi vectors, as one column: for a :class:`RigidBody`, the step built once per
+        wheel set and step count with the inertia as an input, called on this body's numbers (no Python graph
+        building per plant).
+
+        Parameters
+        ----------
+        x : casadi SX (n_x,)
+            State.
+        u : casadi SX (n_u,)
+            Motor torques per wheel [N m] (the body torque without wheels).
+        tau_ext : casadi SX (3,)
+            External body torque [N m].
+        dt : casadi SX or float
+            Tick [s].
+        substeps : int
+            RK4 steps per tick.
+
+        Returns
+        -------
+        casadi SX (n_x,)
+            The state at the end of the tick.
+        """
+        if isinstance(self.body, RigidBody):
+            step = _PARAMETRIC.get(("step", self.wheels_key(), substeps), lambda: self._parametric_step(substeps))
+            return step(x, u, tau_ext, dt, self.inertia_entries())
+        xn = self.hold_step(
+            split_components(x, self.n_x), split_components(u, self.n_u), split_components(tau_ext, 3), dt, substeps
+        )
+        return ca.vertcat(*xn)
+
+    def compiled_command(self) -> ca.Function:
+        """:meth:`command` as a casadi Function ``(tau_cmd, x) -> (u, tau_applied)``, built once per wheel set.
+
+        Returns
+        -------
+        casadi.Function
+            The allocation on symbols (it depends on the wheels only), for the compiled engine path.
+        """
+        return _PARAMETRIC.get(("command", self.wheels_key()), self._command_function)
+
+    def _command_function(self) -> ca.Function:
+        tau = ca.SX.sym("tau_cmd", 3)
+        x = ca.SX.sym("x", self.n_x)
+        u, tau_applied = self.command(split_components(tau, 3), split_components(x, self.n_x))
+        return ca.Function("command", [tau, x], [ca.vertcat(*u), ca.vertcat(*tau_applied)])
+
+    def _parametric_step(self, substeps: int) -> ca.Function:
+        """The hold step with the hub inertia and its inverse as a 12-entry input (:meth:`inertia_entries`)."""
+        x = ca.SX.sym("x", self.n_x)
+        u = ca.SX.sym("u", self.n_u)
+        tau = ca.SX.sym("tau_ext", 3)
+        dt = ca.SX.sym("dt")
+        entries = ca.SX.sym("inertia", 12)
+        ec = split_components(entries, 12)
+        plant = PlantModel(ParametricBody(ec[:6], ec[6:]), self.wheels)
+        xn = plant.hold_step(
+            split_components(x, self.n_x), split_components(u, self.n_u), split_components(tau, 3), dt, substeps
+        )
+        return ca.Function("parametric_hold_step", [x, u, tau, dt, entries], [ca.vertcat(*xn)])
+
+    def inertia_entries(self) -> NDArray[np.float64]:
+        """The hub inertia's six entries and its inverse's (:func:`attitude.rigid_body.symmetric_entries`), (12,).
+
+        Returns
+        -------
+        ndarray (12,)
+            [kg m^2] then [1/(kg m^2)].
+        """
+        return np.concatenate([symmetric_entries(self.body.inertia), symmetric_entries(self.body.inertia_inv)])
+
+    def wheels_key(self) -> bytes | None:
+        """What of the plant is built into its compiled functions besides the inertia: the wheels (pickled).
+
+        Returns
+        -------
+        bytes or None
+            None without wheels.
+        """
+        if self.wheels is None:
+            return None
+        if self._wheels_key is None:
+            self._wheels_key = pickle.dumps(self.wheels)
+        return self._wheels_key
 
     def identity(self, substeps: int) -> tuple | None:
         """What a hold step of this plant is built from: a key for caches of compiled functions.
@@ -145,10 +216,9 @@ class PlantModel:
             ``(substeps, inertia bytes, pickled wheels)``; None for a symbolic
             body (:class:`attitude.rigid_body.ParametricBody`), which is not shared.
         """
-        inertia = getattr(self.body, "inertia", None)
-        if not isinstance(inertia, np.ndarray):
+        if not isinstance(self.body, RigidBody):
             return None
-        return (substeps, inertia.tobytes(), None if self.wheels is None else pickle.dumps(self.wheels))
+        return (substeps, self.body.inertia.tobytes(), self.wheels_key())
 
     def command(self, tau_cmd: list, x: list) -> tuple[list, list]:
         """Motor (or body) torque and the applied body torque for a command.

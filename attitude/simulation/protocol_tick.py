@@ -28,7 +28,7 @@ The C entry point returns
   the engine asks :class:`~attitude.simulation.step_rule.TickRule` (which
   warns) and sub-steps the plant itself;
 * ``-1``: the command is not finite; ``-2``: the state after the tick is not
-  finite (the engine names the error).
+  finite (the engine names the error); ``-3``: the generated function failed.
 
 Without a C compiler, the same casadi function runs in casadi's virtual
 machine through :meth:`TickRunner.advance_reference` (the reference path: the
@@ -38,9 +38,6 @@ tests check the two give the same trajectory).
 from __future__ import annotations
 
 import ctypes
-import pickle
-import threading
-from collections import OrderedDict
 from typing import Any
 
 import casadi as ca
@@ -49,6 +46,7 @@ from numpy.typing import NDArray
 
 from attitude import backend as bk
 from attitude.rigid_body import ParametricBody, RigidBody, split_components, symmetric_entries, symmetric_rows
+from attitude.simulation.build_cache import BuildCache
 from attitude.simulation.codegen import CompilationError, compile_library
 from attitude.simulation.plant import PlantModel
 from attitude.simulation.step_rule import tick_advance, tick_projection, tick_rule_rates
@@ -59,7 +57,7 @@ __all__ = ["ProtocolTick", "TickRunner", "protocol_tick"]
 #: then the six entries of the hub inertia and of its inverse (:func:`attitude.rigid_body.symmetric_entries`).
 N_PARAMETERS = 4 + 12
 #: Return codes of the C entry point (module docstring).
-DONE, SUBSTEP, COMMAND_NOT_FINITE, STATE_NOT_FINITE = 1, 0, -1, -2
+DONE, SUBSTEP, COMMAND_NOT_FINITE, STATE_NOT_FINITE, FAILED = 1, 0, -1, -2, -3
 
 _C_ENTRY = """
 #include <math.h>
@@ -80,7 +78,7 @@ CASADI_SYMBOL_EXPORT int protocol_tick_run(double **ctx, long long k, int sample
   arg[4] = &flag; arg[5] = tau_ext; arg[6] = rule; arg[7] = par;
   res[0] = x_all + (k + 1) * NX; res[1] = u_all + k * NU; res[2] = tapp_all + k * 3; res[3] = hb_all + (k + 1) * 3;
   res[4] = rule_next; res[5] = &error;
-  if (protocol_tick(arg, res, iw, w, 0)) return -3;
+  if (protocol_tick(arg, res, iw, w, 0)) return -3; /* FAILED */
   if (k >= (long long)par[1]) return 1; /* the last tick: its commands only; the step lands in a scratch row */
   for (i = 0; i < NX; i++) if (!(fabs(x_all[(k + 1) * NX + i]) < INFINITY)) return -2;
   if (!(error <= par[3])) return 0;
@@ -308,9 +306,7 @@ class TickRunner:
 
 
 #: Ticks built per process, by wheel set and step count (a few: each holds a loaded library).
-_TICKS: OrderedDict[tuple, ProtocolTick] = OrderedDict()
-_TICKS_LOCK = threading.Lock()
-_TICKS_KEPT = 16
+_TICKS: BuildCache[ProtocolTick] = BuildCache(16)
 
 
 def protocol_tick(model: PlantModel, substeps: int) -> ProtocolTick:
@@ -327,15 +323,4 @@ def protocol_tick(model: PlantModel, substeps: int) -> ProtocolTick:
     -------
     ProtocolTick
     """
-    key = (substeps, None if model.wheels is None else pickle.dumps(model.wheels))
-    with _TICKS_LOCK:
-        tick = _TICKS.get(key)
-        if tick is not None:
-            _TICKS.move_to_end(key)
-            return tick
-    tick = ProtocolTick(model, substeps)
-    with _TICKS_LOCK:
-        _TICKS[key] = tick
-        while len(_TICKS) > _TICKS_KEPT:
-            _TICKS.popitem(last=False)
-    return tick
+    return _TICKS.get((substeps, model.wheels_key()), lambda: ProtocolTick(model, substeps))

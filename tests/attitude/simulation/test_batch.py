@@ -31,6 +31,7 @@ from attitude.rigid_body import ParametricBody, RigidBody, symmetric_entries
 from attitude.simulation import batch as mb
 from attitude.simulation import codegen
 from attitude.simulation.batch import closed_loop_metrics, simulate_batch
+from attitude.simulation.build_cache import BuildCache
 from attitude.simulation.engine import simulate
 from controllers.pd import QuaternionPD
 
@@ -164,7 +165,7 @@ def test_a_run_is_bit_identical_whatever_batch_it_is_in():
 def test_without_a_compiler_auto_falls_back_to_numpy_and_compiled_raises(tmp_path, monkeypatch):
     monkeypatch.setenv(codegen.CACHE_ENV, str(tmp_path))  # nothing cached: the compiler must run
     monkeypatch.setenv("CC", "false")  # a "compiler" that always fails
-    monkeypatch.setattr(mb, "_TICKS_CACHE", {})
+    monkeypatch.setattr(mb, "_TICKS_CACHE", BuildCache(4))
     with pytest.raises(codegen.CompilationError, match="failed"):
         _batch("compiled", n=2, duration=1.0)
     with pytest.warns(RuntimeWarning, match="numpy fallback"):
@@ -180,7 +181,7 @@ def test_an_unusable_cache_directory_falls_back_to_numpy_with_a_warning(tmp_path
     blocker = tmp_path / "a-file"
     blocker.write_text("not a folder")
     monkeypatch.setenv(codegen.CACHE_ENV, str(blocker / "kernels"))
-    monkeypatch.setattr(mb, "_TICKS_CACHE", {})
+    monkeypatch.setattr(mb, "_TICKS_CACHE", BuildCache(4))
     with pytest.raises(codegen.CompilationError, match="ATTITUDE_CACHE_DIR"):
         _batch("compiled", n=2, duration=1.0)
     with pytest.warns(RuntimeWarning, match="numpy fallback"):

@@ -35,6 +35,7 @@ from attitude.sensors import GyroBatch
 from attitude.simulation import batch as mb
 from attitude.simulation.batch import closed_loop_metrics, simulate_batch
 from attitude.simulation.batch_estimated import simulate_batch_estimated
+from attitude.simulation.build_cache import BuildCache
 from attitude.simulation.engine import simulate
 from attitude.simulation.kernel import environment_key
 from controllers.pd import QuaternionPD
@@ -218,7 +219,7 @@ def _fake_ticks(monkeypatch):
         def __init__(self, *args):
             built.append(args)
 
-    monkeypatch.setattr(mb, "_TICKS_CACHE", {})
+    monkeypatch.setattr(mb, "_TICKS_CACHE", BuildCache(4))
     monkeypatch.setattr(mb, "CompiledTicks", Fake)
     return built
 

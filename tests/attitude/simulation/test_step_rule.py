@@ -147,9 +147,32 @@ def test_simulate_batch_flies_again_a_run_that_spun_up_past_the_rule():
     torque = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.5]])
     with pytest.warns(StepSizeWarning, match="flown again at"):
         result = simulate_batch(
-            BODY, q0, [0.0, 0.0, 0.0], 100.0, controller=_NoTorque(), disturbance=torque, backend="numpy"
+            BODY,
+            q0,
+            [0.0, 0.0, 0.0],
+            100.0,
+            controller=_NoTorque(),
+            disturbance=torque,
+            backend="numpy",
+            history_stride=100,
         )
     assert result.info["step_rule_rerun_substeps"] > 1
+    # The rerun run's histories and final state are those of the run flown alone at that step count, bit for
+    # bit (each run is a pure function of its inputs), and run 0 is left as first flown.
+    for run, steps in ((1, result.info["step_rule_rerun_substeps"]), (0, 1)):
+        alone = simulate_batch(
+            BODY,
+            q0[run : run + 1],
+            [0.0, 0.0, 0.0],
+            100.0,
+            controller=_NoTorque(),
+            disturbance=torque[run : run + 1],
+            backend="numpy",
+            history_stride=100,
+            substeps=steps,
+        )
+        np.testing.assert_array_equal(result.histories["omega"][run], alone.histories["omega"][0])
+        np.testing.assert_array_equal(result.q[run], alone.q[0])
     assert result.info["step_rule_broken"].tolist() == [False, False]
     exact = quat.from_axis_angle([0.0, 0.0, 1.0], 0.5 * 0.5 / 8.0 * 100.0**2)
     assert float(quat.error_angle(exact, quat.normalize(result.q[1]))) < ATTITUDE_ERROR_BUDGET_RAD
@@ -215,13 +238,21 @@ def test_a_spin_up_that_ends_over_the_budget_says_not_within_it():
 
     with _warnings.catch_warnings(record=True) as caught:
         _warnings.simplefilter("always")
-        result = simulate(RigidBody([10.0, 12.0, 8.0]), _quat.identity(), [0.0, 0.0, 0.1], 60.0,
-                          disturbance=[0.0, 0.0, 2.0], dt=0.1, engine="python")
+        result = simulate(
+            RigidBody([10.0, 12.0, 8.0]),
+            _quat.identity(),
+            [0.0, 0.0, 0.1],
+            60.0,
+            disturbance=[0.0, 0.0, 2.0],
+            dt=0.1,
+            engine="python",
+        )
     rule = result.info["step_rule"]
     assert rule["predicted_error_rad"] > rule["budget_rad"]
     messages = [str(w.message) for w in caught if issubclass(w.category, _StepSizeWarning)]
-    assert any("NOT within the attitude-error budget" in m and f"{rule['predicted_error_rad']:.4g}" in m
-               for m in messages)
+    assert any(
+        "NOT within the attitude-error budget" in m and f"{rule['predicted_error_rad']:.4g}" in m for m in messages
+    )
 
 
 #: A prolate body (I_z / I_x = 1/8) spun 25 deg off its minor axis: its rate nutates at 0.875 |omega_z| in the
