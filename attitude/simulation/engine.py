@@ -12,7 +12,11 @@ Protocols
 Controllers, sensors, estimators and disturbances meet the protocols of
 :mod:`attitude.simulation.protocols` (:class:`Controller`, :class:`Sensor`,
 :class:`Estimator`, :data:`Disturbance`); sensors see a :class:`Truth`,
-controllers an :class:`Estimate`.
+controllers an :class:`Estimate`: copies of the record, so a law may change or
+keep them (one truth per tick is read by every sensor and the disturbance in
+turn; the controller's estimate is its own). The plant's part of each tick (allocation, hold step, the step-size
+rule) is one call of generated C (:mod:`attitude.simulation.protocol_tick`):
+what remains in Python is the user's objects and a few microseconds.
 
 Compiled path
 -------------
@@ -20,8 +24,10 @@ With no sensors or estimator (the controller sees the truth), a controller
 that offers ``compiled_inputs(t) -> (m, N)`` and
 ``torque_components(q, omega, h_body, inputs) -> [3]`` (backend-neutral, see
 :mod:`attitude.backend`) runs with the plant and the wheels entirely in one
-casadi ``mapaccum``: no Python work per sample. It evaluates the same
-definitions as the Python path, and a test proves the two agree.
+casadi ``mapaccum`` (folded over :data:`FOLD_TICKS` ticks per call): no
+Python work per sample. It evaluates the same definitions as the Python path,
+and a test proves the two agree. A built-in law (``compiled_law_cacheable``)
+keeps its closed loop per process by content (docs/protocol_engine_speed.md).
 """
 
 from __future__ import annotations
@@ -810,8 +816,9 @@ def _run_python(
     truth = None
     for k in range(n_ticks + 1):
         tk = k * dt
-        # What the user's objects are handed: copies (a controller or sensor may change its arrays in place,
-        # or keep them, without touching the run's record), shared by the truth and the estimate as before.
+        # What the user's objects are handed: copies of the record (a controller or sensor may change its arrays
+        # in place, or keep them, without touching the run). The truth is one per tick, read by every sensor and
+        # the disturbance in turn; the controller's estimate is its own.
         x = x_all[k].copy()
         h_body = runner.h_body[k].copy()
         if needs_truth:
@@ -857,9 +864,11 @@ def _run_python(
                 estimate = dataclasses.replace(estimate, h_wheels=x[7:], h_body=h_body)
             est_q[k] = estimate.q
             est_w[k] = estimate.omega
-        else:
+        elif truth is None:
             # The engine renormalises the quaternion at every RK4 step: x[:4] is the unit attitude.
             estimate = Estimate(tk, x[:4], x[4:7], x[7:], h_body)
+        else:  # the controller's own arrays, apart from the truth the sensors and the disturbance read
+            estimate = Estimate(tk, x[:4].copy(), x[4:7].copy(), x[7:].copy(), h_body)
         sample_now = 0
         if controller is not None and k % every_controller == 0:
             tau = controller.torque(tk, estimate)

@@ -148,6 +148,23 @@ def test_a_controller_that_changes_its_estimate_in_place_does_not_change_the_rec
     np.testing.assert_array_equal(meddled.omega, plain.omega)
 
 
+def test_a_controller_editing_its_estimate_does_not_change_what_the_disturbance_reads():
+    """With a rate-dependent disturbance the truth is built every tick: the controller's estimate is its own
+    copy, so zeroing its rate in place leaves the disturbance's rate (and so the trajectory) unchanged."""
+
+    class Zeroing(UserPD):
+        def torque(self, t, estimate):
+            tau = super().torque(t, estimate)
+            estimate.omega[:] = 0.0
+            return tau
+
+    def drag(t, q, omega):
+        return -1e-3 * np.asarray(omega)
+
+    edited, plain = fly(Zeroing(), disturbance=drag), fly(UserPD(), disturbance=drag)
+    np.testing.assert_array_equal(edited.omega, plain.omega)
+
+
 def test_the_protocol_path_equals_a_plain_numpy_loop_of_the_plant():
     """An independent loop: the plant's hold step evaluated by numpy on floats (PlantModel.hold_step, the
     definition the C tick is generated from, not the generated code), the command held over two ticks and a
