@@ -300,6 +300,38 @@ def simulate_batch(
     budget = check_error_budget(attitude_error_budget_rad)
     substeps_asked = substeps
     substeps, refused = batch_substeps(PlantModel(plant, wheels), omega0, dt, n_ticks, substeps, budget)
+    if n >= PILOT_MIN_RUNS and getattr(_RERUNS, "depth", 0) < RULE_RERUNS and not refused[0]:
+        # A pilot: run 0 flown alone first (1/n of the work). The check above sees only the initial rates; a
+        # slew from rest reaches its peak rate mid-run, and the batch would be flown twice (see the rerun).
+        _RERUNS.depth = getattr(_RERUNS, "depth", 0) + 1
+        _RERUNS.pilot = True  # its own verdict is not said: the batch flies run 0 again
+        try:
+            pilot = simulate_batch(
+                body if not body.batch_shape else RigidBody(body.inertia[:1]),
+                q0[:1],
+                omega0[:1],
+                duration,
+                controller=controller,
+                wheels=wheels,
+                h_wheels0=h0[:1],
+                dt=dt,
+                substeps=substeps,
+                disturbance=None if tau_ext is None else tau_ext[:1],
+                pointing_threshold=pointing_threshold,
+                backend=backend,
+                environment=environment,
+                surface_parameters=None if surface is None else surface[:1],
+                attitude_error_budget_rad=budget,
+            )
+        finally:
+            _RERUNS.depth -= 1
+            _RERUNS.pilot = False
+        peak = pilot.info["rate_peak_flown"]
+        if np.all(np.isfinite(peak)):
+            pilot_plant = plant if not plant.batch_shape else RigidBody(plant.inertia[:1])
+            needed = batch_needed_substeps(PlantModel(pilot_plant, wheels), peak, dt, n_ticks, substeps, budget)
+            if needed[0] <= MAX_RULE_SUBSTEPS * substeps_asked:
+                substeps = max(substeps, int(needed[0]))
     rows = None if environment is None else environment.track(t).columns()
     loop = _Loop(PlantModel(plant, wheels), controller, t, inputs, q_ref, every, substeps, pointing_threshold, stride)
     loop.environment, loop.rows = environment, rows
@@ -351,6 +383,7 @@ def simulate_batch(
         final[sl] = np.stack(np.broadcast_arrays(*x), axis=-1)
         for name, rows in recorded.items():
             histories[name][sl] = np.stack(rows, axis=1)
+    rate_peak_flown = metrics["rate_peak"].copy()
     broken, bound = batch_broken(loop.model, metrics["rate_peak"], dt, n_ticks, substeps, budget)
     rerun_steps = None
     if np.any(broken) and getattr(_RERUNS, "depth", 0) < RULE_RERUNS:
@@ -400,7 +433,7 @@ def simulate_batch(
                 stacklevel=2,
             )
     broken |= refused & np.isnan(diverged)
-    if np.any(broken):
+    if np.any(broken) and not getattr(_RERUNS, "pilot", False):
         peak = metrics["rate_peak"].copy()
         if rerun_steps is not None:  # a run still broken after its rerun: its peak as first flown
             peak = np.where(np.isnan(peak), flown_peak, peak)
@@ -421,6 +454,7 @@ def simulate_batch(
         "substeps": substeps,
         "step_rule_broken": broken,
         "step_rule_rerun_substeps": rerun_steps,
+        "rate_peak_flown": rate_peak_flown,
         "step_rule_error_bound_rad": bound,
         "chunk": size,
         "backend": "numpy" if ticks is None else "compiled",
@@ -483,6 +517,8 @@ def environment_inputs(
 
 #: Times a batch flies again the runs that broke the step-size rule (at the count their peak rates need).
 RULE_RERUNS = 1
+#: Runs from which a batch first flies run 0 alone, to set its step count from that run's peak rate.
+PILOT_MIN_RUNS = 20
 _RERUNS = threading.local()  # depth of the rerun in this thread
 
 #: One CompiledTicks per loop structure, a few at a time (keep memory flat).

@@ -179,6 +179,24 @@ def test_simulate_batch_flies_again_a_run_that_spun_up_past_the_rule():
     assert result.metrics["rate_peak"][1] == pytest.approx(6.25, rel=1e-9)
 
 
+def test_a_large_batch_sets_its_step_count_from_a_pilot_run():
+    """From PILOT_MIN_RUNS runs a batch first flies run 0 alone: the spin-up of the test above, in 20 runs,
+    is flown once at the step count run 0's peak rate needs (no rerun), every run within the budget of the
+    exact attitude."""
+    from attitude.simulation.batch import PILOT_MIN_RUNS, simulate_batch
+
+    n = PILOT_MIN_RUNS
+    q0 = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+    torque = np.tile([0.0, 0.0, 0.5], (n, 1))
+    result = simulate_batch(
+        BODY, q0, [0.0, 0.0, 0.0], 100.0, controller=_NoTorque(), disturbance=torque, backend="numpy"
+    )
+    assert result.info["substeps"] > 1 and result.info["step_rule_rerun_substeps"] is None
+    assert not np.any(result.info["step_rule_broken"])
+    exact = quat.from_axis_angle([0.0, 0.0, 1.0], 0.5 * 0.5 / 8.0 * 100.0**2)
+    assert np.all(quat.error_angle(exact, quat.normalize(result.q)) < ATTITUDE_ERROR_BUDGET_RAD)
+
+
 def test_simulate_batch_reports_a_run_that_spun_up_past_the_rule_as_failed():
     # Run 1 starts at rest and 5 N m about z (I_z = 8 kg m^2) spins it to 62.5 rad/s in 100 s: the initial
     # check passes, the peak rate breaks the rule by more than MAX_RULE_SUBSTEPS steps per tick can mend
