@@ -188,6 +188,7 @@ def closed_loop_ekf(serial_runs: int = 3, parallel_runs: int = 8, vectorised_run
         "cpu_s_per_600_s_run_one_worker": one["cpu_s"] / serial_runs,
         "cpu_s_per_600_s_run_one_worker_in_orbit": one_in_orbit["cpu_s"] / serial_runs,
         "target_cpu_s_per_600_s_run": 1.5,
+        "target_cpu_s_per_600_s_run_met": bool(max(one["cpu_s"], one_in_orbit["cpu_s"]) / serial_runs < 1.5),
         "one_worker_in_orbit": one_in_orbit,
         "two_local_processes": _measure(campaign(parallel_runs), DURATION_S, EKF_PEER_NOTE, workers=2),
         "vectorised_one_process": vectorised,
