@@ -179,10 +179,13 @@ class TestHelpers:
         f, gyro, _ = small_filter(q0=quat.random(rng=rng), bias0=rng.normal(scale=1e-4, size=3))
         f.step(1.0, np.zeros(3))
         axis = rng.standard_normal(3)
-        dt = float(rng.uniform(0.01, 0.5))
+        # A step long enough that the rate stays within the gyro's range (gyro_rate_max, with a 20 % margin for
+        # the bias): beyond it the filter rejects the sample and coasts, which is not the step under test.
+        dt = float(rng.uniform(max(0.01, 1.2 * angle / f.gyro_rate_max), 0.5))
         rate = f.bias + axis / np.linalg.norm(axis) * angle / dt
         q_prior, p_prior, b = f.q, f.P, f.bias
         f.step(1.0 + dt, rate)
+        assert f.counts["gyro_rejected"] == 0
         w = rate - b
         a = np.zeros((6, 6))
         a[:3, :3] = -skew(w)
