@@ -14,6 +14,7 @@ from controllers.analysis import (
     sampled_loop,
 )
 from controllers.diagnostics import Finding, mismatch_findings
+from controllers.disk_margins import DiskMargins, disk_margins
 from controllers.guidance import (
     GroundTarget,
     GroundTargetReference,
@@ -37,6 +38,7 @@ __all__ = [
     "After",
     "BDotController",
     "CrossProductUnloading",
+    "DiskMargins",
     "EigenaxisSlew",
     "Finding",
     "GroundTarget",
@@ -66,6 +68,7 @@ __all__ = [
     "bdot_gain",
     "bryson_weights",
     "design_lqr",
+    "disk_margins",
     "eigenaxis_slew",
     "loop_gain",
     "margins",
