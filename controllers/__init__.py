@@ -14,7 +14,7 @@ from controllers.analysis import (
     sampled_loop,
 )
 from controllers.diagnostics import Finding, mismatch_findings
-from controllers.disk_margins import DiskMargins, disk_margins
+from controllers.disk_margins import DiskMargins, LoopDiskMargins, disk_margins, loop_disk_margins
 from controllers.guidance import (
     GroundTarget,
     GroundTargetReference,
@@ -48,6 +48,7 @@ __all__ = [
     "KeepOutCone",
     "LQRController",
     "LQRDesign",
+    "LoopDiskMargins",
     "Margins",
     "Mode",
     "ModeSequence",
@@ -70,6 +71,7 @@ __all__ = [
     "design_lqr",
     "disk_margins",
     "eigenaxis_slew",
+    "loop_disk_margins",
     "loop_gain",
     "margins",
     "mismatch_findings",

@@ -80,6 +80,7 @@ __all__ = [
     "closed_loop_poles",
     "controller_period",
     "delayed_loop",
+    "input_loop",
     "loop_gain",
     "margins",
     "plot_bode",
@@ -275,6 +276,28 @@ def _open_loop(
     elif _is_discrete(Gc):
         raise ValueError(f"sampled=False needs a continuous controller, got a discrete one (dt = {Gc.dt} s)")
     return control.series(P, Gc), sampled  # G_c P: plant input to controller output
+
+
+def input_loop(plant: Any, controller: Any, *, sampled: bool | None = None, computation_delay: float = 0.0) -> Any:
+    """The MIMO loop ``G = G_c P`` broken at the plant input, all channels at once (multiloop margins).
+
+    Parameters
+    ----------
+    plant : RigidBody or control LTI
+        As :func:`loop_gain`.
+    controller : object
+        As :func:`loop_gain`.
+    sampled : bool, optional
+        As :func:`loop_gain` (the sampled loop for a controller with a period).
+    computation_delay : float
+        As :func:`loop_gain` [s].
+
+    Returns
+    -------
+    control.StateSpace
+        ``m x m`` (``m`` plant inputs), discrete at the period when sampled.
+    """
+    return _open_loop(plant, controller, sampled, computation_delay)[0]
 
 
 def loop_gain(

@@ -34,7 +34,9 @@ import control
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["DiskMargins", "disk_margins"]
+from controllers.analysis import input_loop, loop_gain
+
+__all__ = ["DiskMargins", "LoopDiskMargins", "disk_margins", "loop_disk_margins"]
 
 #: Points of the first logarithmic grid and of each refinement between the worst frequency's neighbours.
 GRID_POINTS = 400
@@ -174,6 +176,80 @@ def disk_margins(loop: Any, *, skew: float = 0.0, omega: ArrayLike | None = None
             break
     w, (alpha, gain_db, phase_deg) = best
     return DiskMargins(True, alpha, gain_db, phase_deg, w, float(skew), len(margins), converged, sampled)
+
+
+@dataclass(frozen=True)
+class LoopDiskMargins:
+    """A controller's disk margins at the plant input: each axis alone and all at once.
+
+    Attributes
+    ----------
+    per_axis : tuple of DiskMargins
+        Loop-at-a-time: channel ``i`` perturbed, the others closed (:func:`controllers.analysis.loop_gain`).
+    multiloop : DiskMargins or None
+        Every channel perturbed at once (None without ``slycot``: ``note`` says so).
+    note : str
+        Why the multiloop margin is missing, or "".
+    """
+
+    per_axis: tuple[DiskMargins, ...]
+    multiloop: DiskMargins | None
+    note: str = ""
+
+    @property
+    def smallest(self) -> float:
+        """The smallest disk margin of all (NaN when a closed loop is unstable)."""
+        values = [m.disk_margin for m in self.per_axis]
+        if self.multiloop is not None:
+            values.append(self.multiloop.disk_margin)
+        return float("nan") if any(math.isnan(v) for v in values) else min(values)
+
+    def summary(self) -> str:
+        """One line per axis and one for the multiloop margin."""
+        lines = [f"{axis}: {m.summary()}" for axis, m in zip("xyz", self.per_axis)]
+        lines.append(
+            f"multiloop: {self.multiloop.summary()}" if self.multiloop is not None else f"multiloop: {self.note}"
+        )
+        return "\n".join(lines)
+
+
+def loop_disk_margins(
+    plant: Any, controller: Any, *, sampled: bool | None = None, computation_delay: float = 0.0, skew: float = 0.0
+) -> LoopDiskMargins:
+    """Disk margins of a controller at the plant input: loop-at-a-time per axis and multiloop.
+
+    The loops are those of :func:`controllers.analysis.loop_gain` (the sampled loop that flies for a controller
+    with a period, zero-order hold and computation delay included) and of
+    :func:`controllers.analysis.input_loop` for the multiloop margin.
+
+    Parameters
+    ----------
+    plant : RigidBody or control LTI
+        As :func:`controllers.analysis.loop_gain`.
+    controller : object
+        As :func:`controllers.analysis.loop_gain`.
+    sampled : bool, optional
+        As :func:`controllers.analysis.loop_gain`.
+    computation_delay : float
+        Delay from sampling to the torque [s], sampled loops only.
+    skew : float
+        The disks' skew (:func:`disk_margins`).
+
+    Returns
+    -------
+    LoopDiskMargins
+    """
+    per_axis = tuple(
+        disk_margins(loop, skew=skew)
+        for loop in loop_gain(plant, controller, sampled=sampled, computation_delay=computation_delay)
+    )
+    loop = input_loop(plant, controller, sampled=sampled, computation_delay=computation_delay)
+    if loop.ninputs == 1:
+        return LoopDiskMargins(per_axis, per_axis[0])
+    try:
+        return LoopDiskMargins(per_axis, disk_margins(loop, skew=skew))
+    except ImportError as exc:
+        return LoopDiskMargins(per_axis, None, str(exc))
 
 
 def _closed_loop_stable(loop: Any) -> bool:
