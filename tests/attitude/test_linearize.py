@@ -254,11 +254,11 @@ class TestWhySixStates:
         # No stabilising Riccati solution: with the norm direction weighted scipy's solver gives up (its
         # message depends on the data: "Failed to find a finite solution" at identity) ...
         with pytest.raises(np.linalg.LinAlgError, match=r"finite solution|too close to the imaginary axis"):
-            control.lqr(a7, b7, np.eye(7), np.eye(3))
+            control.lqr(a7, b7, np.eye(7), np.eye(3), method="scipy")
         # ... and with it unweighted, control.lqr silently returns a gain with a closed-loop pole at 0.
         q_weight = np.eye(7)
         q_weight[:4, :4] -= np.outer(TARGET, TARGET)
-        _, _, poles = control.lqr(a7, b7, q_weight, np.eye(3))
+        _, _, poles = control.lqr(a7, b7, q_weight, np.eye(3), method="scipy")
         assert np.min(np.abs(poles)) < 1e-12
 
     def test_the_six_state_model_is_controllable_and_lqr_works(self):
