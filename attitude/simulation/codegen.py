@@ -44,6 +44,7 @@ __all__ = [
     "cache_dir",
     "compile_functions",
     "compile_library",
+    "entry_source",
     "find_compiler",
     "library_path",
 ]
@@ -165,6 +166,39 @@ def compile_library(
     return library
 
 
+def entry_source(function: ca.Function, template: str, **defines: int) -> str:
+    """A hand-written C entry point calling ``function``, with its work-array sizes (and ``defines``) as macros.
+
+    The template may use ``SZ_ARG``, ``SZ_RES``, ``SZ_IW`` and ``SZ_W`` (the sizes casadi's generated function
+    needs for its ``arg``, ``res``, ``iw`` and ``w`` arrays, at least 1) and the names in ``defines``; they are
+    ``#define``-d before it and ``#undef``-ined after, for :func:`compile_library`'s ``extra_source``.
+
+    Parameters
+    ----------
+    function : casadi.Function
+        The generated function the entry point calls.
+    template : str
+        The entry point's C source.
+    **defines : int
+        Further integer macros (e.g. a state size).
+
+    Returns
+    -------
+    str
+        The C source.
+    """
+    macros = {
+        "SZ_ARG": function.sz_arg(),
+        "SZ_RES": function.sz_res(),
+        "SZ_IW": function.sz_iw() + 1,
+        "SZ_W": function.sz_w() + 1,
+        **defines,
+    }
+    head = "".join(f"#define {name} {int(value)}\n" for name, value in macros.items())
+    tail = "".join(f"#undef {name}\n" for name in macros)
+    return f"\n{head}{template}{tail}"
+
+
 _BUFFERED_ENTRY = """
 /* The function on fixed buffers: ctx holds the input pointers, then the output pointers. */
 CASADI_SYMBOL_EXPORT int NAME_buffered(double **ctx) {
@@ -206,17 +240,8 @@ class BufferedFunction:
         self._keep = (*self.inputs, *self.outputs)
         self._ctx = (ctypes.c_void_p * len(self._keep))(*[a.ctypes.data for a in self._keep])
         self._entry = None
-        sizes = {
-            "SZ_ARG": function.sz_arg(),
-            "SZ_RES": function.sz_res(),
-            "SZ_IW": function.sz_iw() + 1,
-            "SZ_W": function.sz_w() + 1,
-            "N_IN": function.n_in(),
-            "N_OUT": function.n_out(),
-        }
-        source = _BUFFERED_ENTRY.replace("NAME", function.name())
-        for key, value in sizes.items():
-            source = source.replace(key, str(value))
+        template = _BUFFERED_ENTRY.replace("NAME", function.name())  # the C symbols are named by the function
+        source = entry_source(function, template, N_IN=function.n_in(), N_OUT=function.n_out())
         try:
             library = ctypes.CDLL(str(compile_library([function], source)))
         except (CompilationError, OSError) as exc:

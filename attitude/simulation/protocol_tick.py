@@ -47,7 +47,7 @@ from numpy.typing import NDArray
 from attitude import backend as bk
 from attitude.rigid_body import ParametricBody, RigidBody, split_components, symmetric_entries, symmetric_rows
 from attitude.simulation.build_cache import BuildCache
-from attitude.simulation.codegen import CompilationError, compile_library
+from attitude.simulation.codegen import CompilationError, compile_library, entry_source
 from attitude.simulation.plant import PlantModel
 from attitude.simulation.step_rule import tick_advance, tick_projection, tick_rule_rates
 
@@ -154,11 +154,7 @@ class ProtocolTick:
         """
         if self._library is None and self._compile_error is None:
             f = self.function
-            sizes = {"SZ_ARG": f.sz_arg(), "SZ_RES": f.sz_res(), "SZ_IW": f.sz_iw() + 1, "SZ_W": f.sz_w() + 1}
-            sizes.update(NX=self.n_x, NU=self.n_u)
-            source = _C_ENTRY
-            for name, value in sizes.items():
-                source = source.replace(name, str(value))
+            source = entry_source(f, _C_ENTRY, NX=self.n_x, NU=self.n_u)
             try:
                 self._library = ctypes.CDLL(str(compile_library([f], source)))
             except (CompilationError, OSError) as exc:
