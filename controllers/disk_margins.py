@@ -68,7 +68,8 @@ class DiskMargins:
     grid_points : int
         Frequencies evaluated (first grid and refinements).
     converged : bool
-        Whether the last refinement changed the margin by less than the tolerance.
+        Whether the last refinement changed the margin by less than the tolerance and the smallest margin is
+        inside the grid (or at a sampled loop's Nyquist frequency), not at an end it could not extend past.
     sampled : bool
         Whether the loop is discrete (its grid ends at the Nyquist frequency).
     """
@@ -88,7 +89,7 @@ class DiskMargins:
         kind = "sampled loop" if self.sampled else "loop"
         if not self.closed_loop_stable:
             return f"{kind}: closed loop UNSTABLE, no disk margin (python-control alone would report one)"
-        note = "" if self.converged else " (refinement did not converge: see grid_points)"
+        note = "" if self.converged else " (NOT converged: smallest at an open end of the grid, or refinement stopped)"
         return (
             f"{kind}: disk margin {self.disk_margin:.4g} (gain +-{self.gain_margin_db:.3g} dB, phase "
             f"+-{self.phase_margin_deg:.3g} deg) at {self.frequency_rad_s:.4g} rad/s{note}"
@@ -150,6 +151,7 @@ def disk_margins(loop: Any, *, skew: float = 0.0, omega: ArrayLike | None = None
             margins[float(w)] = (float(a), float(g), float(p))
 
     evaluate(grid)
+    top = nyquist * (1.0 - 1e-9)  # the highest frequency a grid may reach (inf for a continuous loop)
     best = min(margins.items(), key=lambda item: item[1][0])
     # The smallest margin at an end of the grid: the grid is extended a few decades that way (a margin that
     # is smallest at DC, as for the spinning satellite, or at high frequency in a continuous loop).
@@ -157,8 +159,8 @@ def disk_margins(loop: Any, *, skew: float = 0.0, omega: ArrayLike | None = None
         points = np.array(sorted(margins))
         if best[0] == points[0] and points[0] > 1e-12:
             evaluate(np.logspace(math.log10(points[0]) - 3.0, math.log10(points[0]), 60)[:-1])
-        elif best[0] == points[-1] and points[-1] * 1e3 < nyquist:
-            evaluate(np.logspace(math.log10(points[-1]), math.log10(points[-1]) + 3.0, 60)[1:])
+        elif best[0] == points[-1] and points[-1] < top:
+            evaluate(np.logspace(math.log10(points[-1]), math.log10(min(points[-1] * 1e3, top)), 60)[1:])
         else:
             break
         best = min(margins.items(), key=lambda item: item[1][0])
@@ -174,6 +176,11 @@ def disk_margins(loop: Any, *, skew: float = 0.0, omega: ArrayLike | None = None
         if change <= rtol * max(abs(new[1][0]), 1e-300):
             converged = True
             break
+    points = np.array(sorted(margins))
+    # Still smallest at an open end of the grid (not the Nyquist frequency of a sampled loop): the true minimum
+    # may lie beyond it, so the figure is not claimed converged.
+    if best[0] == points[0] or (best[0] == points[-1] and points[-1] < top * (1.0 - 1e-6)):
+        converged = False
     w, (alpha, gain_db, phase_deg) = best
     return DiskMargins(True, alpha, gain_db, phase_deg, w, float(skew), len(margins), converged, sampled)
 
