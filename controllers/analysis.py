@@ -77,12 +77,14 @@ __all__ = [
     "Margins",
     "SampleTimeStudy",
     "attitude_closed_loop",
+    "broken_channels",
     "closed_loop_poles",
     "controller_period",
     "delayed_loop",
     "input_loop",
     "loop_gain",
     "margins",
+    "output_loop",
     "plot_bode",
     "plot_step",
     "rigid_body_at_rest",
@@ -240,8 +242,8 @@ def controller_period(controller: Any) -> float | None:
 
 def _open_loop(
     plant: Any, controller: Any, sampled: bool | None, computation_delay: float
-) -> tuple[control.StateSpace, bool]:
-    """``G = G_c P`` from the plant input to the controller output, sampled or continuous (see :func:`loop_gain`)."""
+) -> tuple[control.StateSpace, control.StateSpace, bool]:
+    """The plant ``P`` and controller ``G_c`` of the loop, sampled or continuous (see :func:`loop_gain`)."""
     P = rigid_body_at_rest(plant) if isinstance(plant, RigidBody) else plant
     if not isinstance(P, (control.StateSpace, control.TransferFunction)):
         raise ValueError(f"plant must be a RigidBody or a control StateSpace/TransferFunction, got {plant!r}")
@@ -275,7 +277,7 @@ def _open_loop(
         )
     elif _is_discrete(Gc):
         raise ValueError(f"sampled=False needs a continuous controller, got a discrete one (dt = {Gc.dt} s)")
-    return control.series(P, Gc), sampled  # G_c P: plant input to controller output
+    return P, Gc, sampled
 
 
 def input_loop(plant: Any, controller: Any, *, sampled: bool | None = None, computation_delay: float = 0.0) -> Any:
@@ -297,7 +299,59 @@ def input_loop(plant: Any, controller: Any, *, sampled: bool | None = None, comp
     control.StateSpace
         ``m x m`` (``m`` plant inputs), discrete at the period when sampled.
     """
-    return _open_loop(plant, controller, sampled, computation_delay)[0]
+    P, Gc, _ = _open_loop(plant, controller, sampled, computation_delay)
+    return control.series(P, Gc)  # G_c P: plant input to controller output
+
+
+def output_loop(plant: Any, controller: Any, *, sampled: bool | None = None, computation_delay: float = 0.0) -> Any:
+    """The MIMO loop ``P G_c`` broken at the plant output (the measurements), all channels at once.
+
+    A perturbation here stands for the sensors' gain and phase errors (a star tracker's or gyro's scale and
+    lag), where :func:`input_loop` stands for the actuators'. For a rigid body the outputs are ``[q_v, omega]``:
+    six channels for three torques, so the loop has rank three.
+
+    Parameters
+    ----------
+    plant : RigidBody or control LTI
+        As :func:`loop_gain`.
+    controller : object
+        As :func:`loop_gain`.
+    sampled : bool, optional
+        As :func:`loop_gain` (the sampled loop for a controller with a period).
+    computation_delay : float
+        As :func:`loop_gain` [s].
+
+    Returns
+    -------
+    control.StateSpace
+        ``p x p`` (``p`` plant outputs), discrete at the period when sampled.
+    """
+    P, Gc, _ = _open_loop(plant, controller, sampled, computation_delay)
+    return control.series(Gc, P)  # P G_c: controller input to plant output
+
+
+def broken_channels(loop: Any) -> list[Any]:
+    """Each channel of a square MIMO loop broken alone, the others closed: ``[(I + L F_i)^-1 L]_ii``.
+
+    Parameters
+    ----------
+    loop : control.StateSpace
+        The square loop ``L`` (:func:`input_loop` or :func:`output_loop`).
+
+    Returns
+    -------
+    list of control.StateSpace
+        One SISO loop per channel (``loop`` itself for one channel).
+    """
+    m = loop.ninputs
+    if m == 1:
+        return [loop]
+    channels = []
+    for i in range(m):
+        F = np.eye(m)
+        F[i, i] = 0.0
+        channels.append(control.feedback(loop, F)[i, i])
+    return channels
 
 
 def loop_gain(
@@ -381,16 +435,9 @@ def loop_gain(
     s^2`` per axis, and the default gives its zero-order-hold equivalent at
     ``T``.
     """
-    G, sampled = _open_loop(plant, controller, sampled, computation_delay)
-    m = G.ninputs
+    P, Gc, sampled = _open_loop(plant, controller, sampled, computation_delay)
     loops: list[control.TransferFunction | control.StateSpace] = []
-    for i in range(m):
-        if m == 1:
-            Li = G
-        else:
-            F = np.eye(m)
-            F[i, i] = 0.0
-            Li = control.feedback(G, F)[i, i]
+    for Li in broken_channels(control.series(P, Gc)):
         if sampled:
             # Kept in state space: the polynomials of a loop sampled fast (poles crowded at z = 1)
             # lose the digits its margins depend on (module docstring).
@@ -430,7 +477,8 @@ def closed_loop_poles(
         ``z`` [-] for the sampled one (the computation delay's buffer states
         included).
     """
-    G, _ = _open_loop(plant, controller, sampled, computation_delay)
+    P, Gc, _ = _open_loop(plant, controller, sampled, computation_delay)
+    G = control.series(P, Gc)
     A, B, C, D = (np.asarray(x, dtype=float) for x in (G.A, G.B, G.C, G.D))
     m = B.shape[1]
     if A.shape[0] == 0:

@@ -34,9 +34,10 @@ import control
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from controllers.analysis import input_loop, loop_gain
+from attitude.rigid_body import RigidBody
+from controllers.analysis import broken_channels, input_loop, output_loop
 
-__all__ = ["DiskMargins", "LoopDiskMargins", "disk_margins", "loop_disk_margins"]
+__all__ = ["BREAK_POINTS", "DiskMargins", "LoopDiskMargins", "disk_margins", "loop_disk_margins"]
 
 #: Points of the first logarithmic grid and of each refinement between the worst frequency's neighbours.
 GRID_POINTS = 400
@@ -187,21 +188,29 @@ def disk_margins(loop: Any, *, skew: float = 0.0, omega: ArrayLike | None = None
 
 @dataclass(frozen=True)
 class LoopDiskMargins:
-    """A controller's disk margins at the plant input: each axis alone and all at once.
+    """A controller's disk margins at one break point: each channel alone and all at once.
 
     Attributes
     ----------
     per_axis : tuple of DiskMargins
-        Loop-at-a-time: channel ``i`` perturbed, the others closed (:func:`controllers.analysis.loop_gain`).
+        Loop-at-a-time: channel ``i`` perturbed, the others closed
+        (:func:`controllers.analysis.broken_channels`). At the plant input of a rigid body: the torque about
+        x, y, z; at its output: the measured ``q_v`` x, y, z, then ``omega`` x, y, z.
     multiloop : DiskMargins or None
         Every channel perturbed at once (None without ``slycot``: ``note`` says so).
     note : str
         Why the multiloop margin is missing, or "".
+    break_point : str
+        "input" (the actuators' gain and phase) or "output" (the sensors').
+    channels : tuple of str
+        The channels' names, one per entry of ``per_axis``.
     """
 
     per_axis: tuple[DiskMargins, ...]
     multiloop: DiskMargins | None
     note: str = ""
+    break_point: str = "input"
+    channels: tuple[str, ...] = ("x", "y", "z")
 
     @property
     def smallest(self) -> float:
@@ -212,22 +221,39 @@ class LoopDiskMargins:
         return float("nan") if any(math.isnan(v) for v in values) else min(values)
 
     def summary(self) -> str:
-        """One line per axis and one for the multiloop margin."""
-        lines = [f"{axis}: {m.summary()}" for axis, m in zip("xyz", self.per_axis)]
+        """One line per channel and one for the multiloop margin."""
+        lines = [f"{name}: {m.summary()}" for name, m in zip(self.channels, self.per_axis)]
         lines.append(
             f"multiloop: {self.multiloop.summary()}" if self.multiloop is not None else f"multiloop: {self.note}"
         )
         return "\n".join(lines)
 
 
-def loop_disk_margins(
-    plant: Any, controller: Any, *, sampled: bool | None = None, computation_delay: float = 0.0, skew: float = 0.0
-) -> LoopDiskMargins:
-    """Disk margins of a controller at the plant input: loop-at-a-time per axis and multiloop.
+#: Where a loop may be broken, and the loop each gives.
+BREAK_POINTS = {"input": input_loop, "output": output_loop}
 
-    The loops are those of :func:`controllers.analysis.loop_gain` (the sampled loop that flies for a controller
-    with a period, zero-order hold and computation delay included) and of
-    :func:`controllers.analysis.input_loop` for the multiloop margin.
+
+def _channel_names(loop: Any, plant: Any, break_point: str) -> tuple[str, ...]:
+    if isinstance(plant, RigidBody):
+        return ("x", "y", "z") if break_point == "input" else ("q_x", "q_y", "q_z", "omega_x", "omega_y", "omega_z")
+    return tuple(str(n) for n in (loop.input_labels if break_point == "input" else loop.output_labels))
+
+
+def loop_disk_margins(
+    plant: Any,
+    controller: Any,
+    *,
+    sampled: bool | None = None,
+    computation_delay: float = 0.0,
+    skew: float = 0.0,
+    break_point: str = "input",
+) -> LoopDiskMargins:
+    """Disk margins of a controller at the plant input or output: loop-at-a-time per channel and multiloop.
+
+    The loops are those of :func:`controllers.analysis.input_loop` or :func:`controllers.analysis.output_loop`
+    (the sampled loop that flies for a controller with a period, zero-order hold and computation delay
+    included), each channel broken alone by :func:`controllers.analysis.broken_channels` (at the input these
+    are the loops of :func:`controllers.analysis.loop_gain`).
 
     Parameters
     ----------
@@ -241,22 +267,25 @@ def loop_disk_margins(
         Delay from sampling to the torque [s], sampled loops only.
     skew : float
         The disks' skew (:func:`disk_margins`).
+    break_point : {"input", "output"}
+        Where the loop is broken: the plant input (the actuators' gain and phase uncertainty) or the plant
+        output (the sensors').
 
     Returns
     -------
     LoopDiskMargins
     """
-    per_axis = tuple(
-        disk_margins(loop, skew=skew)
-        for loop in loop_gain(plant, controller, sampled=sampled, computation_delay=computation_delay)
-    )
-    loop = input_loop(plant, controller, sampled=sampled, computation_delay=computation_delay)
+    if break_point not in BREAK_POINTS:
+        raise ValueError(f"break_point must be one of {sorted(BREAK_POINTS)}, got {break_point!r}")
+    loop = BREAK_POINTS[break_point](plant, controller, sampled=sampled, computation_delay=computation_delay)
+    per_axis = tuple(disk_margins(channel, skew=skew) for channel in broken_channels(loop))
+    names = _channel_names(loop, plant, break_point)
     if loop.ninputs == 1:
-        return LoopDiskMargins(per_axis, per_axis[0])
+        return LoopDiskMargins(per_axis, per_axis[0], "", break_point, names)
     try:
-        return LoopDiskMargins(per_axis, disk_margins(loop, skew=skew))
+        return LoopDiskMargins(per_axis, disk_margins(loop, skew=skew), "", break_point, names)
     except ImportError as exc:
-        return LoopDiskMargins(per_axis, None, str(exc))
+        return LoopDiskMargins(per_axis, None, str(exc), break_point, names)
 
 
 def _closed_loop_stable(loop: Any) -> bool:
