@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import control
 import numpy as np
@@ -37,7 +37,18 @@ from numpy.typing import ArrayLike, NDArray
 from attitude.rigid_body import RigidBody
 from controllers.analysis import broken_channels, input_loop, output_loop
 
-__all__ = ["BREAK_POINTS", "DiskMargins", "LoopDiskMargins", "disk_margins", "loop_disk_margins"]
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+__all__ = [
+    "BREAK_POINTS",
+    "DiskMargins",
+    "LoopDiskMargins",
+    "disk_margin_curve",
+    "disk_margins",
+    "loop_disk_margins",
+    "plot_disk_margins",
+]
 
 #: Points of the first logarithmic grid and of each refinement between the worst frequency's neighbours.
 GRID_POINTS = 400
@@ -323,3 +334,96 @@ def _checked_grid(omega: ArrayLike, nyquist: float) -> NDArray[np.float64]:
     if grid[-1] >= nyquist:
         raise ValueError(f"omega must stay below the Nyquist frequency {nyquist:.6g} rad/s, got up to {grid[-1]:.6g}")
     return grid
+
+
+def disk_margin_curve(
+    loop: Any, *, skew: float = 0.0, omega: ArrayLike | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The disk margin at each frequency of a grid: where the loop is weakest, and by how much elsewhere.
+
+    Parameters
+    ----------
+    loop : control.StateSpace or control.TransferFunction
+        As :func:`disk_margins` (a closed-loop-unstable loop is refused: its curve would mean nothing).
+    skew : float
+        The disk's skew.
+    omega : array_like, optional
+        Frequencies [rad/s]; default the first grid of :func:`disk_margins`.
+
+    Returns
+    -------
+    omega_rad_s, alpha : ndarray
+        The grid and the disk margin at each frequency (its minimum is the loop's margin, :func:`disk_margins`
+        refines it).
+
+    Raises
+    ------
+    ValueError
+        For an unstable closed loop or a bad grid.
+    """
+    if not isinstance(loop, (control.StateSpace, control.TransferFunction)):
+        raise ValueError(f"loop must be a control StateSpace or TransferFunction, got {type(loop).__name__}")
+    nyquist = math.pi / float(loop.dt) if loop.isdtime(strict=True) else math.inf
+    if not _closed_loop_stable(loop):
+        raise ValueError("loop: the closed loop is unstable, so it has no disk margin at any frequency")
+    grid = _first_grid(loop, nyquist) if omega is None else _checked_grid(omega, nyquist)
+    alpha = np.ravel(control.disk_margins(loop, grid, skew=skew, returnall=True)[0]).astype(float)
+    return grid, alpha
+
+
+def plot_disk_margins(
+    loops: dict[str, Any], *, floor: float | None = None, title: str = "Disk margin over frequency"
+) -> Figure:
+    """The disk margin against frequency of each loop, its minimum marked, on one axis.
+
+    Parameters
+    ----------
+    loops : dict of str to control LTI
+        Label -> loop (SISO, or MIMO for the multiloop margin), e.g. :func:`controllers.analysis.input_loop`.
+    floor : float, optional
+        A required disk margin, drawn as a line.
+    title : str
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Disk margin ``alpha`` (left axis) and the matching balanced gain margin [dB] (right axis) against
+        frequency; each loop's refined minimum (:func:`disk_margins`) as a dot.
+    """
+    from matplotlib.figure import Figure
+
+    if not loops:
+        raise ValueError("loops must hold at least one loop")
+    fig = Figure(figsize=(8.0, 4.6), layout="constrained")
+    ax = fig.subplots()
+    top = 0.0
+    for (label, loop), color in zip(loops.items(), ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple")):
+        w, alpha = disk_margin_curve(loop)
+        shown = np.minimum(alpha, 2.0)  # alpha >= 2 is an unbounded gain margin: drawn at 2
+        best = disk_margins(loop)
+        ax.semilogx(
+            w, shown, color=color, lw=1.5, label=f"{label}: {best.disk_margin:.3g} at {best.frequency_rad_s:.3g} rad/s"
+        )
+        ax.plot([best.frequency_rad_s], [best.disk_margin], "o", color=color, ms=6)
+        top = max(top, float(np.max(shown)))
+        if best.sampled:
+            ax.axvline(math.pi / float(loop.dt), color="0.5", ls=":", lw=0.9)
+    if floor is not None:
+        ax.axhline(floor, color="tab:red", ls="--", lw=1.0, label=f"required {floor:.3g}")
+    ax.set_ylim(0.0, max(top, floor or 0.0) * 1.08 + 1e-9)
+    ax.set_xlabel("frequency [rad/s] (dotted: Nyquist)")
+    ax.set_ylabel("disk margin alpha [-]")
+    ax.grid(True, which="both", alpha=0.3)
+    right = ax.secondary_yaxis(
+        "right",
+        functions=(
+            lambda a: 20 * np.log10((2 + np.clip(a, 0, 1.999)) / (2 - np.clip(a, 0, 1.999))),
+            lambda g: 2 * (10 ** (g / 20) - 1) / (10 ** (g / 20) + 1),
+        ),
+    )
+    right.set_yticks([0.0, 2.0, 4.0, 6.0, 10.0, 20.0])  # alpha -> 2 is an unbounded gain margin: stop at 20 dB
+    right.set_ylabel("balanced gain margin [+-dB]")
+    ax.set_title(title)
+    ax.legend(loc="lower right", fontsize=8)
+    return fig

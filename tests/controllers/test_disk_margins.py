@@ -191,3 +191,17 @@ def test_a_break_point_other_than_input_or_output_is_refused():
     pd = QuaternionPD.from_bandwidth(body, wn=0.2, zeta=0.7, period=0.1)
     with pytest.raises(ValueError, match="break_point must be one of"):
         loop_disk_margins(body, pd, break_point="sensor")
+
+
+def test_the_disk_margin_curve_has_the_refined_margin_as_its_floor_and_refuses_an_unstable_loop():
+    """The curve's minimum over its grid is never below the refined margin (refinement only adds frequencies,
+    and the refined figure is the minimum over all of them) and lies within 1 % of it (Seiler's loop: 400
+    points over eight decades); an unstable closed loop has no margin at any frequency and is refused."""
+    from controllers.disk_margins import disk_margin_curve
+
+    _, alpha = disk_margin_curve(SEILER)
+    refined = disk_margins(SEILER)
+    assert alpha.min() >= refined.disk_margin
+    assert alpha.min() == pytest.approx(refined.disk_margin, rel=1e-2)
+    with pytest.raises(ValueError, match="unstable"):
+        disk_margin_curve(2.5 * RESONANT)  # as in the test above: the resonance's peak now encircles -1

@@ -12,6 +12,9 @@
   loops and of the sampled loops that fly (zero-order hold at
   ``control.period_s`` on every axis, :func:`controllers.analysis.loop_gain`),
   with Bode figures.
+* Disk margins of the sampled loops (:func:`controllers.disk_margins.loop_disk_margins`): each axis alone and
+  all three at once at the plant input (the wheels' gain and phase), all six measurements at once at the
+  plant output (the star tracker's and gyro's), with the disk margin over frequency as a figure.
 """
 
 from __future__ import annotations
@@ -26,10 +29,11 @@ from attitude.config import SpacecraftConfig
 from attitude.plain import plain_float as _f
 from attitude.plain import plain_matrix as _mat
 from attitude.plain import plain_vector as _vec
-from controllers.analysis import attitude_closed_loop, loop_gain, margins, plot_bode, plot_step
+from controllers.analysis import attitude_closed_loop, input_loop, loop_gain, margins, output_loop, plot_bode, plot_step
 from controllers.diagnostics import mismatch_findings
+from controllers.disk_margins import DiskMargins, loop_disk_margins, plot_disk_margins
 
-__all__ = ["controller_findings", "linear_design"]
+__all__ = ["controller_findings", "disk_margin_rows", "linear_design"]
 
 _AXES = "xyz"
 
@@ -60,6 +64,43 @@ def _margin_row(controller: str, loop_name: str, axis: str, loop: Any) -> dict[s
         "phase_crossover_rad_per_s": _f(m.phase_crossover),
         "stable": bool(m.stable),
     }
+
+
+def _disk_row(controller: str, break_point: str, channel: str, m: DiskMargins) -> dict[str, Any]:
+    return {
+        "controller": controller,
+        "break_point": break_point,
+        "channel": channel,
+        "disk_margin": _f(m.disk_margin),
+        "gain_margin_db": _f(m.gain_margin_db),
+        "phase_margin_deg": _f(m.phase_margin_deg),
+        "frequency_rad_per_s": _f(m.frequency_rad_s),
+        "converged": bool(m.converged),
+        "stable": bool(m.closed_loop_stable),
+    }
+
+
+def disk_margin_rows(controller_name: str, plant: Any, controller: Any) -> list[dict[str, Any]]:
+    """Disk margins of the sampled loop that flies: per axis and multiloop at the input, multiloop at the output.
+
+    Parameters
+    ----------
+    controller_name : str
+        The controller's name in the report ("PD", "LQR").
+    plant : RigidBody or control LTI
+        The plant (:func:`controllers.analysis.loop_gain`).
+    controller : object
+        The controller (with its period: the sampled loop).
+    """
+    at_input = loop_disk_margins(plant, controller)
+    rows = [_disk_row(controller_name, "input", f"{a} alone", m) for a, m in zip(_AXES, at_input.per_axis)]
+    at_output = loop_disk_margins(plant, controller, break_point="output")
+    for point, result in (("input", at_input), ("output", at_output)):
+        if result.multiloop is None:
+            rows.append({"controller": controller_name, "break_point": point, "channel": "all", "note": result.note})
+        else:
+            rows.append(_disk_row(controller_name, point, "all at once", result.multiloop))
+    return rows
 
 
 def linear_design(config: SpacecraftConfig) -> tuple[dict[str, Any], dict[str, Figure]]:
@@ -93,6 +134,7 @@ def linear_design(config: SpacecraftConfig) -> tuple[dict[str, Any], dict[str, F
         },
         "lqr": None,
         "margins": rows,
+        "disk_margins": disk_margin_rows("PD", body, pd),
     }
     figures = {
         "pd_step": plot_step(closed),
@@ -106,6 +148,7 @@ def linear_design(config: SpacecraftConfig) -> tuple[dict[str, Any], dict[str, F
         lqr_sampled = loop_gain(plant, lqr)
         rows += [_margin_row("LQR", "continuous", a, loop) for a, loop in zip(_AXES, lqr_loops)]
         rows += [_margin_row("LQR", sampled_name, a, loop) for a, loop in zip(_AXES, lqr_sampled)]
+        out["disk_margins"] += disk_margin_rows("LQR", plant, lqr)
         out["lqr"] = {
             "angle_max_deg": _vec(np.degrees(c.lqr.angle_max)),
             "rate_max_deg_per_s": _vec(np.degrees(c.lqr.rate_max)),
@@ -117,6 +160,12 @@ def linear_design(config: SpacecraftConfig) -> tuple[dict[str, Any], dict[str, F
         figures["lqr_bode_sampled"] = plot_bode(
             lqr_sampled, labels=[f"LQR, {a} axis, {1.0 / period:g} Hz ZOH" for a in _AXES]
         )
+    disk_loops = {"PD, at the input": input_loop(body, pd), "PD, at the output": output_loop(body, pd)}
+    if designed is not None:
+        disk_loops |= {"LQR, at the input": input_loop(plant, lqr), "LQR, at the output": output_loop(plant, lqr)}
+    figures["disk_margins"] = plot_disk_margins(
+        disk_loops, title=f"Multiloop disk margins of the sampled loops ({1.0 / period:g} Hz)"
+    )
     out["findings"] = controller_findings(config, body, pd, None if designed is None else designed[1])
     return out, figures
 

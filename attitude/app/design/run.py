@@ -494,6 +494,11 @@ def _caption_table() -> dict[str, tuple[str, str]]:
         "pd_bode": ("linear", "PD loop gain broken at the plant input, per axis, continuous."),
         "pd_bode_sampled": ("linear", "PD loop gain of the sampled loop (zero-order hold at the controller rate)."),
         "lqr_bode_sampled": ("linear", "LQR loop gain of the sampled loop, per axis."),
+        "disk_margins": (
+            "linear",
+            "Multiloop disk margin over frequency of the sampled loops, all channels perturbed at once, at the plant "
+            "input (torques) and output (attitude and rate measurements); dots: the refined smallest margin.",
+        ),
         "slew_plan": (
             "slews",
             "Optimal plan: torque [mN m], rates, attitude and keep-out separation; the planned limits (dashed or "
