@@ -9,12 +9,14 @@ from controllers.analysis import (
     loop_gain,
     margins,
     plot_bode,
+    plot_nichols,
     plot_step,
     sample_time_study,
     sampled_loop,
 )
 from controllers.diagnostics import Finding, mismatch_findings
 from controllers.disk_margins import DiskMargins, LoopDiskMargins, disk_margins, loop_disk_margins
+from controllers.filters import FilteredController, LowPassFilter, NotchFilter
 from controllers.guidance import (
     GroundTarget,
     GroundTargetReference,
@@ -40,6 +42,7 @@ __all__ = [
     "CrossProductUnloading",
     "DiskMargins",
     "EigenaxisSlew",
+    "FilteredController",
     "Finding",
     "GroundTarget",
     "GroundTargetReference",
@@ -49,11 +52,13 @@ __all__ = [
     "LQRController",
     "LQRDesign",
     "LoopDiskMargins",
+    "LowPassFilter",
     "Margins",
     "Mode",
     "ModeSequence",
     "NadirPointing",
     "NadirReference",
+    "NotchFilter",
     "PointingReference",
     "PointingWithin",
     "QuaternionPD",
@@ -77,6 +82,7 @@ __all__ = [
     "mismatch_findings",
     "plan_slew",
     "plot_bode",
+    "plot_nichols",
     "plot_step",
     "sample_time_study",
     "sampled_loop",

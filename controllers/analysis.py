@@ -71,7 +71,7 @@ from numpy.typing import ArrayLike, NDArray
 from attitude.linearize import linearize
 from attitude.results import ResultIO
 from attitude.rigid_body import RigidBody
-from attitude.validation import as_float_array, check_positive
+from attitude.validation import as_float_array, check_positive, positive_scalar
 
 __all__ = [
     "Margins",
@@ -86,6 +86,7 @@ __all__ = [
     "margins",
     "output_loop",
     "plot_bode",
+    "plot_nichols",
     "plot_step",
     "rigid_body_at_rest",
     "sample_time_study",
@@ -250,7 +251,9 @@ def _open_loop(
     if _is_discrete(P):
         raise ValueError(f"plant must be continuous (loop_gain samples it for a sampled controller), got dt = {P.dt}")
     P = control.ss(P)
-    Gc = _controller_system(controller)
+    # A filter chain on the command (controllers.filters.FilteredController) goes in series after the law.
+    filtered = hasattr(controller, "filter_system")
+    Gc = _controller_system(controller.controller if filtered else controller)
     if Gc.ninputs != P.noutputs or Gc.noutputs != P.ninputs:
         raise ValueError(
             f"controller must map the plant's {P.noutputs} outputs to its {P.ninputs} inputs, "
@@ -277,6 +280,8 @@ def _open_loop(
         )
     elif _is_discrete(Gc):
         raise ValueError(f"sampled=False needs a continuous controller, got a discrete one (dt = {Gc.dt} s)")
+    if filtered:
+        Gc = control.series(Gc, controller.filter_system(sampled=sampled))
     return P, Gc, sampled
 
 
@@ -396,7 +401,9 @@ def loop_gain(
         :func:`attitude.linearize.linearize`, which are ``[q_v, omega]``), a
         static gain, or a dynamic controller (continuous, or discrete at its
         ``dt``), all mapping plant outputs to the torque with the
-        negative-feedback sign convention.
+        negative-feedback sign convention; or a
+        :class:`~controllers.filters.FilteredController`: its law with its
+        filter chain in series (the discrete filters in the sampled loop).
     sampled : bool, optional
         None (default): the sampled loop when the controller has a period
         (:func:`controller_period`), else the continuous one. False: the
@@ -1340,4 +1347,123 @@ def plot_step(
     lo, hi = axes[0].get_ylim()
     axes[0].set_ylim(lo, hi + 0.08 * (hi - lo))  # room for the overshoot labels (shared y)
     fig.suptitle("Closed-loop step responses (linearised at rest)", fontsize=11)
+    return fig
+
+
+#: Longest step of a Nichols curve [deg or dB, their Euclidean sum] before points are added, and the rounds.
+NICHOLS_STEP = 1.0
+NICHOLS_REFINEMENTS = 6
+NICHOLS_POINTS_MAX = 20_000
+
+
+def plot_nichols(
+    loops: LTI | Sequence[LTI],
+    *,
+    labels: Sequence[str] | None = None,
+    omega: ArrayLike | None = None,
+    disk_margin: float | None = None,
+) -> Figure:
+    """Nichols chart of loops on one set of axes, with the region a disk margin keeps them out of.
+
+    A loop with balanced disk margin ``alpha`` (Seiler, Packard and Gahinet,
+    IEEE Control Systems Magazine 40(5), 2020; :mod:`controllers.disk_margins`)
+    keeps ``2 |1 + L| / |1 - L| >= alpha`` at every frequency: the shaded
+    region around ``(-180 deg, 0 dB)`` is where that fails, so a curve that
+    stays out of it has at least that disk margin when its closed loop is
+    stable (the legend says when it is not) (its width at 0 dB is the
+    disk phase margin ``2 atan(alpha / 2)``, its height at -180 deg the disk
+    gain margin ``(2 + alpha) / (2 - alpha)``). The closed-loop gain and phase
+    contours are python-control's :func:`control.nichols_grid`.
+
+    Parameters
+    ----------
+    loops : control LTI or sequence of them
+        SISO loops, e.g. from :func:`loop_gain` (continuous, or discrete: drawn up to the Nyquist frequency).
+    labels : sequence of str, optional
+        One legend entry per loop (default ``"x axis"``, ``"y axis"``, ``"z axis"``).
+    omega : array_like, optional
+        First frequency grid [rad/s] for every loop (default: spans each
+        loop's features); where a step of a curve is longer than
+        :data:`NICHOLS_STEP` (a lightly damped resonance), points are added.
+    disk_margin : float, optional
+        The disk margin ``alpha`` in (0, 2) whose excluded region is shaded (e.g. the requirement).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Open-loop gain [dB] against open-loop phase [deg]; each curve's phase
+        on the branch that puts it in (-360, 0] deg at its gain crossover.
+    """
+    items = _as_list(loops, "loops")
+    for sys in items:
+        _siso_tf(sys, "loops")
+    names = _labels(labels, len(items), [f"{a} axis" for a in _AXES])
+    alpha = None
+    if disk_margin is not None:
+        alpha = positive_scalar(disk_margin, "disk_margin")
+        if alpha >= 2.0:
+            raise ValueError(
+                f"disk_margin must be in (0, 2) (a balanced disk; 2 is infinite gain margin), got {alpha!r}"
+            )
+    fig = Figure(figsize=(7.5, 6.0), layout="constrained")
+    ax = fig.subplots()
+    mags, phases = [], []
+    for sys, name in zip(items, names):
+        tf = _siso_tf(sys)
+        grid = check_positive(omega, "omega") if omega is not None else _default_grid(tf, 200)
+        L = _frequency_response(sys, grid)
+        for _ in range(NICHOLS_REFINEMENTS):
+            # Where a step of the curve is long (a resonance), points are added between its ends.
+            step = np.hypot(np.diff(np.degrees(np.unwrap(np.angle(L)))), np.diff(20 * np.log10(np.abs(L))))
+            long = np.flatnonzero(step > NICHOLS_STEP)
+            if not long.size or grid.size > NICHOLS_POINTS_MAX:
+                break
+            extra = np.concatenate([np.geomspace(grid[i], grid[i + 1], 12)[1:-1] for i in long])
+            grid = np.concatenate([grid, extra])
+            order = np.argsort(grid)
+            grid, L = grid[order], np.concatenate([L, _frequency_response(sys, extra)])[order]
+        mag_db = 20 * np.log10(np.abs(L))
+        phase = np.degrees(np.unwrap(np.angle(L)))
+        crossing = np.flatnonzero(np.diff(np.sign(mag_db)) != 0)
+        ref = float(phase[crossing[0]]) if crossing.size else float(phase[phase.size // 2])
+        phase = phase - 360.0 * np.ceil(ref / 360.0)
+        status = "" if _closed_loop_stable(sys) else " (closed loop UNSTABLE)"
+        ax.plot(phase, mag_db, lw=1.6, label=f"{name}{status}")
+        mags.append(mag_db)
+        phases.append(phase)
+    mag_all, phase_all = np.concatenate(mags), np.concatenate(phases)
+    finite = np.isfinite(mag_all)
+    lo_db = max(float(np.min(mag_all[finite])), -40.0) - 5.0
+    hi_db = min(float(np.max(mag_all[finite])), 40.0) + 5.0
+    lo_db, hi_db = min(lo_db, -20.0), max(hi_db, 20.0)
+    shown = finite & (mag_all >= lo_db) & (mag_all <= hi_db)
+    lo_ph = min(float(np.min(phase_all[shown])), -270.0) - 10.0
+    hi_ph = max(float(np.max(phase_all[shown])), -90.0) + 10.0
+    ax.set_xlim(lo_ph, hi_ph)
+    ax.set_ylim(lo_db, hi_db)
+    control.nichols_grid(ax=ax)
+    if alpha is not None:
+        ph, db = np.meshgrid(np.linspace(lo_ph, hi_ph, 721), np.linspace(lo_db, hi_db, 601))
+        L = 10.0 ** (db / 20.0) * np.exp(1j * np.radians(ph))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            local = 2.0 * np.abs(1.0 + L) / np.abs(1.0 - L)
+        gain_db = 20.0 * math.log10((2.0 + alpha) / (2.0 - alpha))
+        phase_deg = math.degrees(2.0 * math.atan(alpha / 2.0))
+        ax.contourf(ph, db, local, levels=[0.0, alpha], colors=["tab:red"], alpha=0.18)
+        ax.contour(ph, db, local, levels=[alpha], colors=["tab:red"], linewidths=1.0)
+        ax.plot(
+            [],
+            [],
+            color="tab:red",
+            lw=6,
+            alpha=0.3,
+            label=(f"inside: disk margin < {alpha:.3g} (+-{gain_db:.3g} dB, +-{phase_deg:.3g} deg)"),
+        )
+    ax.plot([-180.0 + 360.0 * k for k in range(-2, 2)], [0.0] * 4, "k+", ms=10, mew=1.5)
+    ax.set_xlim(lo_ph, hi_ph)
+    ax.set_ylim(lo_db, hi_db)
+    ax.set_xlabel("open-loop phase [deg]")
+    ax.set_ylabel("open-loop gain [dB]")
+    ax.legend(loc="best", fontsize=9)
+    ax.set_title("Nichols chart of the loop gain broken at the plant input", fontsize=11)
     return fig
