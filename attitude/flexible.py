@@ -2,8 +2,8 @@
 
 A spacecraft with flexible appendages (solar-array wings, antennas, booms) is
 modelled in *hybrid coordinates* (Hughes, *Spacecraft Attitude Dynamics*,
-1986, ch. 8-9; Junkins and Kim, *Introduction to Dynamics and Control of
-Flexible Structures*, 1993, ch. 4): the rigid rotation ``q, omega`` of the
+1986; Junkins and Kim, *Introduction to Dynamics and Control of
+Flexible Structures*, 1993): the rigid rotation ``q, omega`` of the
 body frame plus ``n`` modal coordinates ``eta`` of the appendages'
 deformation. The equations, with ``I`` the whole spacecraft's inertia
 (appendages undeformed), ``L`` the modal participation matrix ``(n, 3)``

@@ -6,8 +6,9 @@ What each test checks against:
   mode about one axis: python-control's poles and zeros against the analytic
   ones, zeros at the constrained frequency ``Omega`` and poles at the
   unconstrained ``Omega / sqrt(1 - l^2 / I)`` plus the rigid integrators
-  (Hughes, *Spacecraft Attitude Dynamics*, 1986, sec. 8.3; the derivation in
-  docs/flexible_modes.md), alternating on the imaginary axis;
+  (the Laplace transform of the two equations of motion, docs/flexible_modes.md:
+  the pattern of a collocated flexible structure, Hughes, *Spacecraft Attitude
+  Dynamics*, 1986), alternating on the imaginary axis;
 * conservation laws on the nonlinear simulation: the mechanical energy and
   the inertial angular momentum without torque and damping, over many modal
   periods (tolerances from RK4's error on an oscillator);
@@ -55,7 +56,7 @@ def _roots_by_frequency(roots: np.ndarray) -> np.ndarray:
 
 
 def test_one_mode_about_one_axis_has_zeros_at_the_constrained_and_poles_at_the_unconstrained_frequency():
-    """Collocated torque -> rate about x: (s^2 + W^2) / (s ((I - l^2) s^2 + I W^2)) (Hughes sec. 8.3).
+    """Collocated torque -> rate about x: (s^2 + W^2) / (s ((I - l^2) s^2 + I W^2)) (docs/flexible_modes.md).
 
     python-control's minimal realisation of the x channel has poles ``0, +-j W
     / sqrt(1 - l^2/I)`` and zeros ``+-j W``, undamped (on the imaginary axis),

@@ -5,9 +5,8 @@ What each test checks against:
 * the default file's commented example, uncommented: the modes built are the
   numbers written (frequency ``2 pi f``), and the linear model of the
   assembly has the unconstrained frequencies of the one-mode-per-axis formula
-  ``W / sqrt(1 - l^2 / I_axis)`` (Hughes, *Spacecraft Attitude Dynamics*,
-  sec. 8.3) about the principal axes the modes couple to; left commented, the
-  default file is rigid as before;
+  ``W / sqrt(1 - l^2 / I_axis)`` (docs/flexible_modes.md) about the axes the
+  modes couple to; left commented, the default file is rigid as before;
 * the round trip ``parse_config(config_to_toml(c)) == c``;
 * one snippet per rule: a :class:`ConfigError` naming the file, the key, the
   rule and the value (negative damping is the issue's own example).
