@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import casadi as ca
 import numpy as np
@@ -41,6 +41,9 @@ from attitude.rigid_body import RigidBody
 from attitude.simulation.engine import ticks_per_period, whole_ticks
 from attitude.simulation.protocols import Controller, Disturbance, Estimate
 from attitude.validation import check_positive, check_vector
+
+if TYPE_CHECKING:
+    import matplotlib.figure
 
 __all__ = ["MODE_STEP_MAX_RAD", "FlexibleSimulationResult", "simulate_flexible"]
 
@@ -84,6 +87,12 @@ class FlexibleSimulationResult(ResultIO):
     energy: NDArray[np.float64]
     momentum_N: NDArray[np.float64]
     info: dict[str, Any] = field(default_factory=dict)
+
+    def plot(self) -> matplotlib.figure.Figure:
+        """Attitude, body rates, modal coordinates and torque against time (``plot_flexible_flight``)."""
+        from attitude.plotting import plot_flexible_flight
+
+        return plot_flexible_flight(self)
 
 
 def _tick_function(flexible: FlexibleBody, substeps: int, step: float) -> ca.Function:
