@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from attitude import backend as bk
+from attitude.flexible import FlexibleBody, FlexibleModes
 from attitude.quaternion import derivative_components, multiply_components
 from attitude.rigid_body import Components, RigidBody
 from attitude.validation import check_vector, describe
@@ -32,6 +33,7 @@ __all__ = [
     "SPIN_AXIS_TOLERANCE",
     "STATE_NAMES",
     "error_state_derivative_components",
+    "flexible_plant",
     "linearize",
     "plant_nlsys",
     "principal_spin",
@@ -323,3 +325,69 @@ def rate_block_eigenvalues(sys: control.StateSpace) -> NDArray[np.complex128]:
         raise ValueError(f"sys must be a 6-state StateSpace from linearize(), got {sys!r}")
     eig = np.linalg.eigvals(np.asarray(sys.A)[3:, 3:])
     return eig[np.lexsort((eig.real, eig.imag))]
+
+
+def flexible_plant(body: RigidBody, modes: FlexibleModes, *, name: str = "flexible_plant") -> control.StateSpace:
+    """Linear model at rest of a spacecraft with flexible appendages, as the quaternion feedback sees it.
+
+    The exact casadi Jacobian (:meth:`attitude.flexible.FlexibleBody.jacobians_at_rest`)
+    of the hybrid-coordinate equations the nonlinear simulation integrates
+    (:mod:`attitude.flexible`, docs/flexible_modes.md), in the coordinates of
+    :func:`controllers.analysis.rigid_body_at_rest` so that ``loop_gain``,
+    ``input_loop`` and the margins take it in place of the rigid body: states
+    ``[theta (3), omega (3), eta (n), eta_dot (n)]`` (small rotation vector
+    ``theta = 2 q_ev`` [rad], body rate [rad/s], modal coordinates
+    [sqrt(kg) m] and their rates), inputs the body torque [N m], outputs
+    ``[q_v (3), omega (3)]`` (``q_v = theta / 2``: the error quaternion's
+    vector part, half the angle; then the body rate). Gyroscopic terms vanish
+    at rest.
+
+    Parameters
+    ----------
+    body : RigidBody
+        The whole spacecraft, appendages included and undeformed [kg m^2].
+    modes : FlexibleModes
+        The constrained (cantilevered) modes of the appendages.
+    name : str
+        System name.
+
+    Returns
+    -------
+    control.StateSpace
+        Continuous-time model, ``6 + 2n`` states, 3 inputs, 6 outputs, ``D = 0``.
+        With ``L = 0`` its rigid part is that of ``rigid_body_at_rest``.
+
+    Raises
+    ------
+    ValueError
+        As :class:`attitude.flexible.FlexibleBody` (a batch of bodies, or
+        ``I - L^T L`` not positive definite).
+
+    Examples
+    --------
+    >>> from attitude.flexible import FlexibleModes
+    >>> body = RigidBody([100.0, 120.0, 80.0])
+    >>> modes = FlexibleModes(frequency=[6.0], damping=0.0, participation=[[6.0, 0.0, 0.0]])
+    >>> flexible_plant(body, modes).nstates
+    8
+    """
+    flexible = FlexibleBody(_single_body(body), modes)
+    a, b = flexible.jacobians_at_rest()
+    n = flexible.n_modes
+    # theta = 2 q_ev: the similarity T = diag(2 I, I, I, I) of rigid_body_at_rest (exact: powers of two).
+    t = np.diag(np.r_[2.0 * np.ones(3), np.ones(3 + 2 * n)])
+    t_inv = np.diag(np.r_[0.5 * np.ones(3), np.ones(3 + 2 * n)])
+    axes = "xyz"
+    return control.ss(
+        t @ a @ t_inv,
+        t @ b,
+        t_inv[:6],
+        np.zeros((6, 3)),
+        inputs=[f"tau_{a}" for a in axes],
+        outputs=[f"qv_{a}" for a in axes] + [f"omega_{a}" for a in axes],
+        states=[f"theta_{a}" for a in axes]
+        + [f"omega_{a}" for a in axes]
+        + [f"eta_{k + 1}" for k in range(n)]
+        + [f"eta_dot_{k + 1}" for k in range(n)],
+        name=name,
+    )

@@ -55,6 +55,7 @@ __all__ = [
     "SimulationData",
     "TrajectoryData",
     "log_axis_floor",
+    "plot_flexible_flight",
     "plot_flip",
     "plot_mode_timeline",
     "plot_polhodes",
@@ -801,4 +802,43 @@ def plot_mode_timeline(
             ax.axvline(ts, color="0.4", ls="--", lw=0.8)
         ax.grid(True, which="both", alpha=0.3)
     axes[0].set_title("Mode sequence: modes, body rate and pointing error (dashed: switches)")
+    return fig
+
+
+def plot_flexible_flight(result: Any) -> Figure:
+    """The review figure of a flight with flexible appendages (``simulate_flexible``).
+
+    Panels: the attitude as a rotation vector from N [deg], body rates
+    [deg/s], the modal coordinates [sqrt(kg) m] and the body torque [mN m],
+    each against time [s].
+
+    Parameters
+    ----------
+    result : FlexibleSimulationResult
+        Arrays ``t``, ``q``, ``omega``, ``eta``, ``torque``.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from attitude.quaternion import to_rotation_vector
+
+    fig = Figure(figsize=(8.0, 8.0), layout="constrained")
+    axes = fig.subplots(4, 1, sharex=True)
+    t = result.t
+    panels = (
+        (np.degrees(to_rotation_vector(result.q)), "attitude [deg]\n(rotation vector)", "xyz"),
+        (np.degrees(result.omega), "body rate [deg/s]", "xyz"),
+        (result.eta, "modal coordinate\n[sqrt(kg) m]", [f"mode {k + 1}" for k in range(result.eta.shape[1])]),
+        (1e3 * result.torque, "body torque [mN m]", "xyz"),
+    )
+    for ax, (values, label, names) in zip(axes, panels):
+        for k, name in enumerate(names):
+            color = AXIS_COLORS[k] if k < len(AXIS_COLORS) else None
+            ax.plot(t, values[:, k], color=color, lw=1.0, label=name)
+        ax.set_ylabel(label)
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="upper right", fontsize=8, ncol=len(names))
+    axes[-1].set_xlabel("time [s]")
+    fig.suptitle("Flight with flexible appendages", fontsize=11)
     return fig

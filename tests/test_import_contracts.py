@@ -25,6 +25,7 @@ PHYSICS_MODULES = (
     "attitude.euler_angles",
     "attitude.rigid_body",
     "attitude.analytic",
+    "attitude.flexible",
     "attitude.integrators",
     "attitude.propagate",
     "attitude.backend",

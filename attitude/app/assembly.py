@@ -32,6 +32,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import control
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -41,7 +42,8 @@ from attitude.config.model import Dispersion, KeepOutConfig, SpacecraftConfig
 from attitude.environment.orbit import CircularOrbit, KeplerOrbit, TLEOrbit
 from attitude.environment.orbit_environment import OrbitEnvironment
 from attitude.environment.surface import SurfaceModel
-from attitude.linearize import linearize
+from attitude.flexible import FlexibleModes
+from attitude.linearize import flexible_plant, linearize
 from attitude.montecarlo.results import Requirement
 from attitude.rigid_body import RigidBody
 from attitude.sensors import GYRO_PRESETS, Gyro, Magnetometer, StarTracker
@@ -70,6 +72,8 @@ __all__ = [
     "direction_sensors",
     "eigenaxis_controller",
     "fine_sun_sensor",
+    "flexible_modes",
+    "flexible_plant_model",
     "gyro",
     "gyro_bias_sigma0",
     "hub_body",
@@ -408,6 +412,43 @@ def fine_sun_sensor(config: SpacecraftConfig) -> FineSunSensor | None:
     """
     c = config.fine_sun_sensor_config
     return None if c is None else build.fine_sun_sensor(c)
+
+
+def flexible_modes(config: SpacecraftConfig) -> FlexibleModes | None:
+    """The constrained appendage modes of ``[[flexible_modes]]`` (Hz in the file), or None.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file.
+
+    Returns
+    -------
+    FlexibleModes or None
+        None without ``[[flexible_modes]]`` entries (a rigid spacecraft).
+    """
+    return build.flexible_modes(config.flexible_modes)
+
+
+def flexible_plant_model(config: SpacecraftConfig) -> control.StateSpace | None:
+    """The linear model at rest of the file's flexible spacecraft (:func:`attitude.linearize.flexible_plant`), or None.
+
+    The whole spacecraft's inertia (:func:`rigid_body`) with its modes, in the
+    coordinates of ``controllers.analysis.rigid_body_at_rest`` (outputs
+    ``[q_v, omega]``), so ``loop_gain(plant, controller)`` takes it.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file.
+
+    Returns
+    -------
+    control.StateSpace or None
+        None without ``[[flexible_modes]]`` entries.
+    """
+    modes = flexible_modes(config)
+    return None if modes is None else flexible_plant(rigid_body(config), modes)
 
 
 @dataclass(frozen=True)

@@ -27,6 +27,7 @@ from attitude.config.model import (
     CoarseSunSensorsConfig,
     EnvironmentConfig,
     FineSunSensorConfig,
+    FlexibleModeConfig,
     GyroConfig,
     InertiaConfig,
     MagnetometerConfig,
@@ -42,6 +43,7 @@ from attitude.environment.magnetic_field import IGRF, TiltedDipole
 from attitude.environment.orbit import R_EARTH, CircularOrbit, KeplerOrbit, TLEOrbit
 from attitude.environment.orbit_environment import DISTURBANCE_SOURCES, OrbitEnvironment
 from attitude.environment.surface import SurfaceModel
+from attitude.flexible import FlexibleModes
 from attitude.rigid_body import RigidBody
 from attitude.sensors import ARCSEC, Gyro, Magnetometer, StarTracker
 from attitude.sun_sensors import CUBE_NORMALS_B, CoarseSunSensors, FineSunSensor
@@ -53,6 +55,7 @@ __all__ = [
     "default_sources",
     "epoch",
     "fine_sun_sensor",
+    "flexible_modes",
     "gyro",
     "gyro_figures",
     "kepler_orbit",
@@ -590,4 +593,26 @@ def fine_sun_sensor(sensor: FineSunSensorConfig) -> FineSunSensor:
         fov_half_angle_deg=sensor.fov_half_angle_deg,
         boresight_B=np.array(sensor.boresight_B, dtype=np.float64),
         bias_deg=np.array(sensor.bias_deg, dtype=np.float64),
+    )
+
+
+def flexible_modes(modes: Sequence[FlexibleModeConfig]) -> FlexibleModes | None:
+    """The :class:`FlexibleModes` of the ``[[flexible_modes]]`` entries (None when there are none).
+
+    Parameters
+    ----------
+    modes : sequence of FlexibleModeConfig
+        Frequency [Hz], damping ratio and participation [sqrt(kg) m] of each
+        constrained mode.
+
+    Returns
+    -------
+    FlexibleModes or None
+    """
+    if not modes:
+        return None
+    return FlexibleModes.from_hz(
+        frequency_Hz=[m.frequency_Hz for m in modes],
+        damping=[m.damping for m in modes],
+        participation=[m.participation_B_sqrt_kg_m for m in modes],
     )

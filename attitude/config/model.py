@@ -46,6 +46,7 @@ __all__ = [
     "Dispersion",
     "EnvironmentConfig",
     "FineSunSensorConfig",
+    "FlexibleModeConfig",
     "GyroConfig",
     "InertiaConfig",
     "KeepOutConfig",
@@ -729,6 +730,25 @@ class MomentumConfig:
 
 
 @dataclass(frozen=True)
+class FlexibleModeConfig:
+    """One ``[[flexible_modes]]``: a constrained (cantilevered) mode of a flexible appendage.
+
+    Parameters
+    ----------
+    frequency_Hz : float
+        Natural frequency with the appendage clamped to a fixed hub [Hz] (key ``flexible_modes[i].frequency_Hz``).
+    damping : float
+        Modal damping ratio, in [0, 1) (key ``flexible_modes[i].damping``).
+    participation_B_sqrt_kg_m : tuple of float
+        Coupling to body rotation about x, y, z [sqrt(kg) m] (key ``flexible_modes[i].participation_B_sqrt_kg_m``).
+    """
+
+    frequency_Hz: float
+    damping: float
+    participation_B_sqrt_kg_m: Vector
+
+
+@dataclass(frozen=True)
 class SlewRequirement:
     """The ``[requirements.slew]`` table.
 
@@ -1027,6 +1047,8 @@ class SpacecraftConfig:
         Momentum budget and magnetic unloading (optional) (key ``momentum``).
     montecarlo : MonteCarloConfig or None, optional
         Monte Carlo campaign (optional) (key ``montecarlo``).
+    flexible_modes : tuple of FlexibleModeConfig, optional
+        Constrained modes of flexible appendages (optional) (key ``flexible_modes``); empty: a rigid spacecraft.
     source : str, optional
         The file the configuration was read from (messages only; not compared).
     source_sha256 : str, optional
@@ -1051,6 +1073,7 @@ class SpacecraftConfig:
     fine_sun_sensor_config: FineSunSensorConfig | None = None
     detumble: DetumbleConfig | None = None
     momentum: MomentumConfig | None = None
+    flexible_modes: tuple[FlexibleModeConfig, ...] = ()
     source: str = field(default="", compare=False)
     source_sha256: str = field(default="", compare=False)
 

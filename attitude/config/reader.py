@@ -44,6 +44,7 @@ from attitude.config.model import (
     Dispersion,
     EnvironmentConfig,
     FineSunSensorConfig,
+    FlexibleModeConfig,
     GyroConfig,
     InertiaConfig,
     KeepOutConfig,
@@ -79,6 +80,7 @@ from attitude.environment.epoch import Epoch
 from attitude.environment.orbit import R_EARTH
 from attitude.environment.orbit_environment import DISTURBANCE_SOURCES
 from attitude.environment.surface import DEFAULT_DRAG_COEFFICIENT
+from attitude.flexible import FlexibleBody
 from attitude.sensors import GYRO_PRESETS, STAR_TRACKER_PRESETS
 
 __all__ = [
@@ -1133,6 +1135,33 @@ def _read_montecarlo(r: _Reader, t: _Table) -> MonteCarloConfig:
     return MonteCarloConfig(runs, seed, **{name: _read_dispersion(r, t, name) for name in DISPERSIONS})
 
 
+def _read_flexible_modes(r: _Reader, raw: Any, key: str, inertia: InertiaConfig) -> tuple[FlexibleModeConfig, ...]:
+    if not isinstance(raw, list) or not raw:
+        raise r.error(key, f"expected an array of tables ([[flexible_modes]] entries), got {_describe(raw)}")
+    out = []
+    for i, entry in enumerate(raw):
+        t = _Table(r, entry, f"{key}[{i}]")
+        frequency = t.number("frequency_Hz")
+        _positive(r, t.key("frequency_Hz"), frequency, unit="Hz")
+        damping = t.number("damping")
+        r.check(
+            0.0 <= damping < 1.0,
+            t.key("damping"),
+            "in [0, 1) (a negative ratio feeds energy into the mode; 1 or more is no longer a vibration)",
+            damping,
+        )
+        participation = t.get("participation_B_sqrt_kg_m", lambda v, k: r.vector(v, k, 3, nonzero=False))
+        out.append(FlexibleModeConfig(frequency, damping, participation))
+    modes = tuple(out)
+    _try_build(
+        r,
+        f"{key}[].participation_B_sqrt_kg_m",
+        lambda: FlexibleBody(build.rigid_body(inertia), build.flexible_modes(modes)),
+        "with the [inertia]: ",
+    )
+    return modes
+
+
 def _try_build(r: _Reader, key: str, make: Callable[[], Any], context: str = "") -> Any:
     """Build an object to prove the values are consistent; its ValueError becomes a ConfigError on ``key``."""
     try:
@@ -1227,6 +1256,9 @@ def config_from_dict(data: Mapping[str, Any], file: str = "<config>") -> Spacecr
     requirements = _read_requirements(r, top.table("requirements"), sun)
     mt = top.table("montecarlo", required=False)
     montecarlo = None if mt is None else _read_montecarlo(r, mt)
+    flexible = top.get(
+        "flexible_modes", lambda v, k: _read_flexible_modes(r, v, k, inertia), required=False, default=()
+    )
     for dispersed in SURFACE_DISPERSIONS:
         if montecarlo is not None and getattr(montecarlo, dispersed) is not None:
             _needs(
@@ -1255,6 +1287,7 @@ def config_from_dict(data: Mapping[str, Any], file: str = "<config>") -> Spacecr
         fine_sun_sensor_config=sun_sensors["fine_sun_sensor"],
         detumble=detumble,
         momentum=momentum,
+        flexible_modes=flexible,
         source=str(file),
     )
 

@@ -263,6 +263,18 @@ CONFIG_KEYS: dict[str, tuple[str, str]] = {
     "montecarlo": ("", "Monte Carlo campaign (optional)"),
     "montecarlo.runs": ("", "number of runs"),
     "montecarlo.seed": ("", "master seed (non-negative integer): the same seed reproduces the campaign"),
+    # flexible appendages
+    "flexible_modes": (
+        "",
+        "constrained (cantilevered) modes of flexible appendages (optional; array of tables [[flexible_modes]])",
+    ),
+    "flexible_modes[].frequency_Hz": ("Hz", "natural frequency of the mode with the appendage clamped to a fixed hub"),
+    "flexible_modes[].damping": ("", "modal damping ratio, in [0, 1)"),
+    "flexible_modes[].participation_B_sqrt_kg_m": (
+        "sqrt(kg) m",
+        "modal participation: the mode's coupling to body rotation about x, y, z (I - L^T L must stay positive "
+        "definite)",
+    ),
 }
 
 #: Dispersions of a Monte Carlo campaign: name -> (unit suffix, unit, meaning, extra distributions).

@@ -184,6 +184,11 @@ def config_to_toml(config: SpacecraftConfig) -> str:
             for f in dataclasses.fields(entry):
                 w.key(table, f.name, getattr(entry, f.name))
 
+    for i, mode in enumerate(config.flexible_modes):
+        w.table("flexible_modes", array=True)
+        for f in dataclasses.fields(mode):
+            w.key(f"flexible_modes[{i}]", f.name, getattr(mode, f.name))
+
     rc = config.requirements
     w.table("requirements")
     w.key("requirements", "pointing_accuracy_deg", rc.pointing_accuracy_deg)
