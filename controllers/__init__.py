@@ -26,6 +26,7 @@ from controllers.guidance import (
     VectorAlignmentReference,
     VectorTrack,
 )
+from controllers.integral import LQIController, QuaternionPID, design_lqi
 from controllers.lqr import LQRController, LQRDesign, bryson_weights, design_lqr
 from controllers.magnetic import BDotController, CrossProductUnloading, bdot_gain
 from controllers.modes import After, Mode, ModeSequence, PointingWithin, RateBelow
@@ -46,6 +47,7 @@ __all__ = [
     "GuidanceController",
     "InertialReference",
     "KeepOutCone",
+    "LQIController",
     "LQRController",
     "LQRDesign",
     "LoopDiskMargins",
@@ -57,6 +59,7 @@ __all__ = [
     "PointingReference",
     "PointingWithin",
     "QuaternionPD",
+    "QuaternionPID",
     "RateBelow",
     "RateLimitedPD",
     "ReferenceTrajectory",
@@ -68,6 +71,7 @@ __all__ = [
     "attitude_closed_loop",
     "bdot_gain",
     "bryson_weights",
+    "design_lqi",
     "design_lqr",
     "disk_margins",
     "eigenaxis_slew",
