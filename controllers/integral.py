@@ -21,8 +21,9 @@ equations of motion vanishes); with the integral the only equilibrium is
 ``q_e,v = 0``, ``I = -tau_d``.
 
 **Anti-windup** (K. J. Åström and R. M. Murray, *Feedback Systems*, 2nd ed.,
-Princeton 2021, ch. 11, "integrator windup"; K. J. Åström and T. Hägglund,
-*Advanced PID Control*, ISA 2006, sec. 3.5):
+Princeton 2021, ch. 11, PID control, on integrator windup; K. J. Åström and
+T. Hägglund, *Advanced PID Control*, ISA 2006, the section on integrator
+windup):
 
 * ``"back_calculation"`` (the default): the difference between the
   delivered and the commanded torque is fed back into the integrator with
@@ -73,9 +74,9 @@ double integrator).
 with ``q_e,v = theta / 2`` and ``tau = -K q_v - C omega - K_i z``
 (``z' = q_v``) has the characteristic polynomial
 ``J s^3 + C s^2 + (K/2) s + K_i/2``. Matching it to
-``J (s + a)(s^2 + 2 zeta wn s + wn^2)`` (the pole-placement form of Åström
-and Hägglund, *Advanced PID Control*, sec. 6.4, with ``a`` the third, real
-pole; ``a = wn / alpha`` with ``alpha`` in 2 to 10 keeps the integral slow
+``J (s + a)(s^2 + 2 zeta wn s + wn^2)`` (the pole-placement form of PID
+design for a second-order process in Åström and Hägglund, *Advanced PID
+Control*, with ``a`` the third, real pole; ``a = wn / alpha`` with ``alpha`` in 2 to 10 keeps the integral slow
 beside the attitude loop) gives
 
 .. math::
@@ -394,6 +395,7 @@ class QuaternionPID(_IntegralAction):
         tracking_time: float | None = None,
         wheels: ReactionWheels | None = None,
         torque_max: ArrayLike | None = None,
+        integral_torque0: ArrayLike | None = None,
         **kwargs: Any,
     ) -> QuaternionPID:
         """Gains placing each axis at ``(s + a)(s^2 + 2 zeta wn s + wn^2)`` (module docstring).
@@ -420,6 +422,8 @@ class QuaternionPID(_IntegralAction):
             Actuator model: the wheels flown.
         torque_max : float or array_like (3,), optional
             Actuator model: per-axis body torque limit [N m].
+        integral_torque0 : array_like (3,), optional
+            Integral term at the start of each run [N m] (default zero).
         **kwargs
             Further fields of the :class:`QuaternionPD` part (``q_ref``, ``reference_fn``, ``gyroscopic``).
         """
@@ -439,6 +443,7 @@ class QuaternionPID(_IntegralAction):
             tracking_time=tracking_time,
             wheels=wheels,
             torque_max=torque_max,
+            integral_torque0=integral_torque0,
         )
 
     def reference(self, t: float) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
