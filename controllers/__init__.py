@@ -28,6 +28,7 @@ from controllers.guidance import (
     VectorAlignmentReference,
     VectorTrack,
 )
+from controllers.integral import LQIController, QuaternionPID, design_lqi
 from controllers.lqr import LQRController, LQRDesign, bryson_weights, design_lqr
 from controllers.magnetic import BDotController, CrossProductUnloading, bdot_gain
 from controllers.modes import After, Mode, ModeSequence, PointingWithin, RateBelow
@@ -49,6 +50,7 @@ __all__ = [
     "GuidanceController",
     "InertialReference",
     "KeepOutCone",
+    "LQIController",
     "LQRController",
     "LQRDesign",
     "LoopDiskMargins",
@@ -62,6 +64,7 @@ __all__ = [
     "PointingReference",
     "PointingWithin",
     "QuaternionPD",
+    "QuaternionPID",
     "RateBelow",
     "RateLimitedPD",
     "ReferenceTrajectory",
@@ -73,6 +76,7 @@ __all__ = [
     "attitude_closed_loop",
     "bdot_gain",
     "bryson_weights",
+    "design_lqi",
     "design_lqr",
     "disk_margins",
     "eigenaxis_slew",

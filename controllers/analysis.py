@@ -167,8 +167,14 @@ def rigid_body_at_rest(body: RigidBody) -> control.StateSpace:
     )
 
 
-def _controller_system(controller: Any) -> control.StateSpace:
-    """Controller as an LTI from plant outputs to the torque (``u = -G y``)."""
+def _controller_system(controller: Any, sampled: bool = False) -> control.StateSpace:
+    """Controller as an LTI from plant outputs to the torque (``u = -G y``).
+
+    A controller with states of its own (integral action: :mod:`controllers.integral`) gives its linear form
+    through ``feedback_system(discrete=sampled)``, discrete at its period for the sampled loop.
+    """
+    if callable(getattr(controller, "feedback_system", None)):
+        return controller.feedback_system(discrete=sampled)
     if hasattr(controller, "K") and hasattr(controller, "C"):
         gain = np.hstack([np.asarray(controller.K, dtype=float), np.asarray(controller.C, dtype=float)])
         return control.ss([], [], [], gain)
@@ -253,18 +259,18 @@ def _open_loop(
     P = control.ss(P)
     # A filter chain on the command (controllers.filters.FilteredController) goes in series after the law.
     filtered = hasattr(controller, "filter_system")
-    Gc = _controller_system(controller.controller if filtered else controller)
-    if Gc.ninputs != P.noutputs or Gc.noutputs != P.ninputs:
-        raise ValueError(
-            f"controller must map the plant's {P.noutputs} outputs to its {P.ninputs} inputs, "
-            f"got {Gc.ninputs} inputs and {Gc.noutputs} outputs"
-        )
     if sampled is not None and not isinstance(sampled, bool):
         raise ValueError(f"sampled must be True, False or None, got {sampled!r}")
     delay = float(check_positive(computation_delay, "computation_delay", allow_zero=True))
     period = controller_period(controller)
     if sampled is None:
         sampled = period is not None
+    Gc = _controller_system(controller.controller if filtered else controller, sampled)
+    if Gc.ninputs != P.noutputs or Gc.noutputs != P.ninputs:
+        raise ValueError(
+            f"controller must map the plant's {P.noutputs} outputs to its {P.ninputs} inputs, "
+            f"got {Gc.ninputs} inputs and {Gc.noutputs} outputs"
+        )
     if sampled:
         if period is None:
             raise ValueError(
@@ -401,9 +407,12 @@ def loop_gain(
         :func:`attitude.linearize.linearize`, which are ``[q_v, omega]``), a
         static gain, or a dynamic controller (continuous, or discrete at its
         ``dt``), all mapping plant outputs to the torque with the
-        negative-feedback sign convention; or a
-        :class:`~controllers.filters.FilteredController`: its law with its
-        filter chain in series (the discrete filters in the sampled loop).
+        negative-feedback sign convention. A controller with states of its
+        own (:class:`~controllers.integral.QuaternionPID`,
+        :class:`~controllers.integral.LQIController`) gives its linear form
+        by ``feedback_system(discrete=...)``. A
+        :class:`~controllers.filters.FilteredController` gives its law with
+        its filter chain in series (the discrete filters in the sampled loop).
     sampled : bool, optional
         None (default): the sampled loop when the controller has a period
         (:func:`controller_period`), else the continuous one. False: the

@@ -273,7 +273,10 @@ def design_lqr(sys: control.StateSpace, *, Q: ArrayLike, R: ArrayLike, period: f
     Parameters
     ----------
     sys : control.StateSpace
-        Continuous-time plant, e.g. from :func:`attitude.linearize.linearize`.
+        Continuous-time plant, e.g. from :func:`attitude.linearize.linearize`;
+        or a discrete-time one (``dt > 0``), designed at its own ``dt`` as it
+        is (no further discretisation; :func:`controllers.integral.design_lqi`
+        passes its augmented sampled plant this way).
     Q : array_like (n, n) or (n,)
         State weight, symmetric positive semi-definite (a vector is its
         diagonal); see :func:`bryson_weights`.
@@ -281,7 +284,8 @@ def design_lqr(sys: control.StateSpace, *, Q: ArrayLike, R: ArrayLike, period: f
         Input weight, symmetric positive definite.
     period : float, optional
         Controller sample time [s]. None: continuous design (``control.lqr``).
-        Given: ``control.dlqr`` on ``control.c2d(sys, period, "zoh")``.
+        Given: ``control.dlqr`` on ``control.c2d(sys, period, "zoh")``. For a
+        discrete-time ``sys``: None or its ``dt``.
 
     Returns
     -------
@@ -290,7 +294,8 @@ def design_lqr(sys: control.StateSpace, *, Q: ArrayLike, R: ArrayLike, period: f
     Raises
     ------
     ValueError
-        ``sys`` not a continuous-time StateSpace; ``Q``/``R`` of the wrong
+        ``sys`` not a StateSpace (continuous, or discrete with a number
+        ``dt`` that ``period`` does not contradict); ``Q``/``R`` of the wrong
         shape, not symmetric, ``Q`` not positive semi-definite, ``R`` not
         positive definite; ``(A, B)`` not stabilisable (an unstable or
         marginal mode the input cannot reach); ``(Q^1/2, A)`` not detectable
@@ -299,8 +304,16 @@ def design_lqr(sys: control.StateSpace, *, Q: ArrayLike, R: ArrayLike, period: f
     """
     if not isinstance(sys, control.StateSpace):
         raise ValueError(f"sys must be a control.StateSpace, got {type(sys).__name__}")
-    if not sys.isctime():
-        raise ValueError(f"sys must be continuous-time (dt = 0); got dt = {sys.dt!r} (pass period to discretise)")
+    sampled_plant = sys.isdtime(strict=True)
+    if sampled_plant:
+        if sys.dt is True or (period is not None and abs(float(period) - sys.dt) > 1e-9 * sys.dt):
+            raise ValueError(
+                f"a discrete-time sys is designed at its own dt: period must be None or dt = {sys.dt!r} s "
+                f"(and dt a number), got period = {period!r}"
+            )
+        period = float(sys.dt)
+    elif not sys.isctime(strict=True):
+        raise ValueError(f"sys must be continuous-time (dt = 0) or discrete with a number dt; got dt = {sys.dt!r}")
     A = np.asarray(sys.A, dtype=float)
     B = np.asarray(sys.B, dtype=float)
     n, m = B.shape
@@ -310,7 +323,10 @@ def design_lqr(sys: control.StateSpace, *, Q: ArrayLike, R: ArrayLike, period: f
         raise ValueError("sys must have finite A and B matrices")
     Q = _weight(Q, n, "Q", definite=False)
     R = _weight(R, m, "R", definite=True)
-    if period is not None:
+    if sampled_plant:
+        plant = sys
+        A_p, B_p = A, B
+    elif period is not None:
         period = float(check_positive(period, "period"))
         plant = control.c2d(sys, period, "zoh")
         A_p, B_p = np.asarray(plant.A, dtype=float), np.asarray(plant.B, dtype=float)
@@ -318,7 +334,8 @@ def design_lqr(sys: control.StateSpace, *, Q: ArrayLike, R: ArrayLike, period: f
         plant = sys
         A_p, B_p = A, B
     discrete = period is not None
-    where = f" (zero-order hold at period = {period!r} s)" if discrete else ""
+    where = f" (zero-order hold at period = {period!r} s)" if discrete and not sampled_plant else ""
+    where = f" (discrete at dt = {period!r} s)" if sampled_plant else where
 
     bad = _pbh_defects(A_p, B_p, discrete, columns=True)
     if bad:

@@ -215,8 +215,13 @@ class TestBadInput:
     def test_bad_sys_and_period(self):
         with pytest.raises(ValueError, match=r"sys must be a control\.StateSpace"):
             design_lqr(control.tf([1.0], [1.0, 0.0]), Q=np.eye(1), R=1.0)
-        with pytest.raises(ValueError, match="sys must be continuous-time"):
-            design_lqr(control.c2d(self.SYS, 0.1), Q=Q_B, R=R_B)
+        # A discrete plant is designed at its own dt (design_lqi's augmented plant): a period that contradicts
+        # it is refused, and the gain is the one design_lqr gets from discretising the continuous plant itself.
+        with pytest.raises(ValueError, match="designed at its own dt"):
+            design_lqr(control.c2d(self.SYS, 0.1), Q=Q_B, R=R_B, period=0.2)
+        own = design_lqr(control.c2d(self.SYS, 0.1), Q=Q_B, R=R_B)
+        np.testing.assert_array_equal(own.K, design_lqr(self.SYS, Q=Q_B, R=R_B, period=0.1).K)
+        assert own.period == 0.1
         with pytest.raises(ValueError, match="period must be strictly positive"):
             design_lqr(self.SYS, Q=Q_B, R=R_B, period=0.0)
 
