@@ -566,12 +566,16 @@ class Margins(ResultIO):
         none: e.g. a PD loop on a double integrator stays stable for any
         lower gain).
     phase_margin_deg : float
-        Smallest ``180 + arg L`` over the gain crossovers, in (-180, 180]
-        [deg] (``inf`` without gain crossover).
+        For a stable closed loop, the smallest phase change either way
+        (lag or lead) that puts ``L`` on -1 at a gain crossover: ``min
+        |PM_i|`` with ``PM_i = 180 + arg L`` in (-180, 180] [deg]. A
+        collocated flexible mode can cross 0 dB with ``PM_i < 0``, a lead
+        away from -1, not an unstable loop. For an unstable closed loop the
+        smallest signed ``PM_i`` (``inf`` without gain crossover).
     delay_margin_s : float
-        Smallest pure delay that destabilises: ``min PM_i / omega_c,i``
-        [s] (0 if some phase margin is not positive; ``inf`` without gain
-        crossover).
+        Smallest pure delay that destabilises a stable closed loop: ``min
+        (PM_i mod 360) / omega_c,i`` [s], the lag each crossover can take
+        (0 for an unstable closed loop; ``inf`` without gain crossover).
     gain_crossover : float
         Gain-crossover frequency of the reported phase margin [rad/s]
         (NaN if none).
@@ -727,9 +731,13 @@ def _assemble(
         Lw = complex(_frequency_response(loop, np.array([w]))[0])
         pm_i = 180.0 + math.degrees(math.atan2(Lw.imag, Lw.real))
         pm_i = pm_i - 360.0 if pm_i > 180.0 else pm_i
-        if pm_i < pm:
-            pm, wc = pm_i, float(w)
-        dm = min(dm, math.radians(pm_i) / w if pm_i > 0 else 0.0)
+        # A stable loop may cross 0 dB with its phase above -180 deg + 180 (a collocated mode's lead): a phase
+        # *lead* of |pm_i| reaches -1 there, a lag needs pm_i mod 360. The margin is the smaller change either
+        # way, and the delay margin the lag. An unstable loop keeps the signed figure (and no delay margin).
+        size_i = abs(pm_i) if stable else pm_i
+        if size_i < pm:
+            pm, wc = size_i, float(w)
+        dm = min(dm, math.radians(pm_i % 360.0) / w if stable else 0.0)
     return Margins(
         gain_margin=up,
         gain_margin_lower=down,

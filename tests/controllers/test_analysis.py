@@ -361,6 +361,32 @@ class TestMargins:
         assert m.phase_margin_deg < 0.0 and m.delay_margin_s == 0.0
         assert "UNSTABLE" in m.summary()
 
+    def test_a_collocated_mode_crossing_with_phase_lead_is_a_margin_not_instability(self):
+        """A PD loop on a body with a lightly damped collocated wing mode (0.3 Hz, 0.2 % damping) crosses 0 dB
+        three times; at the mode's peak the phase is a lead, 180 + arg L = -101 deg, yet the closed loop is
+        stable (its poles, and the disk margin's check). The phase margin is the smallest change either way that
+        reaches -1 (positive), and the delay margin the smallest lag over the crossings divided by its
+        frequency: a Pade delay just below it keeps the closed loop stable and just above it does not (the
+        delayed loop, closed-loop poles; Pade order 6 is exact to far better than 5 % at w tau ~ 1.5 rad)."""
+        from attitude.flexible import FlexibleModes
+        from attitude.linearize import flexible_plant
+
+        body = RigidBody([100.0, 120.0, 80.0])
+        wings = FlexibleModes.from_hz(frequency_Hz=[0.3], damping=0.002, participation=[[0.0, 0.0, 6.0]])
+        pd = QuaternionPD.from_bandwidth(body, wn=0.5, zeta=0.7, period=0.1)
+        loop = loop_gain(flexible_plant(body, wings), pd, sampled=False)[2]
+        m = margins(loop)
+        assert m.stable and m.gain_crossovers.size == 3
+        signed = [180.0 + np.degrees(np.angle(control.evalfr(loop, 1j * w))) for w in m.gain_crossovers]
+        signed = [p - 360.0 if p > 180.0 else p for p in signed]
+        assert min(signed) < -90.0  # the lead at the mode's peak
+        assert m.phase_margin_deg == pytest.approx(min(abs(p) for p in signed), rel=1e-9)
+        assert 0.0 < m.delay_margin_s < math.inf
+        for factor, stable in ((0.95, True), (1.05, False)):
+            delayed = delayed_loop(loop, delay=factor * m.delay_margin_s)
+            poles = control.feedback(delayed, 1).poles()
+            assert bool(np.all(poles.real < 0.0)) is stable
+
     @pytest.mark.parametrize(
         ("loop", "match"),
         [
