@@ -257,15 +257,20 @@ def _open_loop(
     if _is_discrete(P):
         raise ValueError(f"plant must be continuous (loop_gain samples it for a sampled controller), got dt = {P.dt}")
     P = control.ss(P)
-    # A filter chain on the command (controllers.filters.FilteredController) goes in series after the law.
-    filtered = hasattr(controller, "filter_system")
+    # Filter chains on the command (controllers.filters.FilteredController, nested for chains on different axes)
+    # go in series after the law, the innermost first.
+    wrappers = []
+    law = controller
+    while hasattr(law, "filter_system"):
+        wrappers.append(law)
+        law = law.controller
     if sampled is not None and not isinstance(sampled, bool):
         raise ValueError(f"sampled must be True, False or None, got {sampled!r}")
     delay = float(check_positive(computation_delay, "computation_delay", allow_zero=True))
     period = controller_period(controller)
     if sampled is None:
         sampled = period is not None
-    Gc = _controller_system(controller.controller if filtered else controller, sampled)
+    Gc = _controller_system(law, sampled)
     if Gc.ninputs != P.noutputs or Gc.noutputs != P.ninputs:
         raise ValueError(
             f"controller must map the plant's {P.noutputs} outputs to its {P.ninputs} inputs, "
@@ -286,8 +291,8 @@ def _open_loop(
         )
     elif _is_discrete(Gc):
         raise ValueError(f"sampled=False needs a continuous controller, got a discrete one (dt = {Gc.dt} s)")
-    if filtered:
-        Gc = control.series(Gc, controller.filter_system(sampled=sampled))
+    for wrapper in reversed(wrappers):
+        Gc = control.series(Gc, wrapper.filter_system(sampled=sampled))
     return P, Gc, sampled
 
 

@@ -209,7 +209,10 @@ class FilteredController:
     controller has them; it has no compiled law (the engine flies it on the
     protocol path). :meth:`log` adds the unfiltered command to the inner
     controller's log. The loop analysis (:func:`controllers.analysis.loop_gain`)
-    sees ``controller`` and :meth:`filter_system` in series.
+    sees ``controller`` and :meth:`filter_system` in series. Chains on
+    different axes nest: ``FilteredController(FilteredController(pd,
+    [notch], axes=[2]), [low_pass], axes=[0, 1])``; the analysis unwraps
+    each, the innermost first.
 
     Parameters
     ----------

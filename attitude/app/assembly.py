@@ -49,6 +49,7 @@ from attitude.rigid_body import RigidBody
 from attitude.sensors import GYRO_PRESETS, Gyro, Magnetometer, StarTracker
 from attitude.simulation.slew_windows import SlewWindows
 from attitude.sun_sensors import CoarseSunSensors, FineSunSensor
+from controllers.filters import FilteredController, LowPassFilter, NotchFilter
 from controllers.lqr import LQRDesign, bryson_weights, design_lqr
 from controllers.magnetic import BDotController, CrossProductUnloading, bdot_gain
 from controllers.pd import QuaternionPD, RateLimitedPD
@@ -68,6 +69,8 @@ __all__ = [
     "attitude_sigma0",
     "bdot_controller",
     "coarse_sun_sensors",
+    "command_filtered",
+    "command_filters",
     "detumble_settings",
     "direction_sensors",
     "eigenaxis_controller",
@@ -816,6 +819,58 @@ def tracking_controller(
     return TrackingController(
         reference, body, wn=c.bandwidth_rad_per_s, zeta=c.damping, period=c.period_s, feedforward=feedforward
     )
+
+
+def command_filters(config: SpacecraftConfig) -> list[tuple[list[NotchFilter | LowPassFilter], tuple[int, ...]]]:
+    """The ``[[control.filters]]`` as chains: consecutive filters on the same axes make one chain.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file (frequencies in Hz there, rad/s here).
+
+    Returns
+    -------
+    list of (filters, axes)
+        In the file's order; axes as body indices 0, 1, 2. Empty without filters.
+    """
+    chains: list[tuple[list[NotchFilter | LowPassFilter], tuple[int, ...]]] = []
+    for f in config.control.filters:
+        w = 2.0 * np.pi * f.frequency_Hz
+        made = (
+            NotchFilter(frequency=w, zeta_pole=f.damping, depth=f.depth)
+            if f.kind == "notch"
+            else LowPassFilter(frequency=w, order=f.order, damping=f.damping)
+        )
+        axes = tuple(sorted("xyz".index(a) for a in f.axes))
+        if chains and chains[-1][1] == axes:
+            chains[-1][0].append(made)
+        else:
+            chains.append(([made], axes))
+    return chains
+
+
+def command_filtered(config: SpacecraftConfig, controller: Any) -> Any:
+    """The controller with the file's ``[[control.filters]]`` on its command (itself without filters).
+
+    Chains on different axes nest, the first in the file innermost
+    (:class:`controllers.filters.FilteredController`), so the loop analysis and the simulation see the filters
+    in the file's order.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file.
+    controller : Controller
+        The law whose torque command is filtered (with a ``period`` [s]).
+
+    Returns
+    -------
+    Controller
+    """
+    for filters, axes in command_filters(config):
+        controller = FilteredController(controller, filters, axes=axes)
+    return controller
 
 
 def lqr(config: SpacecraftConfig, body: RigidBody | None = None) -> tuple[Any, LQRDesign] | None:

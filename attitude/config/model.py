@@ -33,6 +33,7 @@ __all__ = [
     "ATMOSPHERE_MODELS",
     "DEFAULT_EPOCH_UTC",
     "ECLIPSE_MODELS",
+    "FILTER_KINDS",
     "GYRO_FIGURES",
     "MAGNETIC_FIELD_MODELS",
     "NRLMSIS_DEFAULTS",
@@ -42,6 +43,7 @@ __all__ = [
     "WHEEL_LAYOUTS",
     "CoarseSunSensorsConfig",
     "ControlConfig",
+    "ControlFilterConfig",
     "DetumbleConfig",
     "Dispersion",
     "EnvironmentConfig",
@@ -311,6 +313,40 @@ class LQRBounds:
         return np.broadcast_to(np.array(self.torque_max_Nm, dtype=np.float64), (3,)).copy()
 
 
+#: Kinds of ``[[control.filters]]`` entries.
+FILTER_KINDS = ("notch", "low_pass")
+
+
+@dataclass(frozen=True)
+class ControlFilterConfig:
+    """One ``[[control.filters]]``: a filter on the torque command of the PD and the LQR.
+
+    Parameters
+    ----------
+    kind : str
+        "notch" or "low_pass" (key ``control.filters[i].kind``).
+    frequency_Hz : float
+        Centre (notch) or corner (low-pass) frequency [Hz], below the controller's Nyquist frequency
+        (key ``control.filters[i].frequency_Hz``).
+    axes : tuple of str
+        The body axes filtered, among "x", "y", "z" (key ``control.filters[i].axes``).
+    depth : float or None
+        Notch only: its gain at the centre, in [0, 1) (key ``control.filters[i].depth``).
+    damping : float or None
+        Notch: the poles' damping ratio (its width); second-order low-pass: its damping ratio
+        (key ``control.filters[i].damping``).
+    order : int or None
+        Low-pass only: 1 or 2 (key ``control.filters[i].order``).
+    """
+
+    kind: str
+    frequency_Hz: float
+    axes: tuple[str, ...] = ("x", "y", "z")
+    depth: float | None = None
+    damping: float | None = None
+    order: int | None = None
+
+
 @dataclass(frozen=True)
 class ControlConfig:
     """The ``[control]`` table: sample period [s], PD bandwidth [rad/s] and damping, optional LQR bounds.
@@ -325,12 +361,15 @@ class ControlConfig:
         Damping ratio of the PD attitude loop (key ``control.damping``).
     lqr : LQRBounds or None, optional
         LQR weights by Bryson's rule (optional) (key ``control.lqr``).
+    filters : tuple of ControlFilterConfig, optional
+        Notch and low-pass filters on the torque command, in order (optional) (key ``control.filters``).
     """
 
     period_s: float
     bandwidth_rad_per_s: float
     damping: float
     lqr: LQRBounds | None = None
+    filters: tuple[ControlFilterConfig, ...] = ()
 
 
 #: Kinds of ``[orbit]``: a circular orbit, two-body Keplerian elements, or a TLE flown with SGP4.

@@ -32,6 +32,7 @@ from attitude.config.model import (
     ATMOSPHERE_MODELS,
     DEFAULT_EPOCH_UTC,
     ECLIPSE_MODELS,
+    FILTER_KINDS,
     MAGNETIC_FIELD_MODELS,
     NRLMSIS_DEFAULTS,
     ORBIT_KEYS,
@@ -40,6 +41,7 @@ from attitude.config.model import (
     WHEEL_LAYOUTS,
     CoarseSunSensorsConfig,
     ControlConfig,
+    ControlFilterConfig,
     DetumbleConfig,
     Dispersion,
     EnvironmentConfig,
@@ -506,7 +508,62 @@ def _read_control(r: _Reader, t: _Table) -> ControlConfig:
             k = lt.key("angle_max_deg") + (f"[{i}]" if isinstance(values["angle_max_deg"], tuple) else "")
             r.check(v <= 180.0, k, "at most 180 deg (the largest attitude error)", v)
         lqr = LQRBounds(**values)
-    return ControlConfig(period_s=period, bandwidth_rad_per_s=bandwidth, damping=damping, lqr=lqr)
+    filters = t.get("filters", lambda v, k: _read_control_filters(r, v, k, period), required=False, default=())
+    return ControlConfig(period_s=period, bandwidth_rad_per_s=bandwidth, damping=damping, lqr=lqr, filters=filters)
+
+
+#: Default pole damping of a notch (its width: the -3 dB band of a deep notch is 2 x 0.5 x its frequency wide).
+NOTCH_DAMPING = 0.5
+#: Default damping of a second-order low-pass (Butterworth).
+LOW_PASS_DAMPING = 1.0 / math.sqrt(2.0)
+
+
+def _read_control_filters(r: _Reader, raw: Any, key: str, period: float) -> tuple[ControlFilterConfig, ...]:
+    if not isinstance(raw, list) or not raw:
+        raise r.error(key, f"expected an array of tables ([[control.filters]] entries), got {_describe(raw)}")
+    nyquist_Hz = 0.5 / period
+    out = []
+    for i, entry in enumerate(raw):
+        t = _Table(r, entry, f"{key}[{i}]")
+        kind = t.get("kind", lambda v, k: r.string(v, k, FILTER_KINDS, "filter kind"))
+        frequency = t.number("frequency_Hz")
+        _positive(r, t.key("frequency_Hz"), frequency, unit="Hz")
+        r.check(
+            frequency < nyquist_Hz,
+            t.key("frequency_Hz"),
+            f"below the Nyquist frequency 1 / (2 control.period_s) = {nyquist_Hz:.6g} Hz of the {period:g} s "
+            "controller (a discrete filter cannot act above it)",
+            frequency,
+        )
+        axes = t.get("axes", lambda v, k: _read_axes(r, v, k), required=False, default=("x", "y", "z"))
+        if kind == "notch":
+            t.forbid("order", "a notch has no order (order is the low-pass's: 1 or 2)")
+            depth = t.number("depth")
+            _in_range(r, t.key("depth"), depth, 0.0, 1.0, low_open=False, high_open=True)
+            damping = t.number("damping", required=False, default=NOTCH_DAMPING)
+            _positive(r, t.key("damping"), damping)
+            order = None
+        else:
+            t.forbid("depth", "a low-pass has no depth (depth is the notch's gain at its centre)")
+            order = t.get("order", r.integer, required=False, default=2)
+            r.check(order in (1, 2), t.key("order"), "1 or 2", order)
+            if order == 1:
+                t.forbid("damping", "a first-order low-pass has no damping ratio (give order = 2 for one)")
+                damping = None
+            else:
+                damping = t.number("damping", required=False, default=LOW_PASS_DAMPING)
+                _positive(r, t.key("damping"), damping)
+            depth = None
+        out.append(ControlFilterConfig(kind, frequency, axes, depth, damping, order))
+    return tuple(out)
+
+
+def _read_axes(r: _Reader, value: Any, key: str) -> tuple[str, ...]:
+    if not isinstance(value, list) or not value:
+        raise r.error(key, f'expected a non-empty list of body axes such as ["x", "z"], got {_describe(value)}')
+    axes = tuple(r.string(v, f"{key}[{i}]", ("x", "y", "z"), "axis") for i, v in enumerate(value))
+    r.check(len(set(axes)) == len(axes), key, "each axis at most once", list(axes))
+    return axes
 
 
 #: Length of a line of a two-line element set (CelesTrak / Space-Track format).

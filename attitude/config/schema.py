@@ -104,6 +104,17 @@ CONFIG_KEYS: dict[str, tuple[str, str]] = {
     "control.lqr.angle_max_deg": ("deg", "largest acceptable attitude error (one value, or one per axis)"),
     "control.lqr.rate_max_deg_per_s": ("deg/s", "largest acceptable rate error (one value, or one per axis)"),
     "control.lqr.torque_max_Nm": ("N m", "largest acceptable control torque (one value, or one per axis)"),
+    "control.filters": (
+        "",
+        "notch and low-pass filters on the torque command, applied in order (optional; array of tables "
+        "[[control.filters]])",
+    ),
+    "control.filters[].kind": ("", 'filter kind: "notch" or "low_pass"'),
+    "control.filters[].frequency_Hz": ("Hz", "centre (notch) or corner (low-pass) frequency, below Nyquist"),
+    "control.filters[].axes": ("", 'body axes filtered, e.g. ["x", "y", "z"]'),
+    "control.filters[].depth": ("", "notch: gain at the centre frequency, in [0, 1) (0.1 is 20 dB deep)"),
+    "control.filters[].damping": ("", "notch: damping ratio of its poles (its width); low-pass: its damping ratio"),
+    "control.filters[].order": ("", "low-pass: 1 or 2"),
     # orbit and environment
     "orbit": ("", "Earth orbit (optional: gravity gradient, and with it the orbit environment)"),
     "orbit.kind": ("", "'circular' (altitude_km), 'kepler' (two-body elements) or 'tle' (two-line elements, SGP4)"),

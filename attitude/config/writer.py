@@ -133,6 +133,10 @@ def config_to_toml(config: SpacecraftConfig) -> str:
         w.table("control.lqr")
         for name in ("angle_max_deg", "rate_max_deg_per_s", "torque_max_Nm"):
             w.key("control.lqr", name, getattr(cc.lqr, name))
+    for i, filt in enumerate(cc.filters):
+        w.table("control.filters", array=True)
+        for f in dataclasses.fields(filt):
+            w.key(f"control.filters[{i}]", f.name, getattr(filt, f.name))
 
     oc = config.orbit_config
     if oc is not None:

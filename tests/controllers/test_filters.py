@@ -232,6 +232,30 @@ def test_the_loop_of_a_filtered_controller_is_the_loop_times_the_filter(sampled)
         np.testing.assert_allclose(got, expected, rtol=1e-9)
 
 
+@pytest.mark.parametrize("sampled", [True, False])
+def test_nested_chains_on_different_axes_multiply_per_axis(sampled):
+    """Chains on different axes nest: a notch on z inside a low-pass on x and y. Each axis's loop is the plain one
+    times the filters on that axis only (diagonal inertia, axes uncoupled), checked as above; and the flown command
+    is the inner chain's output through the outer chain (the same two lfilter passes)."""
+    body = RigidBody(np.diag([10.0, 12.0, 8.0]))
+    pd = QuaternionPD.from_bandwidth(body, wn=0.3, zeta=0.7, period=0.1)
+    notch, low = NotchFilter(frequency=8.0, zeta_pole=0.5, depth=0.2), LowPassFilter(frequency=15.0, damping=0.5)
+    nested = FilteredController(FilteredController(pd, [notch], axes=[2]), [low], axes=[0, 1])
+    w = np.geomspace(0.01, 0.95 * math.pi / 0.1, 40)
+    period = 0.1 if sampled else None
+    on_axis = {
+        0: response(low.discrete(0.1) if sampled else low.continuous(), w, period),
+        1: response(low.discrete(0.1) if sampled else low.continuous(), w, period),
+        2: response(notch.discrete(0.1) if sampled else notch.continuous(), w, period),
+    }
+    plain = loop_gain(body, pd, sampled=sampled)
+    filtered = loop_gain(body, nested, sampled=sampled)
+    for axis in range(3):
+        point = np.exp(1j * w * 0.1) if sampled else 1j * w
+        expected = np.squeeze(plain[axis](point)) * on_axis[axis]
+        np.testing.assert_allclose(np.squeeze(filtered[axis](point)), expected, rtol=1e-9)
+
+
 # ---------------------------------------------------------------------------
 # A flexible mode
 # ---------------------------------------------------------------------------

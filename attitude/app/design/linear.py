@@ -29,7 +29,16 @@ from attitude.config import SpacecraftConfig
 from attitude.plain import plain_float as _f
 from attitude.plain import plain_matrix as _mat
 from attitude.plain import plain_vector as _vec
-from controllers.analysis import attitude_closed_loop, input_loop, loop_gain, margins, output_loop, plot_bode, plot_step
+from controllers.analysis import (
+    attitude_closed_loop,
+    input_loop,
+    loop_gain,
+    margins,
+    output_loop,
+    plot_bode,
+    plot_nichols,
+    plot_step,
+)
 from controllers.diagnostics import mismatch_findings
 from controllers.disk_margins import DiskMargins, loop_disk_margins, plot_disk_margins
 
@@ -69,6 +78,7 @@ def _margin_row(controller: str, loop_name: str, axis: str, loop: Any) -> dict[s
 def _disk_row(controller: str, break_point: str, channel: str, m: DiskMargins) -> dict[str, Any]:
     return {
         "controller": controller,
+        "plant": "rigid",
         "break_point": break_point,
         "channel": channel,
         "disk_margin": _f(m.disk_margin),
@@ -80,17 +90,21 @@ def _disk_row(controller: str, break_point: str, channel: str, m: DiskMargins) -
     }
 
 
-def disk_margin_rows(controller_name: str, plant: Any, controller: Any) -> list[dict[str, Any]]:
+def disk_margin_rows(
+    controller_name: str, plant: Any, controller: Any, plant_name: str = "rigid"
+) -> list[dict[str, Any]]:
     """Disk margins of the sampled loop that flies: per axis and multiloop at the input, multiloop at the output.
 
     Parameters
     ----------
     controller_name : str
-        The controller's name in the report ("PD", "LQR").
+        The controller's name in the report ("PD", "LQR", "PD + filters").
     plant : RigidBody or control LTI
         The plant (:func:`controllers.analysis.loop_gain`).
     controller : object
         The controller (with its period: the sampled loop).
+    plant_name : str
+        The plant's name in the report ("rigid", "flexible (2 modes)").
     """
     at_input = loop_disk_margins(plant, controller)
     rows = [_disk_row(controller_name, "input", f"{a} alone", m) for a, m in zip(_AXES, at_input.per_axis)]
@@ -100,7 +114,27 @@ def disk_margin_rows(controller_name: str, plant: Any, controller: Any) -> list[
             rows.append({"controller": controller_name, "break_point": point, "channel": "all", "note": result.note})
         else:
             rows.append(_disk_row(controller_name, point, "all at once", result.multiloop))
-    return rows
+    return [row | {"plant": plant_name} for row in rows]
+
+
+def _variants(config: SpacecraftConfig, name: str, rigid: Any, controller: Any) -> list[tuple[str, str, Any, Any]]:
+    """(controller name, plant name, plant, controller) of the loops to judge beyond the rigid design.
+
+    With ``[[flexible_modes]]``: the law on the flexible plant; with ``[[control.filters]]``: the law with its
+    filters (the controller that flies) on the rigid or flexible plant. Empty for a rigid, unfiltered file.
+    """
+    flexible = assembly.flexible_plant_model(config)
+    filtered = assembly.command_filtered(config, controller)
+    out = []
+    if flexible is not None:
+        modes = len(config.flexible_modes)
+        plant_name = f"flexible ({modes} mode{'s' if modes > 1 else ''})"
+        out.append((name, plant_name, flexible, controller))
+    else:
+        plant_name = "rigid"
+    if filtered is not controller:
+        out.append((f"{name} + filters", plant_name, flexible if flexible is not None else rigid, filtered))
+    return out
 
 
 def linear_design(config: SpacecraftConfig) -> tuple[dict[str, Any], dict[str, Figure]]:
@@ -136,6 +170,13 @@ def linear_design(config: SpacecraftConfig) -> tuple[dict[str, Any], dict[str, F
         "margins": rows,
         "disk_margins": disk_margin_rows("PD", body, pd),
     }
+    pd_variants = _variants(config, "PD", body, pd)
+    for name, plant_name, plant, controller in pd_variants:
+        out["disk_margins"] += disk_margin_rows(name, plant, controller, plant_name)
+        rows += [
+            _margin_row(name, f"{sampled_name}, {plant_name}", a, lp)
+            for a, lp in zip(_AXES, loop_gain(plant, controller))
+        ]
     figures = {
         "pd_step": plot_step(closed),
         "pd_bode": plot_bode(loops, labels=[f"PD, {a} axis, continuous" for a in _AXES]),
@@ -149,6 +190,8 @@ def linear_design(config: SpacecraftConfig) -> tuple[dict[str, Any], dict[str, F
         rows += [_margin_row("LQR", "continuous", a, loop) for a, loop in zip(_AXES, lqr_loops)]
         rows += [_margin_row("LQR", sampled_name, a, loop) for a, loop in zip(_AXES, lqr_sampled)]
         out["disk_margins"] += disk_margin_rows("LQR", plant, lqr)
+        for name, plant_name, variant_plant, controller in _variants(config, "LQR", plant, lqr):
+            out["disk_margins"] += disk_margin_rows(name, variant_plant, controller, plant_name)
         out["lqr"] = {
             "angle_max_deg": _vec(np.degrees(c.lqr.angle_max)),
             "rate_max_deg_per_s": _vec(np.degrees(c.lqr.rate_max)),
@@ -165,6 +208,15 @@ def linear_design(config: SpacecraftConfig) -> tuple[dict[str, Any], dict[str, F
         disk_loops |= {"LQR, at the input": input_loop(plant, lqr), "LQR, at the output": output_loop(plant, lqr)}
     figures["disk_margins"] = plot_disk_margins(
         disk_loops, title=f"Multiloop disk margins of the sampled loops ({1.0 / period:g} Hz)"
+    )
+    nichols = [(f"PD, {a} axis, rigid", lp) for a, lp in zip(_AXES, sampled)]
+    if pd_variants:
+        name, plant_name, plant_flown, flown = pd_variants[-1]
+        nichols += [(f"{name}, {a} axis, {plant_name}", lp) for a, lp in zip(_AXES, loop_gain(plant_flown, flown))]
+    figures["pd_nichols"] = plot_nichols(
+        [lp for _, lp in nichols],
+        labels=[label for label, _ in nichols],
+        disk_margin=min(_f(r["disk_margin"]) for r in out["disk_margins"] if r.get("stable")),
     )
     out["findings"] = controller_findings(config, body, pd, None if designed is None else designed[1])
     return out, figures

@@ -499,6 +499,12 @@ def _caption_table() -> dict[str, tuple[str, str]]:
             "Multiloop disk margin over frequency of the sampled loops, all channels perturbed at once, at the plant "
             "input (torques) and output (attitude and rate measurements); dots: the refined smallest margin.",
         ),
+        "pd_nichols": (
+            "linear",
+            "Nichols chart of the sampled PD loops per axis (broken at the plant input, the other axes closed); "
+            "with flexible modes or filters in the file, also the loops that fly; shaded: the region inside the "
+            "smallest disk margin of the table.",
+        ),
         "slew_plan": (
             "slews",
             "Optimal plan: torque [mN m], rates, attitude and keep-out separation; the planned limits (dashed or "

@@ -194,7 +194,10 @@ def fly_slew(
     windows = assembly.slew_windows(config, slew_end)
     duration = assembly.judged_duration(config, slew_end)
     reference = ref.resample(c.period_s) if hasattr(ref, "resample") else ref
-    controller = assembly.tracking_controller(config, reference, body, feedforward=ref)
+    # The filters of [[control.filters]] fly on the command (the protocol path: no compiled law).
+    controller = assembly.command_filtered(
+        config, assembly.tracking_controller(config, reference, body, feedforward=ref)
+    )
     # An integrating gyro (interval-mean samples): what the MEKF's propagation models.
     gyro, tracker = assembly.gyro(config, sampling="mean"), assembly.star_tracker(config)
     q0 = req.slew.q_start()

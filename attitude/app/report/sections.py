@@ -355,7 +355,7 @@ def _linear(results: dict[str, Any]) -> list[Block]:
         )
     )
     out += _disk_margins(lin.get("disk_margins") or [], period)
-    for name in ("pd_step", "pd_bode", "pd_bode_sampled", "lqr_bode_sampled", "disk_margins"):
+    for name in ("pd_step", "pd_bode", "pd_bode_sampled", "lqr_bode_sampled", "disk_margins", "pd_nichols"):
         out += _figure(results, name)
     return out
 
@@ -379,6 +379,7 @@ def _disk_margins(rows: list[dict[str, Any]], period: float) -> list[Block]:
     table = [
         [
             m["controller"],
+            m.get("plant", "rigid"),
             m["break_point"],
             m["channel"],
             cell(m, "disk_margin"),
@@ -396,11 +397,14 @@ def _disk_margins(rows: list[dict[str, Any]], period: float) -> list[Block]:
             "Gahinet 2020). At the plant input each axis alone (the others closed) and all three at once (the "
             "wheels' torque scale and lag); at the plant output the six measurements (attitude and rate) at once "
             "(the star tracker's and gyro's). The closed loop's stability is checked first and the worst frequency "
-            "refined. A multiloop margin below the per-axis ones is coupling that loop-at-a-time margins miss."
+            "refined. A multiloop margin below the per-axis ones is coupling that loop-at-a-time margins miss. "
+            "With [[flexible_modes]] the loops are also judged on the flexible plant (hybrid coordinates), and with "
+            "[[control.filters]] with the filters in series on the command (Tustin, pre-warped), as they fly."
         ),
         _t(
             [
                 "controller",
+                "plant",
                 "broken at",
                 "channels",
                 "disk margin",
