@@ -33,6 +33,7 @@ from controllers.pd import QuaternionPD, RateLimitedPD
 from controllers.pointing import NadirPointing
 from controllers.slew import EigenaxisSlew, KeepOutCone, SlewPlan, eigenaxis_slew, plan_slew
 from controllers.tracking import ReferenceTrajectory, TrackingController
+from controllers.worst_case import UncertaintySet, WorstCase, worst_case_disk_margin, worst_case_step
 
 __all__ = [
     "After",
@@ -63,8 +64,10 @@ __all__ = [
     "SlewPlan",
     "SunReference",
     "TrackingController",
+    "UncertaintySet",
     "VectorAlignmentReference",
     "VectorTrack",
+    "WorstCase",
     "attitude_closed_loop",
     "bdot_gain",
     "bryson_weights",
@@ -80,4 +83,6 @@ __all__ = [
     "plot_step",
     "sample_time_study",
     "sampled_loop",
+    "worst_case_disk_margin",
+    "worst_case_step",
 ]
