@@ -79,6 +79,7 @@ from attitude.config.model import (
     SpacecraftConfig,
     StarTrackerConfig,
     SurfaceConfig,
+    UncertaintyConfig,
     WheelsConfig,
 )
 from attitude.config.reader import (
@@ -120,6 +121,7 @@ __all__ = [
     "SpacecraftConfig",
     "StarTrackerConfig",
     "SurfaceConfig",
+    "UncertaintyConfig",
     "WheelsConfig",
     "config_from_dict",
     "config_to_toml",

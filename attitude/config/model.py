@@ -63,6 +63,7 @@ __all__ = [
     "SpacecraftConfig",
     "StarTrackerConfig",
     "SurfaceConfig",
+    "UncertaintyConfig",
     "Vector",
     "WheelsConfig",
 ]
@@ -975,6 +976,29 @@ class MonteCarloConfig:
 
 
 @dataclass(frozen=True)
+class UncertaintyConfig:
+    """The ``[uncertainty]`` table: the bounds of the worst-case search's set (0: known).
+
+    Parameters
+    ----------
+    inertia_percent : float, optional
+        Each principal moment within +- this, relative [%] (key ``uncertainty.inertia_percent``).
+    axis_rotation_deg : float, optional
+        Principal axes turned by a rotation of at most this angle [deg] (key ``uncertainty.axis_rotation_deg``).
+    wheel_misalignment_deg : float, optional
+        Each wheel's spin axis tilted by at most this angle [deg] (key ``uncertainty.wheel_misalignment_deg``).
+    extra_delay_s : float, optional
+        Extra delay from the controller's sample to the torque, in [0, this] [s] (key
+        ``uncertainty.extra_delay_s``).
+    """
+
+    inertia_percent: float = 0.0
+    axis_rotation_deg: float = 0.0
+    wheel_misalignment_deg: float = 0.0
+    extra_delay_s: float = 0.0
+
+
+@dataclass(frozen=True)
 class SpacecraftConfig:
     """A validated spacecraft description, mirroring the TOML file key for key.
 
@@ -1027,6 +1051,8 @@ class SpacecraftConfig:
         Momentum budget and magnetic unloading (optional) (key ``momentum``).
     montecarlo : MonteCarloConfig or None, optional
         Monte Carlo campaign (optional) (key ``montecarlo``).
+    uncertainty : UncertaintyConfig or None, optional
+        Uncertainty set of the worst-case search (optional) (key ``uncertainty``).
     source : str, optional
         The file the configuration was read from (messages only; not compared).
     source_sha256 : str, optional
@@ -1051,6 +1077,7 @@ class SpacecraftConfig:
     fine_sun_sensor_config: FineSunSensorConfig | None = None
     detumble: DetumbleConfig | None = None
     momentum: MomentumConfig | None = None
+    uncertainty: UncertaintyConfig | None = None
     source: str = field(default="", compare=False)
     source_sha256: str = field(default="", compare=False)
 
