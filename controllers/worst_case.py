@@ -524,6 +524,10 @@ def _reference_loop(
 # The search (one driver for every quantity)
 
 
+class _BudgetSpent(Exception):
+    """A local search has used its evaluations."""
+
+
 @dataclass
 class _Search:
     best_x: NDArray[np.float64]
@@ -569,13 +573,21 @@ def _search(
         return f(low + np.clip(u, 0.0, 1.0) * width)
 
     def local(x0: NDArray[np.float64]) -> None:
-        scipy.optimize.minimize(
-            f_unit,
-            (x0 - low) / width,
-            method="L-BFGS-B",
-            bounds=[(0.0, 1.0)] * k,
-            options={"maxfun": local_maxfev, "eps": LOCAL_STEP},
-        )
+        # L-BFGS-B's own maxfun leaves out its finite-difference evaluations: the budget is kept here.
+        calls = [0]
+
+        def counted(u: NDArray[np.float64]) -> float:
+            calls[0] += 1
+            if calls[0] > local_maxfev:
+                raise _BudgetSpent
+            return f_unit(u)
+
+        try:
+            scipy.optimize.minimize(
+                counted, (x0 - low) / width, method="L-BFGS-B", bounds=[(0.0, 1.0)] * k, options={"eps": LOCAL_STEP}
+            )
+        except _BudgetSpent:
+            pass  # every point it evaluated is already in ``best``
 
     nominal_f = f(np.zeros(k))
     if k:
