@@ -723,11 +723,13 @@ class WorstCase:
         """Two lines: the worst (unstable said as such) against the nominal and the samples; the worst plant."""
         unit = {"disk_margin": "", "overshoot_percent": " %", "settling_time_s": " s"}[self.quantity]
         worst = "UNSTABLE closed loop" if self.worst_unstable else f"{self.worst:.4g}{unit}"
+        sampled_unstable = self.sampled_worst <= 0.0 if self.lower_is_worse else not math.isfinite(self.sampled_worst)
+        sampled = "UNSTABLE" if sampled_unstable else f"{self.sampled_worst:.4g}{unit}"
         relation = "<=" if self.lower_is_worse else ">="
         verdict = "" if self.optimiser_at_least_as_bad else " (the optimiser MISSED: raise the budget)"
         lines = [
             f"worst {self.quantity.replace('_', ' ')} over the set: {worst} (nominal {self.nominal:.4g}{unit}; "
-            f"{self.budget['samples']} uniform samples: {self.sampled_worst:.4g}{unit}, optimiser {relation} "
+            f"{self.budget['samples']} uniform samples: {sampled}, optimiser {relation} "
             f"samples: {self.optimiser_at_least_as_bad}{verdict}); {self.evaluations} plants in {self.seconds:.3g} s",
             f"worst plant: {self.worst_plant.summary()}",
         ]
@@ -780,7 +782,14 @@ class WorstCase:
                     label=f"{stable.size} uniform samples of the set")  # fmt: skip
         marks = [
             (self.nominal, "k", "--", f"nominal {self.nominal:.4g}"),
-            (self.sampled_worst, "tab:orange", ":", f"sampled worst {self.sampled_worst:.4g}"),
+            (
+                self.sampled_worst,
+                "tab:orange",
+                ":",
+                "sampled worst: UNSTABLE (0)"
+                if self.lower_is_worse and self.sampled_worst <= 0.0
+                else f"sampled worst {self.sampled_worst:.4g}",
+            ),
         ]
         if not self.worst_unstable:
             marks.append((self.worst, "tab:red", "-", f"optimiser's worst {self.worst:.4g}"))
@@ -797,9 +806,9 @@ class WorstCase:
                     bbox={"boxstyle": "round", "facecolor": "white", "edgecolor": "tab:red"})  # fmt: skip
         ax.set_xlabel(f"{label} {unit}")
         ax.set_ylabel("samples")
-        ax.legend(loc="upper right", fontsize=8)
+        ax.legend(loc="best", fontsize=8)
         ax.grid(True, alpha=0.3)
-        ax.set_title(f"Worst case over the set: {self.uncertainty.summary()}", fontsize=9)
+        ax.set_title(f"Worst case over the set\n{self.uncertainty.summary()}", fontsize=9)
         return fig
 
 
