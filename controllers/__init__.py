@@ -36,6 +36,7 @@ from controllers.pd import QuaternionPD, RateLimitedPD
 from controllers.pointing import NadirPointing
 from controllers.slew import EigenaxisSlew, KeepOutCone, SlewPlan, eigenaxis_slew, plan_slew
 from controllers.tracking import ReferenceTrajectory, TrackingController
+from controllers.worst_case import UncertaintySet, WorstCase, worst_case_disk_margin, worst_case_step
 
 __all__ = [
     "After",
@@ -71,8 +72,10 @@ __all__ = [
     "SlewPlan",
     "SunReference",
     "TrackingController",
+    "UncertaintySet",
     "VectorAlignmentReference",
     "VectorTrack",
+    "WorstCase",
     "attitude_closed_loop",
     "bdot_gain",
     "bryson_weights",
@@ -90,4 +93,6 @@ __all__ = [
     "plot_step",
     "sample_time_study",
     "sampled_loop",
+    "worst_case_disk_margin",
+    "worst_case_step",
 ]

@@ -56,6 +56,7 @@ from controllers.pd import QuaternionPD, RateLimitedPD
 from controllers.pointing import NadirPointing
 from controllers.slew.keep_out import KeepOutCone
 from controllers.tracking import ReferenceTrajectory, TrackingController
+from controllers.worst_case import UncertaintySet
 from estimation.mekf import MEKF, initial_covariance
 from estimation.rate_ekf import RateEKF
 
@@ -104,6 +105,7 @@ __all__ = [
     "star_tracker",
     "surface",
     "tracking_controller",
+    "uncertainty_set",
     "unloading_controller",
     "vector_mekf",
 ]
@@ -672,6 +674,29 @@ def nadir_pointing(config: SpacecraftConfig, the_orbit: Any, body: RigidBody | N
         wn=c.bandwidth_rad_per_s,
         zeta=c.damping,
         period=c.period_s,
+    )
+
+
+def uncertainty_set(config: SpacecraftConfig) -> UncertaintySet | None:
+    """The ``[uncertainty]`` table's set for the worst-case search (None without the table).
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file (moments [%], axis rotation [deg], wheel misalignment [deg], extra delay [s]).
+
+    Returns
+    -------
+    UncertaintySet or None
+    """
+    u = config.uncertainty
+    if u is None:
+        return None
+    return UncertaintySet(
+        inertia_percent=u.inertia_percent,
+        axis_rotation_deg=u.axis_rotation_deg,
+        wheel_misalignment_deg=u.wheel_misalignment_deg,
+        extra_delay_s=u.extra_delay_s,
     )
 
 

@@ -81,6 +81,7 @@ from attitude.config.model import (
     SpacecraftConfig,
     StarTrackerConfig,
     SurfaceConfig,
+    UncertaintyConfig,
     WheelsConfig,
 )
 from attitude.config.reader import (
@@ -124,6 +125,7 @@ __all__ = [
     "SpacecraftConfig",
     "StarTrackerConfig",
     "SurfaceConfig",
+    "UncertaintyConfig",
     "WheelsConfig",
     "config_from_dict",
     "config_to_toml",

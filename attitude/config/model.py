@@ -66,6 +66,7 @@ __all__ = [
     "SpacecraftConfig",
     "StarTrackerConfig",
     "SurfaceConfig",
+    "UncertaintyConfig",
     "Vector",
     "WheelsConfig",
 ]
@@ -1034,6 +1035,29 @@ class MonteCarloConfig:
 
 
 @dataclass(frozen=True)
+class UncertaintyConfig:
+    """The ``[uncertainty]`` table: the bounds of the worst-case search's set (0: known).
+
+    Parameters
+    ----------
+    inertia_percent : float, optional
+        Each principal moment within +- this, relative [%] (key ``uncertainty.inertia_percent``).
+    axis_rotation_deg : float, optional
+        Principal axes turned by a rotation of at most this angle [deg] (key ``uncertainty.axis_rotation_deg``).
+    wheel_misalignment_deg : float, optional
+        Each wheel's spin axis tilted by at most this angle [deg] (key ``uncertainty.wheel_misalignment_deg``).
+    extra_delay_s : float, optional
+        Extra delay from the controller's sample to the torque, in [0, this] [s] (key
+        ``uncertainty.extra_delay_s``).
+    """
+
+    inertia_percent: float = 0.0
+    axis_rotation_deg: float = 0.0
+    wheel_misalignment_deg: float = 0.0
+    extra_delay_s: float = 0.0
+
+
+@dataclass(frozen=True)
 class SpacecraftConfig:
     """A validated spacecraft description, mirroring the TOML file key for key.
 
@@ -1088,6 +1112,8 @@ class SpacecraftConfig:
         Monte Carlo campaign (optional) (key ``montecarlo``).
     flexible_modes : tuple of FlexibleModeConfig, optional
         Constrained modes of flexible appendages (optional) (key ``flexible_modes``); empty: a rigid spacecraft.
+    uncertainty : UncertaintyConfig or None, optional
+        Uncertainty set of the worst-case search (optional) (key ``uncertainty``).
     source : str, optional
         The file the configuration was read from (messages only; not compared).
     source_sha256 : str, optional
@@ -1113,6 +1139,7 @@ class SpacecraftConfig:
     detumble: DetumbleConfig | None = None
     momentum: MomentumConfig | None = None
     flexible_modes: tuple[FlexibleModeConfig, ...] = ()
+    uncertainty: UncertaintyConfig | None = None
     source: str = field(default="", compare=False)
     source_sha256: str = field(default="", compare=False)
 

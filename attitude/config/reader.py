@@ -16,6 +16,7 @@ import dataclasses
 import datetime
 import difflib
 import hashlib
+import itertools
 import math
 import re
 import tomllib
@@ -64,6 +65,7 @@ from attitude.config.model import (
     SpacecraftConfig,
     StarTrackerConfig,
     SurfaceConfig,
+    UncertaintyConfig,
     Vector,
     WheelsConfig,
 )
@@ -1219,6 +1221,40 @@ def _read_flexible_modes(r: _Reader, raw: Any, key: str, inertia: InertiaConfig)
     return modes
 
 
+#: The ``[uncertainty]`` bounds: key -> (largest value, whether it may be reached, why).
+_UNCERTAINTY_LIMITS = {
+    "inertia_percent": (100.0, False, "the moments must stay positive"),
+    "axis_rotation_deg": (180.0, True, "a rotation angle"),
+    "wheel_misalignment_deg": (90.0, False, "a wheel tilted 90 deg gives no torque about its axis"),
+    "extra_delay_s": (math.inf, False, "finite"),
+}
+
+
+def _read_uncertainty(r: _Reader, t: _Table, inertia: InertiaConfig) -> UncertaintyConfig:
+    values = {}
+    for name, (high, closed, why) in _UNCERTAINTY_LIMITS.items():
+        key = t.key(name)
+        value = t.number(name, required=False, default=0.0)
+        _positive(r, key, value, allow_zero=True, unit=unit_of(key))
+        if math.isfinite(high):
+            rule = f"{'at most' if closed else 'below'} {high:g} {unit_of(key)} ({why})"
+            r.check(value <= high if closed else value < high, key, rule, value)
+        values[name] = value
+    # Every corner of the moments' box must still be a body (the rotation leaves the moments alone).
+    moments = build.rigid_body(inertia).principal_axes().moments
+    p = values["inertia_percent"] / 100.0
+    for signs in itertools.product((-1.0, 1.0), repeat=3):
+        corner = tuple(float(m * (1.0 + s * p)) for m, s in zip(moments, signs))
+        _try_build(
+            r,
+            t.key("inertia_percent"),
+            lambda corner=corner: build.rigid_body(InertiaConfig(moments_kg_m2=corner)),
+            f"leaves no physical body at the corner {[f'{s * 100 * p:+g} %' for s in signs]} of the principal "
+            f"moments {moments.tolist()} kg m^2: ",
+        )
+    return UncertaintyConfig(**values)
+
+
 def _try_build(r: _Reader, key: str, make: Callable[[], Any], context: str = "") -> Any:
     """Build an object to prove the values are consistent; its ValueError becomes a ConfigError on ``key``."""
     try:
@@ -1325,6 +1361,8 @@ def config_from_dict(data: Mapping[str, Any], file: str = "<config>") -> Spacecr
                 orbit=orbit is not None,
                 surface=surface is not None,
             )
+    ut = top.table("uncertainty", required=False)
+    uncertainty = None if ut is None else _read_uncertainty(r, ut, inertia)
     return SpacecraftConfig(
         name=name,
         description=description,
@@ -1345,6 +1383,7 @@ def config_from_dict(data: Mapping[str, Any], file: str = "<config>") -> Spacecr
         detumble=detumble,
         momentum=momentum,
         flexible_modes=flexible,
+        uncertainty=uncertainty,
         source=str(file),
     )
 

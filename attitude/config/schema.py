@@ -286,6 +286,15 @@ CONFIG_KEYS: dict[str, tuple[str, str]] = {
         "modal participation: the mode's coupling to body rotation about x, y, z (I - L^T L must stay positive "
         "definite)",
     ),
+    # worst case
+    "uncertainty": (
+        "",
+        "uncertainty set of the worst-case search (optional; sampled uniformly, unlike [montecarlo]'s dispersions)",
+    ),
+    "uncertainty.inertia_percent": ("%", "each principal moment within +- this, relative (below 100)"),
+    "uncertainty.axis_rotation_deg": ("deg", "principal axes turned by a rotation of at most this angle"),
+    "uncertainty.wheel_misalignment_deg": ("deg", "each wheel's spin axis tilted by at most this angle"),
+    "uncertainty.extra_delay_s": ("s", "extra delay from the controller's sample to the torque, in [0, this]"),
 }
 
 #: Dispersions of a Monte Carlo campaign: name -> (unit suffix, unit, meaning, extra distributions).

@@ -224,4 +224,8 @@ def config_to_toml(config: SpacecraftConfig) -> str:
             if d.axis_sigma_deg:
                 entry["axis_sigma_deg"] = d.axis_sigma_deg
             w.key("montecarlo", name, entry)
+    if config.uncertainty is not None:
+        w.table("uncertainty")
+        for f in dataclasses.fields(config.uncertainty):
+            w.key("uncertainty", f.name, getattr(config.uncertainty, f.name))
     return "\n".join(w.lines) + "\n"
