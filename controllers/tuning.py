@@ -94,6 +94,8 @@ REFINE_POINTS = 7
 #: The refinement stops when the bracket of the best damping is this narrow [-] (the damping is then known to
 #: 3e-4 relative near 0.8: the settling time moves by less than the search's time resolution).
 DAMPING_TOLERANCE = 5e-4
+#: The bracket of the damping of an infeasible set's diagnosis (the fastest PD within the other requirements) [-].
+DIAGNOSIS_TOLERANCE = 5e-2
 #: Samples of a step response: its settling time is resolved to its span / TIME_POINTS (about 5e-4 of the settling).
 TIME_POINTS = 8000
 #: Samples of the search's one-axis step responses (settling resolved to about 1e-3 of itself; the winner's
@@ -452,14 +454,14 @@ class _Search:
         wn_max = min(point.limits.values())
         return math.inf if wn_max <= 0.0 else point.wn_needed * self.req.settling_time / wn_max
 
-    def best(self, score: Any, refine: bool = True) -> float:
+    def best(self, score: Any, tolerance: float = DAMPING_TOLERANCE) -> float:
         """The damping minimising ``score(zeta)`` on the grid, refined around its best point."""
         grid = self.zeta_grid
         while True:
             values = np.array([score(z) for z in grid])
             i = int(np.argmin(values))
             low, high = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-            if not refine or high - low <= DAMPING_TOLERANCE or not np.isfinite(values[i]):
+            if high - low <= tolerance or not np.isfinite(values[i]):
                 return float(grid[i])
             grid = np.linspace(low, high, REFINE_POINTS)
 
@@ -651,9 +653,9 @@ def tune_pd(
             or "none"
         )
     else:
-        # The fastest PD within everything but the settling time shows what holds it back (on the grid already
-        # evaluated: the diagnosis, not a design).
-        zeta = search.best(search.fastest_within_others, refine=False)
+        # The fastest PD within everything but the settling time shows what holds it back (a diagnosis: the
+        # damping to DIAGNOSIS_TOLERANCE).
+        zeta = search.best(search.fastest_within_others, tolerance=DIAGNOSIS_TOLERANCE)
         point = search.at(zeta)
         wn_max = min(point.limits.values())
         if wn_max <= 0.0:
@@ -681,7 +683,9 @@ def tune_pd(
                 f"{search.fastest_within_others(zeta):.4g} s"
             )
         metrics = pd_metrics(body, requirements, wn=wn, zeta=zeta, period=period)
-    tradeoff = _tradeoff(search, np.geomspace(low, high, tradeoff_points)) if tradeoff_points else {}
+    # The sweep holds the result's damping too, so its front passes through the chosen point when the actuators bind.
+    sweep = np.union1d(np.geomspace(low, high, tradeoff_points), [zeta]) if tradeoff_points else None
+    tradeoff = _tradeoff(search, sweep) if sweep is not None else {}
     return TuningResult(feasible, wn, zeta, metrics, cost, binding, message, requirements, period, tradeoff)
 
 
@@ -724,7 +728,7 @@ def plot_tradeoff(result: TuningResult, before: PDMetrics | None = None) -> Figu
     t = result.tradeoff
     if t:
         alpha = np.nan_to_num(t["disk_margin"], nan=0.0)
-        ax.scatter(alpha, t["settling_time"], s=10, color="0.65", label="candidates within torque and momentum")
+        ax.scatter(alpha, t["settling_time"], s=10, color="0.65", label="candidates within torque and momentum (sweep)")
         front = t["pareto"]
         order = np.argsort(alpha[front])
         ax.plot(alpha[front][order], t["settling_time"][front][order], "-o", ms=3, color="C0", label="Pareto front")
@@ -739,6 +743,8 @@ def plot_tradeoff(result: TuningResult, before: PDMetrics | None = None) -> Figu
         x_low = min(x_low, req.disk_margin_min - 0.05)
     m = result.metrics
     if before is not None:
+        over = np.max(before.peak_torque / req.torque_max)
+        note = f", peak torque {over:.2g} x the limit" if over > 1.0 + ACTIVE_FRACTION else ""
         ax.plot(
             before.disk_margin,
             before.settling_time,
@@ -747,7 +753,7 @@ def plot_tradeoff(result: TuningResult, before: PDMetrics | None = None) -> Figu
             mfc="none",
             mec="k",
             mew=1.5,
-            label=f"before: wn {before.wn:.3g} rad/s, zeta {before.zeta:.3g}",
+            label=f"before: wn {before.wn:.3g} rad/s, zeta {before.zeta:.3g}{note}",
         )
         y_high = max(y_high, 1.1 * before.settling_time) if math.isfinite(before.settling_time) else y_high
     ax.plot(
