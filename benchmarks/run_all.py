@@ -23,6 +23,7 @@ from benchmarks import (
     bench_propagation,
     bench_rate_ekf,
     bench_slew,
+    bench_tune,
 )
 
 SUITES = {
@@ -34,6 +35,7 @@ SUITES = {
     "determination": bench_determination.run,
     "montecarlo": bench_montecarlo.run,
     "orbit": bench_orbit.run,
+    "tune": bench_tune.run,
 }
 
 

@@ -637,6 +637,49 @@ def _cmd_init(args: argparse.Namespace) -> int:
 
 
 # ---------------------------------------------------------------------------
+# tune
+
+
+def _cmd_tune(args: argparse.Namespace) -> int:
+    from attitude.app.report.writer import dumps_json
+    from attitude.app.tune import tune_config, tuned_file_text
+
+    config = _load(args.file)
+    source = Path(args.file) if args.file is not None else Path("default_spacecraft.toml")
+    out = args.out if args.out is not None else source.with_name(f"{source.stem}_tuned.toml")
+    if args.file is not None and out.exists() and Path(args.file).exists() and out.samefile(args.file):
+        raise UsageError(f"--out {out}: is the input file; the tuned file is always a new one")
+    if out.exists() and not args.force:
+        raise UsageError(f"--out {out}: the file exists; not overwritten (use --force to replace it)")
+    if not out.parent.exists():
+        raise UsageError(f"--out {out}: the folder {out.parent} does not exist")
+    _progress("tuning the PD on the linear metrics, then the nonlinear step and the dispersed check ...", args.quiet)
+    outcome = tune_config(config, cost=args.cost, structure=args.structure, dispersed_runs=args.runs)
+    figure = args.figure if args.figure is not None else out.with_suffix(".png")
+    outcome.result.plot(outcome.before).savefig(figure, dpi=120)
+    if outcome.tuned is not None:
+        out.write_text(tuned_file_text(outcome), encoding="utf-8")
+    if args.json:
+        print(dumps_json(outcome.summary()))
+    else:
+        print(f"{'metric':<26} {'before':>12} {'after':>12}  required")
+        for row in outcome.table():
+            print(f"{row['metric']:<26} {row['before']:>12.5g} {row['after']:>12.5g}  {row['required'] or ''}")
+        print(outcome.result.message)
+        if outcome.nonlinear is not None:
+            nl = outcome.nonlinear
+            print(
+                f"nonlinear step through the wheels: settles in {nl['settling_time_s']:.4g} s, pointing "
+                f"{math.degrees(nl['pointing_error_rad']):.3g} deg: {'PASS' if nl['passed'] else 'FAIL'}"
+            )
+        if outcome.dispersed is not None:
+            print(f"dispersed check: {outcome.dispersed.get('statement', outcome.dispersed.get('error'))}")
+        print(f"Wrote {out}" if outcome.tuned is not None else "INFEASIBLE: no file written", end="")
+        print(f" and the trade-off figure {figure}")
+    return EXIT_PASS if outcome.passed else EXIT_FAIL
+
+
+# ---------------------------------------------------------------------------
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -913,6 +956,33 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("file", metavar="FILE", help="where to write the spacecraft file")
     p.add_argument("--force", action="store_true", help="overwrite FILE if it exists")
     p.set_defaults(run=_cmd_init)
+
+    p = sub.add_parser(
+        "tune",
+        help="tune the PD to the file's requirements and write the gains into a new file",
+        formatter_class=fmt_class,
+        description=(
+            "Find the PD bandwidth and damping that meet the file's requirements (the required slew as a step,\n"
+            "settled within the pointing accuracy in the settling time, within the wheels' torque and momentum\n"
+            "and requirements.disk_margin_min at the control period) at the least settling time or effort;\n"
+            "confirm it on the nonlinear plant and the dispersed check; write the file with the new gains\n"
+            "(every other key and comment kept) and the trade-off figure (settling time vs disk margin).\n"
+            "Exit code 1 when infeasible (the binding requirement is named) or a confirmation fails."
+        ),
+        epilog=_EPILOG,
+    )
+    p.add_argument("file", nargs="?", default=None, metavar="FILE", help="spacecraft file (default: the built-in)")
+    p.add_argument("--out", type=Path, default=None, metavar="NEWFILE", help="the tuned file (default FILE_tuned.toml)")
+    p.add_argument("--cost", choices=("settling", "effort"), default="settling", help="what to minimise")
+    p.add_argument("--structure", choices=("pd",), default="pd", help="the controller tuned")
+    p.add_argument("--runs", type=_count(0), default=10, help="runs of the dispersed check (0: none; default 10)")
+    p.add_argument(
+        "--figure", type=Path, default=None, metavar="PNG", help="the trade-off figure (default NEWFILE.png)"
+    )
+    p.add_argument("--force", action="store_true", help="overwrite NEWFILE if it exists (never the input)")
+    p.add_argument("--json", action="store_true", help="print the outcome as JSON")
+    p.add_argument("--quiet", action="store_true", help=_QUIET_HELP)
+    p.set_defaults(run=_cmd_tune)
     return parser
 
 

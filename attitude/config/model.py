@@ -918,6 +918,9 @@ class RequirementsConfig:
     hold_time_s : float, optional
         Time the pointing accuracy is held after the settling time, over which it is judged [s] (key
         ``requirements.hold_time_s``); None: :attr:`hold_time_judged_s`.
+    disk_margin_min : float, optional
+        Smallest disk margin of the sampled loop at the plant input, in (0, 2) (key
+        ``requirements.disk_margin_min``); None: not required.
     """
 
     pointing_accuracy_deg: float
@@ -925,6 +928,7 @@ class RequirementsConfig:
     slew: SlewRequirement
     keep_out: tuple[KeepOutConfig, ...] = ()
     hold_time_s: float | None = None
+    disk_margin_min: float | None = None
 
     @property
     def hold_time_judged_s(self) -> float:

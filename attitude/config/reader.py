@@ -1153,7 +1153,15 @@ def _read_requirements(r: _Reader, t: _Table, sun: Vector | None) -> Requirement
     hold = t.number("hold_time_s", required=False)
     if hold is not None:
         _positive(r, t.key("hold_time_s"), hold, unit="s")
-    return RequirementsConfig(accuracy, settling, slew, keep_out, hold)
+    disk_margin = t.number("disk_margin_min", required=False)
+    if disk_margin is not None:
+        r.check(
+            0.0 < disk_margin < 2.0,
+            t.key("disk_margin_min"),
+            "in (0, 2): a disk margin of 2 would tolerate a gain of zero and infinite gain, which no loop does",
+            disk_margin,
+        )
+    return RequirementsConfig(accuracy, settling, slew, keep_out, hold, disk_margin)
 
 
 def _read_dispersion(r: _Reader, t: _Table, name: str) -> Dispersion | None:

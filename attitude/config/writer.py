@@ -18,7 +18,7 @@ from attitude.config.model import GYRO_FIGURES, ORBIT_KEYS, SpacecraftConfig
 from attitude.config.schema import DISPERSIONS, meaning_of
 from attitude.sensors import GYRO_PRESETS, STAR_TRACKER_PRESETS
 
-__all__ = ["config_to_toml"]
+__all__ = ["config_to_toml", "replace_values"]
 
 
 # Writing a resolved file
@@ -198,6 +198,7 @@ def config_to_toml(config: SpacecraftConfig) -> str:
     w.key("requirements", "pointing_accuracy_deg", rc.pointing_accuracy_deg)
     w.key("requirements", "settling_time_s", rc.settling_time_s)
     w.key("requirements", "hold_time_s", rc.hold_time_s)
+    w.key("requirements", "disk_margin_min", rc.disk_margin_min)
     w.table("requirements.slew")
     for name in ("angle_deg", "axis_B", "target_q_BN", "start_q_BN", "time_max_s", "rate_max_deg_per_s"):
         w.key("requirements.slew", name, getattr(rc.slew, name))
@@ -229,3 +230,46 @@ def config_to_toml(config: SpacecraftConfig) -> str:
         for f in dataclasses.fields(config.uncertainty):
             w.key("uncertainty", f.name, getattr(config.uncertainty, f.name))
     return "\n".join(w.lines) + "\n"
+
+
+# Changing values in a file, its comments kept
+
+_TABLE_LINE = re.compile(r"^\s*\[([^\[\]]+)\]\s*(#.*)?$")
+
+
+def replace_values(text: str, values: Mapping[str, Any]) -> str:
+    """The text of a spacecraft file with some keys' values replaced, every other line (comments too) unchanged.
+
+    Parameters
+    ----------
+    text : str
+        The file's text.
+    values : mapping of str to value
+        Dotted key (``"control.bandwidth_rad_per_s"``) to its new value (a number, string, bool or list); each
+        key must be written in the file on one line, in its table (``[control]``, not inline).
+
+    Raises
+    ------
+    ValueError
+        A key the text does not hold on one line of its table.
+    """
+    lines = text.splitlines(keepends=True)
+    table = ""
+    left = dict(values)
+    for i, line in enumerate(lines):
+        header = _TABLE_LINE.match(line)
+        if header:
+            table = header.group(1).strip()
+            continue
+        for key in list(left):
+            path, _, name = key.rpartition(".")
+            found = re.match(rf"^(\s*{re.escape(name)}\s*=\s*)([^#\n]*?)(\s*(#.*)?)(\r?\n)?$", line)
+            if path == table and found:
+                value_text = found.group(2)
+                if value_text.count("[") != value_text.count("]") or value_text.count("{") != value_text.count("}"):
+                    raise ValueError(f"{key}: its value spans several lines; edit it by hand")
+                lines[i] = found.group(1) + _toml_value(left.pop(key)) + found.group(3) + (found.group(5) or "")
+                break
+    if left:
+        raise ValueError(f"the file holds no line for {', '.join(sorted(left))} in its table")
+    return "".join(lines)

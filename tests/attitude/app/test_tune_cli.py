@@ -1,0 +1,82 @@
+"""`attitude tune`: the tuned file reads back with the new gains and its other keys, and nothing is overwritten.
+
+Checked against: the config reader (the written file parses, with the gains the tuning printed and every other
+key as the input's), and the files on disk before and after.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import math
+
+import pytest
+
+from attitude.app.cli import main
+from attitude.app.tune import tune_config, tuning_requirements
+from attitude.config import ConfigError, default_config, default_config_text, load_config, parse_config
+
+
+@pytest.fixture(scope="module")
+def tuned(tmp_path_factory):
+    """One tuning of the built-in file without the dispersed check (tested in the design), its JSON and files."""
+    folder = tmp_path_factory.mktemp("tune")
+    source = folder / "sat.toml"
+    source.write_text(default_config_text(), encoding="utf-8")
+    out = folder / "sat_tuned.toml"
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        code = main(["tune", str(source), "--runs", "0", "--json", "--quiet"])
+    return source, out, code, json.loads(printed.getvalue())
+
+
+def test_tune_writes_a_new_file_that_reads_back(tuned, capsys):
+    """The new file parses with the tuned bandwidth and damping and every other table equal to the input's; the
+    input is untouched; the trade-off figure is written beside it."""
+    source, out, code, _ = tuned
+    assert code == 0
+    assert source.read_text(encoding="utf-8") == default_config_text()
+    before, after = load_config(source), load_config(out)
+    assert (after.control.bandwidth_rad_per_s, after.control.damping) != (0.4, 0.7)
+    assert after.requirements == before.requirements and after.wheels_config == before.wheels_config
+    assert after.control.lqr == before.control.lqr and after.control.period_s == before.control.period_s
+    assert out.with_suffix(".png").stat().st_size > 10_000
+    assert "# Tuned by `attitude tune`" in out.read_text(encoding="utf-8")
+
+
+def test_tune_refuses_to_overwrite(tuned, capsys):
+    """An existing NEWFILE is refused (exit 2, the file named) without --force, and the input never."""
+    source, out, _, _ = tuned
+    text = out.read_text(encoding="utf-8")
+    assert main(["tune", str(source), "--out", str(out), "--runs", "0", "--quiet"]) == 2
+    assert "the file exists" in capsys.readouterr().err
+    assert out.read_text(encoding="utf-8") == text
+    assert main(["tune", str(source), "--out", str(source), "--force", "--quiet"]) == 2
+    assert "is the input file" in capsys.readouterr().err
+
+
+def test_contradictory_file_names_the_keys():
+    """A settling time below the 60 deg bang-bang time (10.1 s) is refused naming the settling and torque keys; a
+    disk margin floor of 2 is refused by the reader with its key."""
+    text = default_config_text().replace("settling_time_s = 60.0 ", "settling_time_s = 5.0  ")
+    with pytest.raises(ConfigError, match=r"requirements\.settling_time_s, wheels\.torque_max_Nm"):
+        tune_config(parse_config(text), dispersed_runs=0, tradeoff_points=0)
+    with pytest.raises(ConfigError, match=r"requirements\.disk_margin_min"):
+        parse_config(default_config_text().replace("disk_margin_min = 0.8 ", "disk_margin_min = 2.0 "))
+
+
+def test_requirements_from_the_file():
+    """The step is the required 60 deg slew, the accuracy 0.05 deg, the floor the file's 0.8."""
+    req = tuning_requirements(default_config())
+    assert req.step_angle == pytest.approx(math.radians(60.0), rel=1e-12)
+    assert req.pointing_accuracy == pytest.approx(math.radians(0.05), rel=1e-12)
+    assert req.disk_margin_min == 0.8
+
+
+def test_json_output_has_before_and_after(tuned):
+    """--json prints the file's gains before and the binding requirement (the wheels' torque for the 60 deg step)."""
+    summary = tuned[3]
+    assert summary["before"]["bandwidth_rad_per_s"] == 0.4
+    assert summary["feasible"] and summary["binding"] == ["torque_max"]
+    assert [row["metric"] for row in summary["table"]][:2] == ["bandwidth_rad_per_s", "damping"]
