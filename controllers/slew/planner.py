@@ -364,7 +364,8 @@ def plan_slew(
         if refine and refined_duration is None and not str(refine_info.get("status", "")).startswith("skipped"):
             status = refine_info.get("status")
             notes.append(f"slew refinement not used ({status}); returning the {n}-node grid solution")
-        pontryagin = check_solution(prob, chosen, torque, objective)
+        grid_converged = refined_duration is not None and bool(refine_info.get("grid_converged"))
+        pontryagin = check_solution(prob, chosen, torque, objective, grid_converged)
         if pontryagin.get("passes") is False:
             notes.append(
                 f"the plan fails Pontryagin's necessary conditions (max |H| {pontryagin['hamiltonian_residual']:.3g}, "
