@@ -23,6 +23,7 @@ from benchmarks import (
     bench_propagation,
     bench_rate_ekf,
     bench_slew,
+    bench_slew_multistart,
 )
 
 SUITES = {
@@ -34,6 +35,7 @@ SUITES = {
     "determination": bench_determination.run,
     "montecarlo": bench_montecarlo.run,
     "orbit": bench_orbit.run,
+    "slew_multistart": bench_slew_multistart.run,
 }
 
 
