@@ -22,7 +22,9 @@ from benchmarks import (
     bench_orbit,
     bench_propagation,
     bench_rate_ekf,
+    bench_robust,
     bench_slew,
+    bench_slew_multistart,
     bench_tune,
 )
 
@@ -35,7 +37,9 @@ SUITES = {
     "determination": bench_determination.run,
     "montecarlo": bench_montecarlo.run,
     "orbit": bench_orbit.run,
+    "robust": bench_robust.run,
     "tune": bench_tune.run,
+    "slew_multistart": bench_slew_multistart.run,
 }
 
 

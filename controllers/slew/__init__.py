@@ -1,5 +1,6 @@
 """Optimal slew planning with casadi/IPOPT, eigenaxis references and keep-out cones."""
 
+from controllers.slew.guess import MULTI_START, START_FAMILIES
 from controllers.slew.keep_out import KeepOutCone
 from controllers.slew.plan import SlewPlan
 from controllers.slew.planner import plan_slew
@@ -9,7 +10,9 @@ from controllers.slew.transcription import IPOPT_DEFAULTS
 
 __all__ = [
     "IPOPT_DEFAULTS",
+    "MULTI_START",
     "PUBLISHED_BILIMORIA_WIE",
+    "START_FAMILIES",
     "EigenaxisSlew",
     "InfeasibleSlewError",
     "KeepOutCone",

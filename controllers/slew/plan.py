@@ -19,6 +19,7 @@ from attitude.results import ResultIO
 from attitude.rigid_body import RigidBody
 from attitude.validation import check_positive, check_vector, positive_scalar
 from controllers.slew.keep_out import KeepOutCone
+from controllers.slew.optimality import summary_words
 
 if TYPE_CHECKING:
     import matplotlib.figure
@@ -117,10 +118,24 @@ class SlewPlan(ResultIO):
         ``info["eigenaxis_enters_keep_out"]`` says whether that slew enters a
         keep-out cone (it cannot steer around one).
     info : dict
-        Scaling, grid, per-start results, refinement details, verification,
-        and ``"warnings"``: the planner's warnings in words (e.g. a plan
-        slower than a feasible eigenaxis slew), also issued with
-        :func:`warnings.warn`.
+        Scaling, grid, per-start results (``"starts"``: family, status,
+        duration, whether it reached the best), the multi-start summary
+        (``"multi_start"``), the Pontryagin check (``"pontryagin"``),
+        refinement details, verification, and ``"warnings"``: the planner's
+        warnings in words (e.g. a plan slower than a feasible eigenaxis slew),
+        also issued with :func:`warnings.warn`.
+    costate : ndarray (n, 7) or None
+        Costate estimates at the nodes from the NLP's multipliers:
+        ``lambda_q`` [s] and ``lambda_omega`` [s^2], normalised so that
+        ``H = 1 + lambda . x_dot`` (docs/slew_planning.md, Optimality
+        evidence); None after :meth:`resample`.
+    pontryagin_residual : float or None
+        ``max |H|`` over the checked intervals (zero for a time-optimal
+        extremal; None when not checked: minimum energy, or a path
+        constraint active everywhere).
+    optimality_flagged : bool
+        The plan fails Pontryagin's necessary conditions beyond their
+        tolerances (``info["pontryagin"]``): not a time-optimal extremal.
     """
 
     t: NDArray[np.float64]
@@ -152,6 +167,20 @@ class SlewPlan(ResultIO):
     keep_out_half_angle: NDArray[np.float64]
     eigenaxis_duration: float | None
     info: dict[str, Any] = field(default_factory=dict)
+    costate: NDArray[np.float64] | None = None
+    pontryagin_residual: float | None = None
+    optimality_flagged: bool = False
+
+    def summary(self) -> str:
+        """One line: objective, duration, starts that reached the best, and the Pontryagin check."""
+        parts = [f"{self.objective}-optimal slew {self.duration:.6g} s ({STATUS_WORDS.get(self.status, self.status)})"]
+        multi = self.info.get("multi_start")
+        if multi and multi.get("starts", 0) > 1:
+            parts.append(f"{multi['reached_best']} of {multi['starts']} starts reached the best")
+        words = summary_words(self.info.get("pontryagin"))
+        if words:
+            parts.append(words)
+        return "; ".join(parts)
 
     @property
     def final_attitude_error_deg(self) -> float:
@@ -205,7 +234,7 @@ class SlewPlan(ResultIO):
         k = np.clip(np.searchsorted(self.t, t_new, side="right") - 1, 0, self.t.size - 2)
         info = dict(self.info)
         info["resampled_dt_s"] = dt
-        return replace(self, t=t_new, q=x[:, :4], omega=x[:, 4:], torque=self.torque[k].copy(), info=info)
+        return replace(self, t=t_new, q=x[:, :4], omega=x[:, 4:], torque=self.torque[k].copy(), info=info, costate=None)
 
     def plot(
         self,
@@ -409,6 +438,9 @@ def plan_title(plan: SlewPlan) -> str:
     parts = []
     if plan.refined_duration is not None:
         parts.append(f"refined from {plan.grid_duration:.5g} s on {grid}")
+    words = summary_words(plan.info.get("pontryagin"))
+    if words:
+        parts.append(words)
     if plan.eigenaxis_duration is not None:
         eig = f"eigenaxis slew {plan.eigenaxis_duration:.5g} s"
         if plan.info.get("eigenaxis_enters_keep_out"):

@@ -11,7 +11,9 @@ This module is the public entry point; the work is split by job:
 * :mod:`controllers.slew.keep_out`: :class:`KeepOutCone`, its between-checkpoint bound, the blocked-path check;
 * :mod:`controllers.slew.reference`: the eigenaxis reference (:func:`eigenaxis_slew`);
 * :mod:`controllers.slew.transcription`: multiple shooting, IPOPT, the uniform-grid solve;
-* :mod:`controllers.slew.guess`: initial guesses and perturbations;
+* :mod:`controllers.slew.guess`: initial guesses, perturbations and the start families;
+* :mod:`controllers.slew.multistart`: the starts solved (in worker processes when asked) and reported;
+* :mod:`controllers.slew.optimality`: Pontryagin's conditions checked from the NLP's multipliers;
 * :mod:`controllers.slew.refine`: multi-phase refinement of a minimum-time answer;
 * :mod:`controllers.slew.plan`: :class:`SlewPlan`, its resampling and figure;
 * :mod:`controllers.slew.checks`: blocked paths, verification, eigenaxis comparison, failure causes.
@@ -44,8 +46,18 @@ from controllers.slew.checks import (
     slower_than_eigenaxis,
     verify,
 )
-from controllers.slew.guess import base_guess, eigenaxis_start, guess_from_plan, perturbed, project
+from controllers.slew.guess import (
+    base_guess,
+    eigenaxis_start,
+    expand_starts,
+    family_guess,
+    guess_from_plan,
+    perturbed,
+    project,
+)
 from controllers.slew.keep_out import KeepOutCone
+from controllers.slew.multistart import energy_start, solve_starts, start_report, worker_count
+from controllers.slew.optimality import check_solution, costate_physical
 from controllers.slew.plan import SlewPlan, cone_arrays
 from controllers.slew.problem import (
     OBJECTIVES,
@@ -80,7 +92,8 @@ def plan_slew(
     refine: bool | None = None,
     refine_steps: int | None = None,
     smoothing: float = 0.0,
-    starts: int = 1,
+    starts: int | str | Sequence[str] = 1,
+    workers: int | None = 1,
     perturbation: float = 0.2,
     rng: object = 0,
     initial_guess: SlewPlan | None = None,
@@ -126,9 +139,22 @@ def plan_slew(
         proportion to their durations (at least 2 each; default ``nodes``).
     smoothing : float
         Weight of the torque-increment penalty (docs/slew_planning.md), >= 0.
-    starts : int
-        Number of perturbed starts; the best converged solution is kept (plus
-        the eigenaxis slew as a fallback start, docs/slew_planning.md).
+    starts : int, str or sequence of str
+        The starts (docs/slew_planning.md, Multi-start): a count ``k`` (the
+        perturbed eigenaxis slew and ``k - 1`` random perturbations of it), or
+        family names from :data:`controllers.slew.guess.START_FAMILIES`
+        (``"eigenaxis"``, ``"eigenaxis_long"``, ``"energy"``, ``"principal"``
+        (three starts), ``"random"`` (repeat for more));
+        :data:`controllers.slew.guess.MULTI_START` is all of them. The best
+        converged answer is kept (plus the eigenaxis slew as a fallback
+        start); ``info["starts"]`` and ``info["multi_start"]`` report each
+        start and how many reached the best. A larger start set repeats every
+        start of a smaller one, so it never reports a worse optimum.
+    workers : int or None
+        Worker processes for the starts (forked; each builds its own NLP):
+        1 (default) solves them here, None uses up to
+        :data:`controllers.slew.multistart.MAX_WORKERS` cores. The answers do
+        not depend on it.
     perturbation : float
         Size of the guess perturbation: torque noise as a fraction of the
         largest torque (of the torque unit ``J_s / T_s^2`` for a slew longer
@@ -137,7 +163,9 @@ def plan_slew(
     rng : numpy.random.Generator, int or None
         Source of the perturbations (default seed 0: reproducible plans).
     initial_guess : SlewPlan, optional
-        Warm start (e.g. a previous plan); used for the first start.
+        Warm start (e.g. a previous plan of the same slew on another grid),
+        solved as one more start (``"warm"``) before the others: a plan on
+        more nodes warm-started from a coarser plan keeps its optimum.
     max_iter : int
         IPOPT iteration limit per solve.
     ipopt_options : mapping, optional
@@ -187,8 +215,9 @@ def plan_slew(
     -----
     RuntimeWarning
         The refinement was rejected, or a minimum-time plan is slower than
-        the eigenaxis slew although that slew meets every constraint (both
-        also listed in ``plan.info["warnings"]``).
+        the eigenaxis slew although that slew meets every constraint, or than
+        its warm start, or fails Pontryagin's conditions (all also listed in
+        ``plan.info["warnings"]``).
 
     Examples
     --------
@@ -216,7 +245,8 @@ def plan_slew(
         if refine and objective != "time":
             raise ValueError("refine is only available for objective='time' (switch-time refinement of bang-bang arcs)")
         n = check_count(nodes, "nodes", 4)
-        starts = check_count(starts, "starts", 1)
+        specs = expand_starts(starts)
+        worker_count(workers, 1)  # the argument checked before any solve
         max_iter = check_count(max_iter, "max_iter", 1)
         refine_steps = n if refine_steps is None else check_count(refine_steps, "refine_steps", 4)
         smoothing = float(check_positive(smoothing, "smoothing", allow_zero=True))
@@ -236,24 +266,39 @@ def plan_slew(
         notes: list[str] = []
 
         base_X, base_U, base_T = base_guess(prob, n, duration_s)
-        guesses = []
-        for i in range(starts):
-            if i == 0 and initial_guess is not None:
-                X0, U0, T0 = guess_from_plan(prob, initial_guess, n)
-                guesses.append((X0, project(prob, U0), T0 if duration_s is None else duration_s))
-                continue
-            # Later starts perturb more: they are there to explore other local optima.
-            X0, U0 = perturbed(prob, base_X, base_U, perturbation * (1.0 + 0.5 * i), gen)
-            guesses.append((X0, U0, base_T))
+        # The eigenaxis start draws from the caller's generator first (the planner's single start); every other
+        # start from one seed drawn after it, with its family and index: a start does not depend on the others.
+        first = perturbed(prob, base_X, base_U, perturbation, gen)
+        seed = int(gen.integers(2**63))
+        guesses, used, extra = [], [], []
+        if initial_guess is not None:
+            X0, U0, T0 = guess_from_plan(prob, initial_guess, n)
+            guesses.append((X0, project(prob, U0), T0 if duration_s is None else duration_s))
+            used.append(("warm", 0))
+            extra.append({})
+        energy, energy_status = None, None
+        if objective == "time" and any(f == "energy" for f, _ in specs):
+            energy, energy_status = energy_start(prob, n, base_T, max_iter, options)
+        for spec in specs:
+            if spec[0] == "eigenaxis":
+                guesses.append((*first, base_T))
+            else:
+                guesses.append(family_guess(prob, n, spec, perturbation, seed, duration_s, energy))
+            used.append(spec)
+            extra.append({"energy_presolve": energy_status} if spec[0] == "energy" and energy_status else {})
 
+        count = len(guesses)
         bar = cleanup.enter_context(
             progress_bar(
-                starts, desc="slew planning", unit="start", enabled=progress if starts > 1 else False, leave=False
+                count, desc="slew planning", unit="start", enabled=progress if count > 1 else False, leave=False
             )
         )
-        best, results = solve_grid(
-            prob, n, objective, duration_s, smoothing, guesses, max_iter, options, solved=bar.update
+        n_workers = worker_count(workers, count)
+        results, how = solve_starts(
+            prob, n, objective, duration_s, smoothing, guesses, max_iter, options, n_workers, solved=bar.update
         )
+        good = [r for r in results if r.converged]
+        best = min(good, key=lambda r: r.objective) if good else None
         eig = eigenaxis_comparison(prob, torque_max)
         # The eigenaxis slew itself as one more start (docs/slew_planning.md, Guess and multi-start): when no start
         # converged, or when the best minimum-time answer is slower than an eigenaxis slew that meets every limit by
@@ -267,18 +312,12 @@ def plan_slew(
                     prob, n, objective, duration_s, smoothing, [fallback], max_iter, options, solved=bar.update
                 )
                 results += more
+                used.append(("eigenaxis_fallback", 0))
+                extra.append({})
                 if alt is not None and (best is None or alt.objective < best.objective):
                     best = alt
-        starts_info = [
-            {
-                "status": r.status,
-                "iterations": r.iterations,
-                "solve_time_s": r.solve_time,
-                "objective": r.objective,
-                "duration_s": r.duration * prob.t_s,
-            }
-            for r in results
-        ]
+        starts_info, multi = start_report(results, used, prob.t_s, extra)
+        multi["solved"] = how
         solve_time = sum(r.solve_time for r in results)
         if best is None:
             raise_failure(prob, objective, duration, results, n, options, max_iter)
@@ -325,6 +364,14 @@ def plan_slew(
         if refine and refined_duration is None and not str(refine_info.get("status", "")).startswith("skipped"):
             status = refine_info.get("status")
             notes.append(f"slew refinement not used ({status}); returning the {n}-node grid solution")
+        grid_converged = refined_duration is not None and bool(refine_info.get("grid_converged"))
+        pontryagin = check_solution(prob, chosen, torque, objective, grid_converged)
+        if pontryagin.get("passes") is False:
+            notes.append(
+                f"the plan fails Pontryagin's necessary conditions (max |H| {pontryagin['hamiltonian_residual']:.3g}, "
+                f"switching disagreement {pontryagin['switching_disagreement']}): not a time-optimal extremal "
+                "(docs/slew_planning.md, Optimality evidence)"
+            )
         h = np.diff(t)
         energy = float(np.sum(np.sum(torque[:-1] ** 2, axis=1) * h))
         duration_out = float(t[-1])
@@ -332,6 +379,18 @@ def plan_slew(
             note = slower_than_eigenaxis(eig, duration_out, n, str(refine_info.get("status", "not requested")))
             if note:
                 notes.append(note)
+            # Compared when both are switch-time refined (grid-converged up to the RK4 error): a uniform-grid answer
+            # is longer than the converged time by its grid error.
+            if (
+                initial_guess is not None
+                and refined_duration is not None
+                and initial_guess.refined_duration is not None
+                and duration_out > initial_guess.duration * (1.0 + REFINEMENT_SLACK)
+            ):
+                notes.append(
+                    f"the plan ({duration_out:.6g} s) is slower than its warm start ({initial_guess.duration:.6g} s): "
+                    "the warm start is a plan of another slew, or this grid cannot fly its path"
+                )
         for note in notes:
             warnings.warn(note, RuntimeWarning, stacklevel=2)
         bore, direc, half = cone_arrays(prob.cones)
@@ -345,7 +404,9 @@ def plan_slew(
             "torque_set": prob.torque_set.label,
             "keep_out_names": [c.name for c in prob.cones],
             "starts": starts_info,
+            "multi_start": multi,
             "best_start": int(results.index(best)),
+            "pontryagin": pontryagin,
             "eigenaxis_fallback": fallback is not None,
             "grid_status": best.status,
             "grid_iterations": best.iterations,
@@ -387,6 +448,9 @@ def plan_slew(
             keep_out_half_angle=half,
             eigenaxis_duration=eig.get("duration_s"),
             info=info,
+            costate=None if chosen.costate is None else costate_physical(prob, chosen.costate),
+            pontryagin_residual=pontryagin.get("hamiltonian_residual"),
+            optimality_flagged=pontryagin.get("passes") is False,
         )
 
 

@@ -275,6 +275,8 @@ def refine_phases(
         U=val["U"].reshape(3, n_int),
         H=val["H"].reshape(n_int),
         objective=float(np.sum(val["Tp"])),
+        costate=val["costate"],
+        path_multiplier=val["path_multiplier"],
     )
     info.update({"status": status, "iterations": iters, "solve_time_s": elapsed})
     info["phase_durations"] = (np.maximum(val["Tp"], 0.0) * prob.t_s).tolist()
@@ -303,4 +305,9 @@ def drop_empty(sol: Solution) -> Solution:
     # node k+1 ends interval k; dropping interval k merges node k+1 into node k
     X = sol.X[:, idx_nodes]
     X[:, -1] = sol.X[:, -1]
-    return replace(sol, X=X, U=sol.U[:, keep], H=sol.H[keep])
+    costate = None
+    if sol.costate is not None:
+        costate = sol.costate[:, idx_nodes]
+        costate[:, -1] = sol.costate[:, -1]
+    path = None if sol.path_multiplier is None else sol.path_multiplier[keep]
+    return replace(sol, X=X, U=sol.U[:, keep], H=sol.H[keep], costate=costate, path_multiplier=path)

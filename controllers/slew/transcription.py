@@ -136,6 +136,14 @@ class Solution:
         Interval lengths in units of ``T_s`` (n,).
     objective : float
         Value of the nondimensional objective.
+    costate : ndarray, optional
+        Multipliers of the continuity constraints (7, n + 1), nondimensional:
+        column ``k`` estimates the costate at node ``k`` (docs/slew_planning.md,
+        Optimality evidence); column 0 is minus the multiplier of the initial
+        state. None when not asked for.
+    path_multiplier : ndarray, optional
+        Largest multiplier of a path constraint (rate limit, keep-out) per
+        interval (n,), zero on intervals where none is active.
     """
 
     status: str
@@ -145,6 +153,8 @@ class Solution:
     U: NDArray[np.float64]
     H: NDArray[np.float64]
     objective: float
+    costate: NDArray[np.float64] | None = None
+    path_multiplier: NDArray[np.float64] | None = None
 
     @property
     def converged(self) -> bool:
@@ -176,6 +186,9 @@ class Transcription:
         self.opti = ca.Opti()
         self.X = self.opti.variable(7, n + 1)
         self.options = options
+        self.continuity: Any = None
+        self.initial: Any = None
+        self.path: list[tuple[Any, list[int]]] = []
 
     def constrain(self, U: Any, H: Any) -> None:
         """Dynamics, boundary conditions and path constraints for torques ``U`` and lengths ``H``.
@@ -191,21 +204,28 @@ class Transcription:
         n = self.n
         f = interval_function(prob)
         defect, g, g_start, g_end = f.fun.map(n)(X[:, :-1], U, H, X[:, 1:])
-        opti.subject_to(ca.vec(defect) == 0)
+        self.continuity = ca.vec(defect) == 0
+        opti.subject_to(self.continuity)
+        # Path constraints with the interval of each row (the multipliers say where they are active).
+        path: list[tuple[Any, list[int]]] = []
         rows = g.shape[0]
         if rows:
             first = [i for i in range(rows) if i not in f.first_drop]
             last = [i for i in range(rows) if i not in f.last_drop]
             if first:
-                opti.subject_to(g[first, 0] <= 0)
+                path.append((g[first, 0] <= 0, [0] * len(first)))
             if n > 2:
-                opti.subject_to(ca.vec(g[:, 1 : n - 1]) <= 0)
+                path.append((ca.vec(g[:, 1 : n - 1]) <= 0, list(np.repeat(np.arange(1, n - 1), rows))))
             if last:
-                opti.subject_to(g[last, n - 1] <= 0)
+                path.append((g[last, n - 1] <= 0, [n - 1] * len(last)))
         if g_start.shape[0]:
-            opti.subject_to(g_start[:, 0] <= 0)
-            opti.subject_to(g_end[:, n - 1] <= 0)
-        opti.subject_to(X[:, 0] == prob.x0)
+            path.append((g_start[:, 0] <= 0, [0] * g_start.shape[0]))
+            path.append((g_end[:, n - 1] <= 0, [n - 1] * g_end.shape[0]))
+        for con, _ in path:
+            opti.subject_to(con)
+        self.path = path
+        self.initial = X[:, 0] == prob.x0
+        opti.subject_to(self.initial)
         opti.subject_to(X[4:, -1] == prob.omegaf * prob.t_s)
         w, x, y, z = prob.qf
         err = multiply_components([w, -x, -y, -z], [X[i, -1] for i in range(4)])
@@ -246,7 +266,28 @@ class Transcription:
         stats = solve_nlp(opti)
         elapsed = time.perf_counter() - start
         out = {k: np.atleast_1d(np.asarray(opti.debug.value(v), dtype=float)) for k, v in values.items()}
+        if self.continuity is not None:
+            out.update(self._multipliers())
         return str(stats.get("return_status", "unknown")), int(stats.get("iter_count", -1)), elapsed, out
+
+    def _multipliers(self) -> dict[str, NDArray[np.float64]]:
+        """Costate estimates (7, n + 1) and the largest path-constraint multiplier per interval (n,).
+
+        IPOPT's Lagrangian is ``f + nu^T g``; with the continuity defect
+        ``F(x_k, u_k, h_k) - x_{k+1}``, stationarity in ``x_{k+1}`` reads
+        ``nu_k = (dF_{k+1}/dx)^T nu_{k+1}``, the discrete adjoint equation: ``nu_k``
+        is the costate at node ``k + 1`` (docs/slew_planning.md, Optimality evidence).
+        Stationarity in ``x_0`` gives the costate at node 0 as minus the
+        multiplier of ``x_0 = x0``.
+        """
+        opti, n = self.opti, self.n
+        nu = np.asarray(opti.debug.value(opti.dual(self.continuity)), dtype=float).reshape(7, n, order="F")
+        nu0 = -np.asarray(opti.debug.value(opti.dual(self.initial)), dtype=float).reshape(7, 1)
+        path = np.zeros(n)
+        for con, intervals in self.path:
+            mu = np.abs(np.atleast_1d(np.asarray(opti.debug.value(opti.dual(con)), dtype=float)))
+            np.maximum.at(path, np.asarray(intervals, dtype=int), mu)
+        return {"costate": np.hstack([nu0, nu]), "path_multiplier": path}
 
 
 #: IPOPT's status when its intermediate callback asks it to stop. The planner
@@ -488,6 +529,8 @@ def solve_grid(
                 U=val["U"].reshape(3, n),
                 H=np.full(n, t_total / n),
                 objective=float(val["cost"][0]),
+                costate=val["costate"],
+                path_multiplier=val["path_multiplier"],
             )
         )
         if solved is not None:

@@ -702,7 +702,7 @@ BAD_INPUT = [
     ({"refine_steps": 3}, "refine_steps must be an integer >= 4, got 3"),
     ({"keep_out_margin": "yes"}, "keep_out_margin must be True or False"),
     ({"substeps": 0}, "substeps must be a positive integer"),
-    ({"starts": 0}, "starts must be an integer >= 1"),
+    ({"starts": 0}, "starts must be a count >= 1"),
     ({"smoothing": -1.0}, "smoothing must be non-negative"),
     ({"progress": "yes"}, "progress must be True, False or None"),
     ({"keep_out": [(1, 0, 0)]}, r"keep_out\[0\] must be a KeepOutCone"),
