@@ -143,7 +143,25 @@ def _dispersed(row: Mapping[str, Any], results: Mapping[str, Any]) -> str:
     return f"{d.get('failures')} of {d.get('runs')} dispersed runs fail: {listed}{tail}; rerun: {d.get('command')}"
 
 
+def _disk_margin(row: Mapping[str, Any], results: Mapping[str, Any]) -> str:
+    rows = [m for m in (results.get("linear") or {}).get("disk_margins", []) if m["controller"].startswith("PD")]
+    rows = [m for m in rows if m["break_point"] == "input" and "note" not in m]
+    unstable = [m for m in rows if not m["stable"]]
+    if unstable:
+        m = unstable[0]
+        return f"the closed loop of {m['controller']} on the {m['plant']} plant is unstable ({m['channel']})"
+    if not rows:
+        return "no disk margin could be computed"
+    m = min(rows, key=lambda r: r["disk_margin"])
+    return (
+        f"{m['controller']} on the {m['plant']} plant, {m['channel']}: {_g(m['disk_margin'])} at "
+        f"{_g(m['frequency_rad_per_s'])} rad/s, required >= {_g(row['required'])} (`attitude tune` finds gains "
+        "that meet it, or says what binds)"
+    )
+
+
 _REASONS: dict[str, Callable[[Mapping[str, Any], Mapping[str, Any]], str]] = {
+    "disk_margin": _disk_margin,
     "slew_time": _slew_time,
     "settling_time": _settling,
     "pointing_accuracy": _pointing,

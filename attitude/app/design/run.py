@@ -319,13 +319,28 @@ def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> d
             "<=",
         )
     )
+    if req.disk_margin_min is not None:
+        at_input = [m for m in results["linear"].get("disk_margins", []) if m["controller"].startswith("PD")]
+        at_input = [m for m in at_input if m["break_point"] == "input" and "note" not in m]
+        rows.append(
+            _row(
+                "disk_margin",
+                "smallest disk margin of the sampled PD loops at the wheels' input, each axis and all at once "
+                "(with the file's modes and filters)",
+                "requirements.disk_margin_min",
+                req.disk_margin_min,
+                min(m["disk_margin"] for m in at_input) if at_input and all(m["stable"] for m in at_input) else None,
+                "",
+                ">=",
+            )
+        )
     checks = []
     sampled = [m for m in results["linear"]["margins"] if m["loop"] != "continuous"]
     for ctrl in sorted({m["controller"] for m in sampled}):
         ms = [m for m in sampled if m["controller"] == ctrl]
         checks.append(
             _row(
-                f"{ctrl.lower()}_gain_margin",
+                f"{ctrl.lower().replace(' + ', '_')}_gain_margin",
                 f"{ctrl} sampled loop: smallest gain margin (guideline)",
                 "",
                 GAIN_MARGIN_GUIDELINE_DB,
@@ -336,7 +351,7 @@ def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> d
         )
         checks.append(
             _row(
-                f"{ctrl.lower()}_phase_margin",
+                f"{ctrl.lower().replace(' + ', '_')}_phase_margin",
                 f"{ctrl} sampled loop: smallest phase margin (guideline)",
                 "",
                 PHASE_MARGIN_GUIDELINE_DEG,
@@ -503,7 +518,7 @@ def _caption_table() -> dict[str, tuple[str, str]]:
             "linear",
             "Nichols chart of the sampled PD loops per axis (broken at the plant input, the other axes closed); "
             "with flexible modes or filters in the file, also the loops that fly; shaded: the region inside the "
-            "smallest disk margin of the table.",
+            "required disk margin (requirements.disk_margin_min; without it, the smallest margin of the table).",
         ),
         "slew_plan": (
             "slews",

@@ -355,6 +355,8 @@ def _linear(results: dict[str, Any]) -> list[Block]:
         )
     )
     out += _disk_margins(lin.get("disk_margins") or [], period)
+    if lin.get("disk_margin_note"):
+        out.append(Paragraph(lin["disk_margin_note"]))
     for name in ("pd_step", "pd_bode", "pd_bode_sampled", "lqr_bode_sampled", "disk_margins", "pd_nichols"):
         out += _figure(results, name)
     return out
