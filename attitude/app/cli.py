@@ -654,8 +654,15 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     if not out.parent.exists():
         raise UsageError(f"--out {out}: the folder {out.parent} does not exist")
     _progress("tuning the PD on the linear metrics, then the nonlinear step and the dispersed check ...", args.quiet)
-    outcome = tune_config(config, cost=args.cost, structure=args.structure, dispersed_runs=args.runs)
     figure = args.figure if args.figure is not None else out.with_suffix(".png")
+    if figure.exists() and not args.force:
+        raise UsageError(f"--figure {figure}: the file exists; not overwritten (use --force to replace it)")
+    try:
+        outcome = tune_config(
+            config, cost=args.cost, structure=args.structure, dispersed_runs=args.runs, step_deg=args.step_deg
+        )
+    except ValueError as exc:
+        raise UsageError(f"--step-deg: {exc}") from exc
     outcome.result.plot(outcome.before).savefig(figure, dpi=120)
     if outcome.tuned is not None:
         out.write_text(tuned_file_text(outcome), encoding="utf-8")
@@ -962,8 +969,10 @@ def build_parser() -> argparse.ArgumentParser:
         help="tune the PD to the file's requirements and write the gains into a new file",
         formatter_class=fmt_class,
         description=(
-            "Find the PD bandwidth and damping that meet the file's requirements (the required slew as a step,\n"
-            "settled within the pointing accuracy in the settling time, within the wheels' torque and momentum\n"
+            "Find the PD bandwidth and damping that meet the file's requirements (a step of --step-deg, by\n"
+            "default [control.lqr] angle_max_deg, the largest error the feedback corrects while the planned slew's\n"
+            "feedforward does the rest, or without [control.lqr] the whole required slew; settled within the\n"
+            "pointing accuracy in the settling time, within the wheels' torque and momentum\n"
             "and requirements.disk_margin_min at the control period) at the least settling time or effort;\n"
             "confirm it on the nonlinear plant and the dispersed check; write the file with the new gains\n"
             "(every other key and comment kept) and the trade-off figure (settling time vs disk margin).\n"
@@ -975,6 +984,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, default=None, metavar="NEWFILE", help="the tuned file (default FILE_tuned.toml)")
     p.add_argument("--cost", choices=("settling", "effort"), default="settling", help="what to minimise")
     p.add_argument("--structure", choices=("pd",), default="pd", help="the controller tuned")
+    p.add_argument(
+        "--step-deg",
+        type=float,
+        default=None,
+        metavar="DEG",
+        help="the step the feedback must settle [deg] (default: [control.lqr] angle_max_deg, else the slew angle)",
+    )
     p.add_argument("--runs", type=_count(0), default=10, help="runs of the dispersed check (0: none; default 10)")
     p.add_argument(
         "--figure", type=Path, default=None, metavar="PNG", help="the trade-off figure (default NEWFILE.png)"

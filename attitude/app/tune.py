@@ -1,8 +1,12 @@
 """`attitude tune`: the file's PD tuned to its requirements, confirmed, and written into a new file.
 
 Top floor (DESIGN.md). The requirements come from the spacecraft file
-(:func:`tuning_requirements`): the step is the required slew
-(``requirements.slew``: its angle), settled within
+(:func:`tuning_requirements`): the step is the largest attitude error the
+feedback must correct (``--step-deg``; by default ``[control.lqr]
+angle_max_deg``, the file's largest acceptable attitude error, since the
+design flies the required slew as a plan with feedforward and the feedback
+sees only the tracking error; without ``[control.lqr]`` the whole required
+slew, as flown by the PD alone), settled within
 ``requirements.pointing_accuracy_deg`` in ``requirements.settling_time_s``,
 with the wheels' body-torque and body-momentum envelopes
 (:meth:`attitude.actuators.ReactionWheels.torque_envelope`, and the same rule
@@ -43,7 +47,15 @@ from controllers.tuning import (
     tune_pd,
 )
 
-__all__ = ["STRUCTURES", "TuneOutcome", "tune_config", "tuned_file_text", "tuning_requirements", "tuning_section"]
+__all__ = [
+    "STRUCTURES",
+    "TuneOutcome",
+    "step_source",
+    "tune_config",
+    "tuned_file_text",
+    "tuning_requirements",
+    "tuning_section",
+]
 
 #: Controller structures `attitude tune` can tune.
 STRUCTURES = ("pd",)
@@ -67,13 +79,42 @@ def _momentum_envelope(wheels: Any) -> np.ndarray:
     return 1.0 / ratios.max(axis=0)
 
 
-def tuning_requirements(config: SpacecraftConfig) -> TuningRequirements:
+def step_source(config: SpacecraftConfig, step_deg: float | None = None) -> tuple[float, str]:
+    """The step the tuned feedback must settle [rad] and where it comes from (module docstring).
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file.
+    step_deg : float, optional
+        The step [deg], given (``attitude tune --step-deg``).
+
+    Returns
+    -------
+    step_rad : float
+        The step angle [rad].
+    source : str
+        The key or option it comes from.
+    """
+    if step_deg is not None:
+        if not (math.isfinite(step_deg) and 0.0 < step_deg <= 180.0):
+            raise ValueError(f"step_deg must be in (0, 180] deg, got {step_deg!r}")
+        return math.radians(step_deg), "--step-deg"
+    if config.control.lqr is not None:
+        return float(np.max(config.control.lqr.angle_max)), "control.lqr.angle_max_deg"
+    req = config.requirements
+    return float(quat.error_angle(req.slew.q_start(), req.slew.q_target())), "requirements.slew.angle_deg"
+
+
+def tuning_requirements(config: SpacecraftConfig, step_deg: float | None = None) -> TuningRequirements:
     """The tuning requirements of a spacecraft file (module docstring).
 
     Parameters
     ----------
     config : SpacecraftConfig
         The spacecraft file.
+    step_deg : float, optional
+        The step the feedback must settle [deg] (default: :func:`step_source`).
 
     Raises
     ------
@@ -81,7 +122,7 @@ def tuning_requirements(config: SpacecraftConfig) -> TuningRequirements:
         When the requirements contradict themselves, naming their keys.
     """
     req = config.requirements
-    step = float(quat.error_angle(req.slew.q_start(), req.slew.q_target()))
+    step, source = step_source(config, step_deg)
     wheels = assembly.reaction_wheels(config)
     try:
         return TuningRequirements(
@@ -93,11 +134,11 @@ def tuning_requirements(config: SpacecraftConfig) -> TuningRequirements:
             disk_margin_min=req.disk_margin_min,
         )
     except RequirementConflict as exc:
-        raise _config_error(exc, config) from exc
+        raise _config_error(exc, config, source) from exc
 
 
-def _config_error(exc: RequirementConflict, config: SpacecraftConfig) -> ConfigError:
-    keys = ", ".join(REQUIREMENT_KEYS[n] for n in exc.names)
+def _config_error(exc: RequirementConflict, config: SpacecraftConfig, step_key: str | None = None) -> ConfigError:
+    keys = ", ".join(step_key if n == "step_angle" and step_key else REQUIREMENT_KEYS[n] for n in exc.names)
     return ConfigError(f"the requirements contradict themselves: {exc}", keys, config.source or "<config>")
 
 
@@ -190,6 +231,7 @@ def tune_config(
     structure: str = "pd",
     dispersed_runs: int = DISPERSED_RUNS,
     tradeoff_points: int = 10,
+    step_deg: float | None = None,
 ) -> TuneOutcome:
     """Tune the file's controller to its requirements and confirm the winner (module docstring).
 
@@ -205,6 +247,8 @@ def tune_config(
         Runs of the dispersed confirmation (0: none).
     tradeoff_points : int
         Dampings of the trade-off sweep (0: none).
+    step_deg : float, optional
+        The step the feedback must settle [deg] (default: :func:`step_source`).
 
     Raises
     ------
@@ -217,12 +261,12 @@ def tune_config(
         raise ValueError(f"structure must be one of {STRUCTURES}, got {structure!r}")
     body = assembly.rigid_body(config)
     wheels = assembly.reaction_wheels(config)
-    requirements = tuning_requirements(config)
+    requirements = tuning_requirements(config, step_deg)
     period = config.control.period_s
     try:
         result = tune_pd(body, requirements, period=period, cost=cost, tradeoff_points=tradeoff_points)
     except RequirementConflict as exc:
-        raise _config_error(exc, config) from exc
+        raise _config_error(exc, config, step_source(config, step_deg)[1]) from exc
     before = pd_metrics(
         body, requirements, wn=config.control.bandwidth_rad_per_s, zeta=config.control.damping, period=period
     )

@@ -7,6 +7,7 @@ key as the input's), and the files on disk before and after.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import io
 import json
 import math
@@ -57,25 +58,37 @@ def test_tune_refuses_to_overwrite(tuned, capsys):
 
 
 def test_contradictory_file_names_the_keys():
-    """A settling time below the 60 deg bang-bang time (10.1 s) is refused naming the settling and torque keys; a
-    disk margin floor of 2 is refused by the reader with its key."""
-    text = default_config_text().replace("settling_time_s = 60.0 ", "settling_time_s = 5.0  ")
+    """A settling time below the bang-bang time of the step is refused naming the settling and torque keys: the
+    1 deg step of [control.lqr] angle_max_deg takes 2 sqrt(theta I / tau) = 2 sqrt(0.01745 x 0.39 / 0.0162) = 1.30 s
+    at the x axis's torque envelope, so 1 s contradicts it; with --step-deg 60 the 60 deg step takes 10.1 s, so 5 s
+    does. A disk margin floor of 2 is refused by the reader with its key."""
+    text = default_config_text().replace("settling_time_s = 60.0 ", "settling_time_s = 1.0  ")
     with pytest.raises(ConfigError, match=r"requirements\.settling_time_s, wheels\.torque_max_Nm"):
         tune_config(parse_config(text), dispersed_runs=0, tradeoff_points=0)
+    text = default_config_text().replace("settling_time_s = 60.0 ", "settling_time_s = 5.0  ")
+    tune_config(parse_config(text), dispersed_runs=0, tradeoff_points=0)  # 5 s is more than the 1 deg step's 1.3 s
+    with pytest.raises(ConfigError, match=r"requirements\.settling_time_s, wheels\.torque_max_Nm"):
+        tune_config(parse_config(text), dispersed_runs=0, tradeoff_points=0, step_deg=60.0)
     with pytest.raises(ConfigError, match=r"requirements\.disk_margin_min"):
         parse_config(default_config_text().replace("disk_margin_min = 0.8 ", "disk_margin_min = 2.0 "))
 
 
 def test_requirements_from_the_file():
-    """The step is the required 60 deg slew, the accuracy 0.05 deg, the floor the file's 0.8."""
+    """The step is the file's largest acceptable attitude error ([control.lqr] angle_max_deg = 1 deg: the planned
+    slew's feedforward does the rest), or the whole 60 deg slew without [control.lqr] or with --step-deg; the
+    accuracy 0.05 deg, the floor the file's 0.8."""
     req = tuning_requirements(default_config())
+    assert req.step_angle == pytest.approx(math.radians(1.0), rel=1e-12)
+    assert tuning_requirements(default_config(), step_deg=60.0).step_angle == pytest.approx(math.radians(60.0))
+    without_lqr = dataclasses.replace(default_config().control, lqr=None)
+    req = tuning_requirements(dataclasses.replace(default_config(), control=without_lqr))
     assert req.step_angle == pytest.approx(math.radians(60.0), rel=1e-12)
     assert req.pointing_accuracy == pytest.approx(math.radians(0.05), rel=1e-12)
     assert req.disk_margin_min == 0.8
 
 
 def test_json_output_has_before_and_after(tuned):
-    """--json prints the file's gains before and the binding requirement (the wheels' torque for the 60 deg step)."""
+    """--json prints the file's gains before and the binding requirement (the wheels' torque for the 1 deg step)."""
     summary = tuned[3]
     assert summary["before"]["bandwidth_rad_per_s"] == 0.4
     assert summary["feasible"] and summary["binding"] == ["torque_max"]
