@@ -12,7 +12,7 @@ import math
 import time
 from typing import Any
 
-from attitude.app.tune import tune_config
+from attitude.app.design.tune import tune_config
 from attitude.config import default_config
 
 try:

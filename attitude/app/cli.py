@@ -641,8 +641,8 @@ def _cmd_init(args: argparse.Namespace) -> int:
 
 
 def _cmd_tune(args: argparse.Namespace) -> int:
+    from attitude.app.design.tune import tune_config, tuned_file_text
     from attitude.app.report.writer import dumps_json
-    from attitude.app.tune import tune_config, tuned_file_text
 
     config = _load(args.file)
     source = Path(args.file) if args.file is not None else Path("default_spacecraft.toml")

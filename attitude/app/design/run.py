@@ -58,7 +58,9 @@ from attitude.app.design.orbit import (
     nadir_hold,
 )
 from attitude.app.design.reasons import failure_reason
+from attitude.app.design.robust import robust_study
 from attitude.app.design.slew import check_periods, fly_slew, plan_slews, slew_figures
+from attitude.app.design.tune import tuning_section
 from attitude.config import SpacecraftConfig
 from attitude.results import provenance
 
@@ -499,6 +501,31 @@ def plan_verdicts(config: SpacecraftConfig, slews: dict[str, Any]) -> dict[str, 
 # The whole design
 
 
+def robust_linear_design(config: SpacecraftConfig) -> tuple[dict[str, Any], dict[str, Figure]]:
+    """Section 2 with its robustness parts: the linear design, the worst case and the tuning.
+
+    :func:`attitude.app.design.linear.linear_design`, then with ``[uncertainty]`` the worst case of the PD over
+    the set (:func:`attitude.app.design.robust.robust_study`, under ``"robust"``) and with
+    ``requirements.disk_margin_min`` the PD tuned to the requirements, before and after
+    (:func:`attitude.app.design.tune.tuning_section` without its dispersed check: the design runs its own,
+    under ``"tuning"``).
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file.
+    """
+    linear, figures = linear_design(config)
+    robust, robust_figures = robust_study(config)
+    linear["robust"] = robust if robust.get("uncertainty") is not None else None
+    figures.update(robust_figures)
+    linear["tuning"] = None
+    if config.requirements.disk_margin_min is not None:
+        linear["tuning"], tuning_figures = tuning_section(config)
+        figures.update(tuning_figures)
+    return linear, figures
+
+
 def _caption_table() -> dict[str, tuple[str, str]]:
     return {
         "body_polhodes": (
@@ -519,6 +546,25 @@ def _caption_table() -> dict[str, tuple[str, str]]:
             "Nichols chart of the sampled PD loops per axis (broken at the plant input, the other axes closed); "
             "with flexible modes or filters in the file, also the loops that fly; shaded: the region inside the "
             "required disk margin (requirements.disk_margin_min; without it, the smallest margin of the table).",
+        ),
+        "robust_disk_margin": (
+            "linear",
+            "Worst case over [uncertainty]: the multiloop disk margin of the sampled PD loop over uniform samples of "
+            "the set, with the optimiser's worst, the samples' worst and the nominal marked.",
+        ),
+        "robust_overshoot_percent": (
+            "linear",
+            "Worst case over [uncertainty]: the step overshoot of the linear closed loop over uniform samples of the "
+            "set, with the optimiser's worst, the samples' worst and the nominal marked.",
+        ),
+        "robust_settling_time_s": (
+            "linear",
+            "Worst case over [uncertainty]: the step settling time over uniform samples of the set.",
+        ),
+        "tuning_tradeoff": (
+            "linear",
+            "Tuning to the requirements: settling time against disk margin over the PD's bandwidth and damping, the "
+            "Pareto front, the file's gains (before) and the tuned ones; shaded: failing a requirement.",
         ),
         "slew_plan": (
             "slews",
@@ -641,7 +687,9 @@ def run_design(
         1, "body", "body: principal axes, stability", lambda: body_analysis(config, options.spin_rate_deg_per_s)
     )
     figures.update(body_figures(config, results["body"]))
-    linear, figs = step(2, "linear", "linear design: PD, LQR, margins", lambda: linear_design(config))
+    linear, figs = step(
+        2, "linear", "linear design: PD, LQR, margins, worst case, tuning", lambda: robust_linear_design(config)
+    )
     results["linear"] = linear
     figures.update(figs)
     study = step(

@@ -359,7 +359,51 @@ def _linear(results: dict[str, Any]) -> list[Block]:
         out.append(Paragraph(lin["disk_margin_note"]))
     for name in ("pd_step", "pd_bode", "pd_bode_sampled", "lqr_bode_sampled", "disk_margins", "pd_nichols"):
         out += _figure(results, name)
+    out += _robust(lin.get("robust"), results)
+    out += _tuning(lin.get("tuning"), results)
     return out
+
+
+def _robust(robust: dict[str, Any] | None, results: dict[str, Any]) -> list[Block]:
+    if robust is None:
+        return [Paragraph("No [uncertainty] table in the spacecraft file: no worst-case search.")]
+    out: list[Block] = [
+        Paragraph(
+            f"Worst case over the [uncertainty] set, {robust['controller']}: found by optimisation (corner local "
+            "searches, then differential evolution) and compared with uniform samples of the same set; an unstable "
+            "closed loop counts as no margin. " + " ".join(robust["summary"])
+        )
+    ]
+    for name in ("robust_disk_margin", "robust_overshoot_percent", "robust_settling_time_s"):
+        out += _figure(results, name)
+    return out
+
+
+def _tuning(tuning: dict[str, Any] | None, results: dict[str, Any]) -> list[Block]:
+    if tuning is None:
+        return [Paragraph("No requirements.disk_margin_min in the spacecraft file: no tuning to the requirements.")]
+    if "error" in tuning:
+        return [Paragraph(f"Tuning to the requirements: {tuning['error']}")]
+    text = (
+        f"Tuned to the requirements (`attitude tune` writes the tuned file): a {fmt(tuning['step_angle_deg'])} deg "
+        f"step settled within the pointing accuracy, the wheels' torque and momentum, the disk-margin floor; "
+        f"{tuning['cost']} minimised. {tuning['message']}."
+    )
+    nonlinear = tuning.get("nonlinear")
+    if nonlinear is not None:
+        text += (
+            f" On the nonlinear plant through the wheels the tuned step settles in {fmt(nonlinear['settling_time_s'])} "
+            f"s ({'PASS' if nonlinear['passed'] else 'FAIL'})."
+        )
+    rows = [
+        [r["metric"], fmt(r["before"]), fmt(r["after"]) if tuning["feasible"] else "n/a", r["required"] or ""]
+        for r in tuning["table"]
+    ]
+    return [
+        Paragraph(text),
+        _t(["metric", "before (the file)", "after (tuned)", "required"], rows),
+        *_figure(results, "tuning_tradeoff"),
+    ]
 
 
 def _disk_margins(rows: list[dict[str, Any]], period: float) -> list[Block]:

@@ -193,6 +193,10 @@ def test_missing_sections_fail_their_requirements_and_still_render(design):
     # The momentum budget of section 6 needs no flown slew: it is judged on its own figures.
     budget = rows.pop("wheel_momentum_budget")
     assert budget["achieved"] == max(results["orbit"]["momentum"]["unloading"]["peak_per_wheel_mNms"])
+    # Nor does the disk margin of section 2: the linear design's smallest PD margin at the input.
+    margin = rows.pop("disk_margin")
+    at_input = [m for m in results["linear"]["disk_margins"] if m["controller"] == "PD" and m["break_point"] == "input"]
+    assert margin["achieved"] == min(m["disk_margin"] for m in at_input) and margin["pass"]
     assert all(r["achieved"] is None and not r["pass"] for r in rows.values())
     assert not verdicts["verdict"]["pass"] and set(verdicts["verdict"]["failed"]) == set(rows)
     results.update(verdicts)
@@ -284,4 +288,27 @@ def test_the_linear_section_reports_disk_margins_at_both_break_points(report):
         alone = min(float(r["disk_margin"]) for r in mine[:3])
         assert float(mine[3]["disk_margin"]) <= alone * (1 + 1e-3)  # slycot's bound: 1e-3
     md = (out / "report.md").read_text(encoding="utf-8")
-    assert "| PD | output | all at once |" in md and "(figures/disk_margins.png)" in md
+    assert "| PD | rigid | output | all at once |" in md and "(figures/disk_margins.png)" in md
+
+
+def test_section_two_reports_the_tuning_before_and_after_and_the_worst_case(design):
+    """The default file has requirements.disk_margin_min: section 2 shows the file's gains before and the tuned ones
+    after, each metric with its requirement, and the tuned step confirmed on the nonlinear plant. With an
+    [uncertainty] study (a small budget here: a test of the rendering, not of the search) the worst case and its
+    plant are stated; without one the report says there is none."""
+    from attitude.app.design.robust import robust_study
+    from attitude.config import default_config_text, parse_config
+
+    tuning = design.results["linear"]["tuning"]
+    assert tuning["feasible"] and tuning["before"]["bandwidth_rad_per_s"] == design.config.control.bandwidth_rad_per_s
+    assert tuning["after"]["disk_margin"] >= design.config.requirements.disk_margin_min
+    assert tuning["nonlinear"]["passed"]
+    md = render_markdown(build_blocks(design.results))
+    assert "| disk_margin | 1.125 |" in md and "before (the file)" in md
+    assert "No [uncertainty] table in the spacecraft file" in md
+    results = copy.deepcopy(design.results)
+    config = parse_config(default_config_text() + "\n[uncertainty]\ninertia_percent = 10.0\n", "test.toml")
+    budget = {"samples": 6, "maxiter": 1, "popsize": 1, "local_starts": 1, "local_maxfev": 4, "seed": 2}
+    results["linear"]["robust"], _ = robust_study(config, step_metric=None, **budget)
+    md = render_markdown(build_blocks(results))
+    assert "Worst case over the [uncertainty] set" in md and "worst plant: moments" in md

@@ -22,7 +22,7 @@ TABLE = "\n[uncertainty]\ninertia_percent = 10.0\n"
 BUDGET = {"samples": 6, "maxiter": 1, "popsize": 1, "local_starts": 1, "local_maxfev": 4, "seed": 2}
 
 
-def test_the_study_reports_the_worst_case_of_the_files_pd_and_its_figures():
+def test_the_study_reports_the_worst_case_of_the_files_pd_and_its_figures(tmp_path):
     config = parse_config(default_config_text() + TABLE, "test.toml")
     data, figures = robust_study(config, **BUDGET)
     json.dumps(data, allow_nan=False)  # JSON-ready, no NaN or inf
@@ -30,7 +30,7 @@ def test_the_study_reports_the_worst_case_of_the_files_pd_and_its_figures():
     assert margin["worst"] <= margin["sampled_worst"] and margin["worst"] <= margin["nominal"]
     assert data["step"]["worst"] >= data["step"]["sampled_worst"]
     assert set(figures) == {"robust_disk_margin", "robust_overshoot_percent"}
-    figures["robust_disk_margin"].savefig("/tmp/robust_disk_margin_test.png")
+    figures["robust_disk_margin"].savefig(tmp_path / "robust_disk_margin.png")
     # The worst plant is the file's body with its moments changed within the bounds.
     change = np.array(margin["worst_plant"]["moment_change_percent"])
     assert np.all(np.abs(change) <= 10.0 + 1e-9)

@@ -15,7 +15,7 @@ import math
 import pytest
 
 from attitude.app.cli import main
-from attitude.app.tune import tune_config, tuning_requirements
+from attitude.app.design.tune import tune_config, tuning_requirements
 from attitude.config import ConfigError, default_config, default_config_text, load_config, parse_config
 
 
