@@ -389,7 +389,8 @@ def plot_disk_margins(
     -------
     matplotlib.figure.Figure
         Disk margin ``alpha`` (left axis) and the matching balanced gain margin [dB] (right axis) against
-        frequency; each loop's refined minimum (:func:`disk_margins`) as a dot.
+        frequency; each loop's refined minimum (:func:`disk_margins`) as a dot; a closed-loop-unstable loop is
+        named UNSTABLE in the legend, with no curve.
     """
     from matplotlib.figure import Figure
 
@@ -399,6 +400,9 @@ def plot_disk_margins(
     ax = fig.subplots()
     top = 0.0
     for (label, loop), color in zip(loops.items(), ("tab:blue", "tab:orange", "tab:green", "tab:red", "tab:purple")):
+        if not _closed_loop_stable(loop):
+            ax.plot([], [], color=color, lw=1.5, label=f"{label}: closed loop UNSTABLE, no disk margin")
+            continue
         w, alpha = disk_margin_curve(loop)
         shown = np.minimum(alpha, 2.0)  # alpha >= 2 is an unbounded gain margin: drawn at 2
         best = disk_margins(loop)

@@ -236,7 +236,7 @@ def linear_design(config: SpacecraftConfig) -> tuple[dict[str, Any], dict[str, F
         disk_margin=(
             config.requirements.disk_margin_min
             if config.requirements.disk_margin_min is not None
-            else min(_f(r["disk_margin"]) for r in out["disk_margins"] if r.get("stable"))
+            else min((_f(r["disk_margin"]) for r in out["disk_margins"] if r.get("stable")), default=None)
         ),
     )
     out["findings"] = controller_findings(config, body, pd, None if designed is None else designed[1])

@@ -187,6 +187,13 @@ def check_verdicts(results: dict, config) -> None:
     if dispersed is not None:  # the dispersed check: no run of the small campaign may fail (0 failures allowed)
         assert dispersed["runs"] == results["settings"]["dispersed_runs"]
         expected["dispersed"] = (0, dispersed.get("failures"))
+    if req.disk_margin_min is not None:  # section 2: the smallest disk margin of the PD loops at the wheels' input
+        at_input = [
+            num(m["disk_margin"])
+            for m in results["linear"]["disk_margins"]
+            if m["controller"].startswith("PD") and m["break_point"] == "input"
+        ]
+        expected["disk_margin"] = (req.disk_margin_min, min(at_input))
     rows = {r["id"]: r for r in results["requirements"]}
     assert set(rows) == set(expected), "one row per requirement of the file"
     for rid, (required, achieved) in expected.items():
