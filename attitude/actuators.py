@@ -578,6 +578,20 @@ class ReactionWheels:
         ratios = np.abs(self.allocation) / self.torque_max[:, None]
         return 1.0 / ratios.max(axis=0)
 
+    def momentum_envelope(self) -> NDArray[np.float64]:
+        """Largest body momentum per body axis [N m s] stored within the wheel momentum limits.
+
+        The rule of :meth:`torque_envelope` with ``momentum_max`` for ``torque_max``: for axis ``e_k``,
+        ``1 / max_i |(A^+ e_k)_i| / h_max_i`` (the minimum-norm distribution of the momentum).
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            Largest momentum magnitude about body x, y and z [N m s].
+        """
+        ratios = np.abs(self.allocation) / self.momentum_max[:, None]
+        return 1.0 / ratios.max(axis=0)
+
 
 # ---------------------------------------------------------------------------
 # Magnetorquers

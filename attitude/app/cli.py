@@ -641,7 +641,7 @@ def _cmd_init(args: argparse.Namespace) -> int:
 
 
 def _cmd_tune(args: argparse.Namespace) -> int:
-    from attitude.app.design.tune import tune_config, tuned_file_text
+    from attitude.app.design.tune import step_source, tune_config, tuned_file_text
     from attitude.app.report.writer import dumps_json
 
     config = _load(args.file)
@@ -658,11 +658,12 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     if figure.exists() and not args.force:
         raise UsageError(f"--figure {figure}: the file exists; not overwritten (use --force to replace it)")
     try:
-        outcome = tune_config(
-            config, cost=args.cost, structure=args.structure, dispersed_runs=args.runs, step_deg=args.step_deg
-        )
+        step_source(config, args.step_deg)
     except ValueError as exc:
         raise UsageError(f"--step-deg: {exc}") from exc
+    outcome = tune_config(
+        config, cost=args.cost, structure=args.structure, dispersed_runs=args.runs, step_deg=args.step_deg
+    )
     outcome.result.plot(outcome.before).savefig(figure, dpi=120)
     if outcome.tuned is not None:
         out.write_text(tuned_file_text(outcome), encoding="utf-8")
@@ -681,6 +682,13 @@ def _cmd_tune(args: argparse.Namespace) -> int:
             )
         if outcome.dispersed is not None:
             print(f"dispersed check: {outcome.dispersed.get('statement', outcome.dispersed.get('error'))}")
+        if outcome.flown_disk_margin is not None:
+            floor = config.requirements.disk_margin_min
+            verdict = "" if floor is None else (" PASS" if outcome.flown_disk_margin >= floor else " FAIL")
+            print(
+                f"disk margin with the file's flexible modes and filters (the loops that fly; the tuning used the "
+                f"rigid loop): {outcome.flown_disk_margin:.4g}{verdict}"
+            )
         print(f"Wrote {out}" if outcome.tuned is not None else "INFEASIBLE: no file written", end="")
         print(f" and the trade-off figure {figure}")
     return EXIT_PASS if outcome.passed else EXIT_FAIL

@@ -257,8 +257,9 @@ CONFIG_KEYS: dict[str, tuple[str, str]] = {
     ),
     "requirements.disk_margin_min": (
         "",
-        "smallest disk margin alpha of the sampled loop at the plant input, in (0, 2) (optional; judged by "
-        "`attitude tune`): gain within [(2 - alpha)/(2 + alpha), (2 + alpha)/(2 - alpha)], phase +-2 atan(alpha/2)",
+        "smallest disk margin alpha of the sampled loop at the plant input, in (0, 2) (optional; judged by `attitude "
+        "design` and `attitude tune`): gain within [(2 - alpha)/(2 + alpha), (2 + alpha)/(2 - alpha)], phase +-2 "
+        "atan(alpha/2)",
     ),
     "requirements.slew": ("", "the required reorientation"),
     "requirements.slew.angle_deg": ("deg", "slew angle about axis_B (with axis_B; or give target_q_BN)"),

@@ -196,6 +196,9 @@ def simulate_flexible(
     torques = np.zeros((n_ticks + 1, 3))
     states[0] = x
     command = np.zeros(3)
+    if controller is not None and hasattr(controller, "prepare"):
+        # As the main engine does: a controller with state (filters, integrators) starts each run at rest.
+        controller.prepare(0.0, x[:4].copy(), x[4:7].copy())
     for k in range(n_ticks):
         t = k * tick
         q, w = x[:4], x[4:7]

@@ -13,7 +13,7 @@ import math
 from collections.abc import Callable, Mapping
 from typing import Any
 
-__all__ = ["failure_reason"]
+__all__ = ["failure_reason", "pd_input_disk_margins"]
 
 
 def _g(value: Any, digits: int = 4) -> str:
@@ -143,9 +143,21 @@ def _dispersed(row: Mapping[str, Any], results: Mapping[str, Any]) -> str:
     return f"{d.get('failures')} of {d.get('runs')} dispersed runs fail: {listed}{tail}; rerun: {d.get('command')}"
 
 
+def pd_input_disk_margins(results: Mapping[str, Any]) -> list[Mapping[str, Any]]:
+    """The disk-margin rows ``requirements.disk_margin_min`` judges: the PD loops (with the file's modes and
+    filters too) at the wheels' input, each axis and all at once, that have a figure.
+
+    Parameters
+    ----------
+    results : mapping
+        The design's JSON-ready results (section 2 under ``"linear"``).
+    """
+    rows = (results.get("linear") or {}).get("disk_margins", [])
+    return [m for m in rows if m["controller"].startswith("PD") and m["break_point"] == "input" and "note" not in m]
+
+
 def _disk_margin(row: Mapping[str, Any], results: Mapping[str, Any]) -> str:
-    rows = [m for m in (results.get("linear") or {}).get("disk_margins", []) if m["controller"].startswith("PD")]
-    rows = [m for m in rows if m["break_point"] == "input" and "note" not in m]
+    rows = pd_input_disk_margins(results)
     unstable = [m for m in rows if not m["stable"]]
     if unstable:
         m = unstable[0]

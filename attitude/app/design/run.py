@@ -57,7 +57,7 @@ from attitude.app.design.orbit import (
     momentum_figures,
     nadir_hold,
 )
-from attitude.app.design.reasons import failure_reason
+from attitude.app.design.reasons import failure_reason, pd_input_disk_margins
 from attitude.app.design.robust import robust_study
 from attitude.app.design.slew import check_periods, fly_slew, plan_slews, slew_figures
 from attitude.app.design.tune import tuning_section
@@ -322,8 +322,7 @@ def requirement_verdicts(config: SpacecraftConfig, results: dict[str, Any]) -> d
         )
     )
     if req.disk_margin_min is not None:
-        at_input = [m for m in results["linear"].get("disk_margins", []) if m["controller"].startswith("PD")]
-        at_input = [m for m in at_input if m["break_point"] == "input" and "note" not in m]
+        at_input = pd_input_disk_margins(results)
         rows.append(
             _row(
                 "disk_margin",

@@ -37,6 +37,7 @@ from attitude.app import assembly
 from attitude.app.design.dispersed import dispersed_check
 from attitude.config import ConfigError, SpacecraftConfig, default_config, default_config_text
 from attitude.config.writer import replace_values
+from controllers.disk_margins import loop_disk_margins
 from controllers.tuning import (
     PDMetrics,
     RequirementConflict,
@@ -50,6 +51,7 @@ from controllers.tuning import (
 __all__ = [
     "STRUCTURES",
     "TuneOutcome",
+    "flown_disk_margin",
     "step_source",
     "tune_config",
     "tuned_file_text",
@@ -71,12 +73,6 @@ REQUIREMENT_KEYS = {
 #: Runs of the dispersed confirmation (the design's --quick count) and the planner's nodes for it.
 DISPERSED_RUNS = 10
 DISPERSED_NODES = 30
-
-
-def _momentum_envelope(wheels: Any) -> np.ndarray:
-    """Largest body momentum per body axis within the wheels' momentum limits [N m s] (the torque envelope's rule)."""
-    ratios = np.abs(wheels.allocation) / wheels.momentum_max[:, None]
-    return 1.0 / ratios.max(axis=0)
 
 
 def step_source(config: SpacecraftConfig, step_deg: float | None = None) -> tuple[float, str]:
@@ -130,7 +126,7 @@ def tuning_requirements(config: SpacecraftConfig, step_deg: float | None = None)
             step_angle=step,
             pointing_accuracy=math.radians(req.pointing_accuracy_deg),
             torque_max=wheels.torque_envelope(),
-            momentum_max=_momentum_envelope(wheels),
+            momentum_max=wheels.momentum_envelope(),
             disk_margin_min=req.disk_margin_min,
         )
     except RequirementConflict as exc:
@@ -161,6 +157,11 @@ class TuneOutcome:
     dispersed : dict or None
         :func:`attitude.app.design.dispersed.dispersed_check` of the tuned file (None when infeasible, without
         ``[montecarlo]``, or not asked for).
+    flown_disk_margin : float or None
+        The tuned PD's smallest disk margin at the wheels' input on the loops that fly, with the file's
+        ``[[flexible_modes]]`` and ``[[control.filters]]`` (the design's verdict judges these; the tuning itself
+        works on the rigid, unfiltered loop); None for a rigid, unfiltered file or when infeasible. NaN: a
+        closed loop is unstable.
     """
 
     config: SpacecraftConfig
@@ -169,13 +170,18 @@ class TuneOutcome:
     before: PDMetrics
     nonlinear: dict[str, Any] | None
     dispersed: dict[str, Any] | None
+    flown_disk_margin: float | None = None
 
     @property
     def passed(self) -> bool:
-        """Feasible, and confirmed on the nonlinear plant and (when flown) the dispersed campaign."""
+        """Feasible, confirmed on the nonlinear plant and (when flown) the dispersed campaign, and the disk margin
+        floor met on the loops that fly (with the file's modes and filters)."""
         ok = self.result.feasible and self.nonlinear is not None and self.nonlinear["passed"]
         if self.dispersed is not None:
             ok = ok and "error" not in self.dispersed and self.dispersed["failures"] == 0
+        floor = self.result.requirements.disk_margin_min
+        if self.flown_disk_margin is not None and floor is not None:
+            ok = ok and self.flown_disk_margin >= floor  # NaN (unstable) fails
         return bool(ok)
 
     def table(self) -> list[dict[str, Any]]:
@@ -221,6 +227,7 @@ class TuneOutcome:
             "table": self.table(),
             "nonlinear": self.nonlinear,
             "dispersed": self.dispersed,
+            "flown_disk_margin": self.flown_disk_margin,
         }
 
 
@@ -292,7 +299,32 @@ def tune_config(
     dispersed = None
     if dispersed_runs > 0 and config.montecarlo is not None:
         dispersed = dispersed_check(tuned, dispersed_runs, None, DISPERSED_NODES)
-    return TuneOutcome(config, tuned, result, before, nonlinear, dispersed)
+    return TuneOutcome(config, tuned, result, before, nonlinear, dispersed, flown_disk_margin(tuned, body))
+
+
+def flown_disk_margin(config: SpacecraftConfig, body: Any = None) -> float | None:
+    """The file's PD's smallest disk margin at the wheels' input with its modes and filters, or None without them.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file (its ``[control]`` PD, ``[[flexible_modes]]`` and ``[[control.filters]]``).
+    body : RigidBody, optional
+        The file's body (built when None).
+
+    Returns
+    -------
+    float or None
+        Per axis and multiloop, the sampled loop (NaN: a closed loop is unstable); None for a rigid file
+        without filters, whose loop the tuning itself judged.
+    """
+    body = assembly.rigid_body(config) if body is None else body
+    pd = assembly.quaternion_pd(config, body)
+    flown = assembly.command_filtered(config, pd)
+    flexible = assembly.flexible_plant_model(config)
+    if flexible is None and flown is pd:
+        return None
+    return float(loop_disk_margins(body if flexible is None else flexible, flown).smallest)
 
 
 def _source_text(config: SpacecraftConfig) -> str:

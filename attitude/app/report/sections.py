@@ -395,6 +395,12 @@ def _tuning(tuning: dict[str, Any] | None, results: dict[str, Any]) -> list[Bloc
             f" On the nonlinear plant through the wheels the tuned step settles in {fmt(nonlinear['settling_time_s'])} "
             f"s ({'PASS' if nonlinear['passed'] else 'FAIL'})."
         )
+    flown = tuning.get("flown_disk_margin")
+    if flown is not None:
+        text += (
+            f" The tuning judges the rigid, unfiltered loop; on the loops that fly, with the file's flexible modes and "
+            f"filters, the tuned PD's smallest disk margin is {fmt(flown)}."
+        )
     rows = [
         [r["metric"], fmt(r["before"]), fmt(r["after"]) if tuning["feasible"] else "n/a", r["required"] or ""]
         for r in tuning["table"]
