@@ -624,12 +624,18 @@ def tune_pd(
     fastest = minimum_step_time(body, requirements)
     if requirements.settling_time < float(np.max(fastest)):
         k = int(np.argmax(fastest))
-        names = ("settling_time", "torque_max") + (() if requirements.momentum_max is None else ("momentum_max",))
+        # The momentum limit binds only when the bang-bang step would spin past it (it coasts).
+        inertia_k = float(np.diag(body.inertia)[k])
+        peak_rate = math.sqrt(
+            (requirements.step_angle - requirements.pointing_accuracy) * requirements.torque_max[k] / inertia_k
+        )
+        coasts = requirements.momentum_max is not None and peak_rate > requirements.momentum_max[k] / inertia_k
+        names = ("settling_time", "torque_max") + (("momentum_max",) if coasts else ())
         raise RequirementConflict(
             f"settling_time = {requirements.settling_time:.6g} s is shorter than the fastest possible step of "
             f"{requirements.step_angle:.6g} rad about body {_AXES[k]}: {fastest[k]:.6g} s rest to rest at "
             f"torque_max = {requirements.torque_max[k]:.6g} N m"
-            + ("" if requirements.momentum_max is None else " within momentum_max")
+            + (" coasting at momentum_max" if coasts else "")
             + " (bang-bang; no controller is faster)",
             names,
         )

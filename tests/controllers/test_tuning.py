@@ -163,6 +163,19 @@ def test_contradictory_requirements_raise_naming_the_keys(cubesat):
     with pytest.raises(RequirementConflict, match="settling_time = 5 s") as info:
         tune_pd(body, fast, period=0.1)
     assert info.value.names == ("settling_time", "torque_max")
+    # The momentum limit is named only when the bang-bang step would spin past it: 0.115 N m s holds the 60 deg
+    # step's peak 0.39 x 0.208 = 0.081 N m s (not named); 0.02 N m s makes it coast (named).
+    for momentum_max, named in ((0.115, False), (0.02, True)):
+        limited = TuningRequirements(
+            settling_time=5.0,
+            step_angle=req.step_angle,
+            pointing_accuracy=req.pointing_accuracy,
+            torque_max=req.torque_max,
+            momentum_max=momentum_max,
+        )
+        with pytest.raises(RequirementConflict) as info:
+            tune_pd(body, limited, period=0.1)
+        assert ("momentum_max" in info.value.names) is named
     with pytest.raises(RequirementConflict, match="disk_margin_min = 2") as info:
         TuningRequirements(
             settling_time=60.0, step_angle=1.0, pointing_accuracy=0.01, torque_max=1.0, disk_margin_min=2.0
