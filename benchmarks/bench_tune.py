@@ -32,7 +32,7 @@ def run() -> dict[str, Any]:
     wall = time.perf_counter() - start
     result = outcome.result
     return {
-        "case": "attitude tune on the default 12U CubeSat: PD, settling time minimised, 60 deg step, 10 Hz",
+        "case": "attitude tune, default 12U CubeSat: PD, settling minimised, the 1 deg step of [control.lqr], 10 Hz",
         "cpu_s": timing,
         "wall_s": wall,
         "target_s": TARGET_S,
