@@ -407,7 +407,7 @@ def plot_disk_margins(
         shown = np.minimum(alpha, 2.0)  # alpha >= 2 is an unbounded gain margin: drawn at 2
         best = disk_margins(loop)
         ax.semilogx(
-            w, shown, color=color, lw=1.5, label=f"{label}: {best.disk_margin:.3g} at {best.frequency_rad_s:.3g} rad/s"
+            w, shown, color=color, lw=1.5, label=f"{label}: {best.disk_margin:.4g} at {best.frequency_rad_s:.3g} rad/s"
         )
         ax.plot([best.frequency_rad_s], [best.disk_margin], "o", color=color, ms=6)
         top = max(top, float(np.max(shown)))
@@ -419,14 +419,14 @@ def plot_disk_margins(
     ax.set_xlabel("frequency [rad/s] (dotted: Nyquist)")
     ax.set_ylabel("disk margin alpha [-]")
     ax.grid(True, which="both", alpha=0.3)
-    right = ax.secondary_yaxis(
-        "right",
-        functions=(
-            lambda a: 20 * np.log10((2 + np.clip(a, 0, 1.999)) / (2 - np.clip(a, 0, 1.999))),
-            lambda g: 2 * (10 ** (g / 20) - 1) / (10 ** (g / 20) + 1),
-        ),
-    )
-    right.set_yticks([0.0, 2.0, 4.0, 6.0, 10.0, 20.0])  # alpha -> 2 is an unbounded gain margin: stop at 20 dB
+    # The balanced gain margin of a disk margin alpha is 20 log10((2 + alpha) / (2 - alpha)) dB (unbounded at
+    # alpha = 2): its ticks are placed at their alpha on a twin axis sharing the left one's limits, so they sit
+    # exactly where the left scale puts that alpha.
+    right = ax.twinx()
+    right.set_ylim(ax.get_ylim())
+    gains_db = np.array([0.0, 2.0, 4.0, 6.0, 10.0, 20.0])
+    right.set_yticks(2.0 * (10 ** (gains_db / 20) - 1) / (10 ** (gains_db / 20) + 1))
+    right.set_yticklabels([f"{g:g}" for g in gains_db])
     right.set_ylabel("balanced gain margin [+-dB]")
     ax.set_title(title)
     ax.legend(loc="lower right", fontsize=8)

@@ -650,7 +650,9 @@ def _cmd_tune(args: argparse.Namespace) -> int:
     if args.file is not None and out.exists() and Path(args.file).exists() and out.samefile(args.file):
         raise UsageError(f"--out {out}: is the input file; the tuned file is always a new one")
     if out.exists() and not args.force:
-        raise UsageError(f"--out {out}: the file exists; not overwritten (use --force to replace it)")
+        raise UsageError(
+            f"the tuned file {out} exists; not overwritten (use --force to replace it, or --out for another name)"
+        )
     if not out.parent.exists():
         raise UsageError(f"--out {out}: the folder {out.parent} does not exist")
     _progress("tuning the PD on the linear metrics, then the nonlinear step and the dispersed check ...", args.quiet)

@@ -371,7 +371,9 @@ def _robust(robust: dict[str, Any] | None, results: dict[str, Any]) -> list[Bloc
         Paragraph(
             f"Worst case over the [uncertainty] set, {robust['controller']}: found by optimisation (corner local "
             "searches, then differential evolution) and compared with uniform samples of the same set; an unstable "
-            "closed loop counts as no margin. " + " ".join(robust["summary"])
+            "closed loop counts as no margin. The search perturbs the rigid plant and the PD without the file's "
+            "filters ([[flexible_modes]] and [[control.filters]] are judged nominally in the table above). "
+            + " ".join(robust["summary"])
         )
     ]
     for name in ("robust_disk_margin", "robust_overshoot_percent", "robust_settling_time_s"):

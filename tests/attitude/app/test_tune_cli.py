@@ -51,7 +51,7 @@ def test_tune_refuses_to_overwrite(tuned, capsys):
     source, out, _, _ = tuned
     text = out.read_text(encoding="utf-8")
     assert main(["tune", str(source), "--out", str(out), "--runs", "0", "--quiet"]) == 2
-    assert "the file exists" in capsys.readouterr().err
+    assert "exists; not overwritten" in capsys.readouterr().err
     assert out.read_text(encoding="utf-8") == text
     assert main(["tune", str(source), "--out", str(source), "--force", "--quiet"]) == 2
     assert "is the input file" in capsys.readouterr().err
