@@ -22,6 +22,8 @@ __all__ = [
     "check_vector",
     "describe",
     "finite_floats",
+    "gain_matrix",
+    "positive_per_axis",
     "positive_scalar",
     "scalar_angle",
     "scalar_time",
@@ -198,6 +200,65 @@ def check_positive(value: ArrayLike, name: str, *, allow_zero: bool = False) -> 
     if np.any(bad):
         rule = "non-negative" if allow_zero else "strictly positive"
         raise ValueError(f"{name} must be {rule}, got {describe(arr)}")
+    return arr
+
+
+def positive_per_axis(value: ArrayLike, name: str, unit: str = "") -> NDArray[np.float64]:
+    """A strictly positive value per body axis: one for all three, or three.
+
+    Parameters
+    ----------
+    value : array_like
+        A scalar, or shape (1,) or (3,).
+    name : str
+        Argument name used in error messages.
+    unit : str
+        Unit named in the error message ("" for none).
+
+    Returns
+    -------
+    ndarray (3,)
+        A new float array, the scalar repeated.
+
+    Raises
+    ------
+    ValueError
+        For a non-positive or non-finite entry, or another shape.
+    """
+    arr = check_positive(value, name)
+    if arr.shape not in ((), (1,), (3,)):
+        where = f" [{unit}]" if unit else ""
+        raise ValueError(f"{name} must be a scalar or one value per axis (3,){where}, got shape {arr.shape}")
+    return np.broadcast_to(arr.reshape(-1), (3,)).astype(np.float64)
+
+
+def gain_matrix(value: ArrayLike, name: str) -> NDArray[np.float64]:
+    """A positive-definite 3x3 gain (its symmetric part), or three diagonal gains.
+
+    Parameters
+    ----------
+    value : array_like
+        Shape (3,) (the diagonal) or (3, 3).
+    name : str
+        Argument name used in error messages.
+
+    Returns
+    -------
+    ndarray (3, 3)
+
+    Raises
+    ------
+    ValueError
+        For another shape, or a symmetric part that is not positive definite.
+    """
+    arr = as_float_array(value, name)
+    if arr.shape == (3,):
+        arr = np.diag(arr)
+    if arr.shape != (3, 3):
+        raise ValueError(f"{name} must be 3 diagonal gains or a 3x3 matrix, got shape {arr.shape}")
+    eig = np.linalg.eigvalsh(0.5 * (arr + arr.T))
+    if eig[0] <= 0:
+        raise ValueError(f"{name} must be positive definite, got eigenvalues {describe(eig)}")
     return arr
 
 

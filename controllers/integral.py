@@ -113,7 +113,14 @@ from numpy.typing import ArrayLike, NDArray
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
 from attitude.rigid_body import RigidBody
-from attitude.validation import as_float_array, check_positive, check_vector, describe, positive_scalar
+from attitude.validation import (
+    check_positive,
+    check_vector,
+    describe,
+    gain_matrix,
+    positive_per_axis,
+    positive_scalar,
+)
 from controllers.lqr import LQRDesign, design_lqr
 from controllers.pd import QuaternionPD, quaternion_error_components
 
@@ -135,19 +142,6 @@ ANTI_WINDUP_MODES = ("back_calculation", "clamping", "none")
 SATURATION_TOLERANCE = 1e-9
 
 _STATE_COUNT = 6  # [q_ev, omega] of attitude.linearize
-
-
-def _gain_matrix(value: ArrayLike, name: str, *, definite: bool) -> NDArray[np.float64]:
-    arr = as_float_array(value, name)
-    if arr.shape == (3,):
-        arr = np.diag(arr)
-    if arr.shape != (3, 3):
-        raise ValueError(f"{name} must be 3 diagonal gains or a 3x3 matrix, got shape {arr.shape}")
-    if definite:
-        eig = np.linalg.eigvalsh(0.5 * (arr + arr.T))
-        if eig[0] <= 0:
-            raise ValueError(f"{name} must be positive definite, got eigenvalues {describe(eig)}")
-    return arr
 
 
 def _tracking_time_rule(C: NDArray[np.float64], K_i: NDArray[np.float64], period: float) -> float:
@@ -363,7 +357,7 @@ class QuaternionPID(_IntegralAction):
         if not isinstance(pd, QuaternionPD):
             raise ValueError(f"pd must be a QuaternionPD, got {type(pd).__name__}")
         self.pd = pd
-        gain = _gain_matrix(K_i, "K_i", definite=True)
+        gain = gain_matrix(K_i, "K_i")
         default = _tracking_time_rule(pd.C, gain, pd.period) if anti_windup == "back_calculation" else None
         self._init_integral(
             K_i=gain,
@@ -429,9 +423,9 @@ class QuaternionPID(_IntegralAction):
         """
         if not isinstance(body, RigidBody) or body.batch_shape:
             raise ValueError(f"body must be a single RigidBody, got {type(body).__name__}")
-        wn = _per_axis(wn, "wn")
-        zeta = _per_axis(zeta, "zeta")
-        a = _per_axis(integral_pole, "integral_pole")
+        wn = positive_per_axis(wn, "wn")
+        zeta = positive_per_axis(zeta, "zeta")
+        a = positive_per_axis(integral_pole, "integral_pole")
         wn_pd = np.sqrt(wn**2 + 2.0 * zeta * wn * a)
         zeta_pd = (a + 2.0 * zeta * wn) / (2.0 * wn_pd)
         pd = QuaternionPD.from_bandwidth(body, wn=wn_pd, zeta=zeta_pd, period=period, **kwargs)
@@ -497,13 +491,6 @@ class QuaternionPID(_IntegralAction):
         q = quat.as_unit_quaternion(estimate.q, "estimate.q")
         q_e, _ = quaternion_error_components(list(q_r), list(q))
         return self._command(np.array(q_e[1:], dtype=float), self.pd.torque(t, estimate), estimate)
-
-
-def _per_axis(value: ArrayLike, name: str) -> NDArray[np.float64]:
-    arr = check_positive(value, name)
-    if arr.shape not in ((), (1,), (3,)):
-        raise ValueError(f"{name} must be a scalar or one value per axis (3), got shape {arr.shape}")
-    return np.broadcast_to(arr.reshape(-1), (3,)).astype(float)
 
 
 # ---------------------------------------------------------------------------

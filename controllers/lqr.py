@@ -37,7 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
 from attitude.rigid_body import Components
-from attitude.validation import as_float_array, check_positive, check_vector, describe
+from attitude.validation import as_float_array, check_positive, check_vector, describe, positive_per_axis
 from controllers.pd import quaternion_error_components
 
 __all__ = [
@@ -85,13 +85,6 @@ PBH_TOLERANCE = 1e-7
 # ---------------------------------------------------------------------------
 
 
-def _per_axis(value: ArrayLike, name: str, unit: str) -> NDArray[np.float64]:
-    arr = check_positive(value, name)
-    if arr.ndim > 1 or (arr.ndim == 1 and arr.size not in (1, 3)):
-        raise ValueError(f"{name} must be a scalar or one value per axis (3,) [{unit}], got shape {arr.shape}")
-    return np.broadcast_to(arr.reshape(-1), (3,)).astype(np.float64)
-
-
 def bryson_weights(
     *, angle_max: ArrayLike, rate_max: ArrayLike, torque_max: ArrayLike
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -124,11 +117,11 @@ def bryson_weights(
         A bound that is not finite and strictly positive, an angle above pi,
         or a shape other than scalar or (3,).
     """
-    angle = _per_axis(angle_max, "angle_max", "rad")
+    angle = positive_per_axis(angle_max, "angle_max", "rad")
     if np.any(angle > np.pi):
         raise ValueError(f"angle_max must not exceed pi (the largest attitude error), got {describe(angle)}")
-    rate = _per_axis(rate_max, "rate_max", "rad/s")
-    torque = _per_axis(torque_max, "torque_max", "N m")
+    rate = positive_per_axis(rate_max, "rate_max", "rad/s")
+    torque = positive_per_axis(torque_max, "torque_max", "N m")
     q_max = np.sin(0.5 * angle)
     Q = np.diag(np.concatenate([1.0 / q_max**2, 1.0 / rate**2]))
     R = np.diag(1.0 / torque**2)

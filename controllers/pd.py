@@ -38,7 +38,7 @@ from attitude import backend as bk
 from attitude import quaternion as quat
 from attitude.backend import cross
 from attitude.rigid_body import Components, RigidBody
-from attitude.validation import as_float_array, check_positive, positive_scalar
+from attitude.validation import check_positive, gain_matrix, positive_per_axis, positive_scalar
 
 __all__ = ["QuaternionPD", "RateLimitedPD", "quaternion_error_components"]
 
@@ -68,25 +68,6 @@ def quaternion_error_components(q_ref: Components, q: Components) -> tuple[Compo
     else:
         sign = bk.if_else(e[0] < 0, -1.0, 1.0)
     return [sign * c for c in e], e
-
-
-def _per_axis_gain(value: ArrayLike, name: str) -> NDArray[np.float64]:
-    arr = check_positive(value, name)
-    if arr.shape not in ((), (1,), (3,)):
-        raise ValueError(f"{name} must be a scalar or one value per axis (3), got shape {arr.shape}")
-    return np.broadcast_to(arr, (3,)).astype(float)
-
-
-def _matrix(value: ArrayLike, name: str) -> NDArray[np.float64]:
-    arr = as_float_array(value, name)
-    if arr.shape == (3,):
-        arr = np.diag(arr)
-    if arr.shape != (3, 3):
-        raise ValueError(f"{name} must be 3 diagonal gains or a 3x3 matrix, got shape {arr.shape}")
-    sym = 0.5 * (arr + arr.T)
-    if np.min(np.linalg.eigvalsh(sym)) <= 0:
-        raise ValueError(f"{name} must be positive definite, got eigenvalues {np.linalg.eigvalsh(sym)}")
-    return arr
 
 
 @dataclass(kw_only=True)
@@ -124,8 +105,8 @@ class QuaternionPD:
     gyroscopic: bool = False
 
     def __post_init__(self) -> None:
-        self.K = _matrix(self.K, "K")
-        self.C = _matrix(self.C, "C")
+        self.K = gain_matrix(self.K, "K")
+        self.C = gain_matrix(self.C, "C")
         self.period = float(check_positive(self.period, "period"))
         self.q_ref = quat.as_unit_quaternion(self.q_ref, "q_ref")
         if self.gyroscopic and self.inertia is None:
@@ -165,8 +146,8 @@ class QuaternionPD:
         """
         if not isinstance(body, RigidBody) or body.batch_shape:
             raise ValueError(f"body must be a single RigidBody, got {type(body).__name__}")
-        wn = _per_axis_gain(wn, "wn")
-        zeta = _per_axis_gain(zeta, "zeta")
+        wn = positive_per_axis(wn, "wn")
+        zeta = positive_per_axis(zeta, "zeta")
         period = float(check_positive(period, "period"))
         sample_rate = 2.0 * np.pi / period
         if np.max(wn) > 0.1 * sample_rate:

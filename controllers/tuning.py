@@ -66,7 +66,7 @@ from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
 
 from attitude.rigid_body import RigidBody
-from attitude.validation import check_positive, positive_scalar
+from attitude.validation import positive_per_axis, positive_scalar
 from controllers.analysis import attitude_closed_loop, loop_gain
 from controllers.disk_margins import disk_margins, loop_disk_margins
 from controllers.pd import QuaternionPD
@@ -130,13 +130,6 @@ class RequirementConflict(ValueError):
         self.names = tuple(names)
 
 
-def _per_axis(value: ArrayLike, name: str) -> NDArray[np.float64]:
-    arr = check_positive(value, name)
-    if arr.shape not in ((), (1,), (3,)):
-        raise ValueError(f"{name} must be a scalar or one value per body axis (3,), got shape {arr.shape}")
-    return np.broadcast_to(arr.reshape(-1), (3,)).astype(float).copy()
-
-
 @dataclass(frozen=True)
 class TuningRequirements:
     """What a tuned controller must meet (module docstring for how each is judged).
@@ -178,9 +171,9 @@ class TuningRequirements:
                 ("pointing_accuracy", "step_angle"),
             )
         object.__setattr__(self, "pointing_accuracy", accuracy)
-        object.__setattr__(self, "torque_max", _per_axis(self.torque_max, "torque_max"))
+        object.__setattr__(self, "torque_max", positive_per_axis(self.torque_max, "torque_max"))
         if self.momentum_max is not None:
-            object.__setattr__(self, "momentum_max", _per_axis(self.momentum_max, "momentum_max"))
+            object.__setattr__(self, "momentum_max", positive_per_axis(self.momentum_max, "momentum_max"))
         if self.disk_margin_min is not None:
             alpha = float(self.disk_margin_min)
             if not (math.isfinite(alpha) and alpha > 0.0):
