@@ -18,6 +18,7 @@ What each test checks against:
 """
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -158,3 +159,16 @@ def test_bad_calls_are_refused_by_name():
         perturbed_plant(BODY, UncertaintySet(inertia_percent=5.0), [0.0, 0.0])
     with pytest.raises(ValueError, match=r"parameters\[0\] \(inertia_1\)"):
         perturbed_plant(BODY, UncertaintySet(inertia_percent=5.0), [0.5, 0.0, 0.0])
+
+
+def test_a_settling_time_cut_short_by_the_response_span_warns():
+    """The PD settles in about 4 / (zeta wn) = 14 s (2 %): a 5 s response cannot show when it settles, so the
+    figure is only a lower bound and says so (a RuntimeWarning); 60 s shows it, without a warning, and the worst
+    over +-20 % moments is no shorter than the nominal (heavier axes are slower)."""
+    uncertain = UncertaintySet(inertia_percent=20.0)
+    with pytest.warns(RuntimeWarning, match="has not settled within duration_s = 5 s"):
+        worst_case_step(BODY, PD, uncertain, metric="settling_time", sampled=False, duration_s=5.0, **SMALL)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        result = worst_case_step(BODY, PD, uncertain, metric="settling_time", sampled=False, duration_s=60.0, **SMALL)
+    assert 10.0 < result.nominal < 20.0 and result.worst >= result.nominal
