@@ -1,8 +1,9 @@
-"""Tuning a quaternion PD to a set of requirements: the fastest (or cheapest) gains that meet them all.
+"""Tuning a quaternion PD or an LQR to a set of requirements: the fastest (or cheapest) gains that meet them all.
 
-The structure is :meth:`controllers.pd.QuaternionPD.from_bandwidth` with one
+The structures (:data:`STRUCTURES`): :meth:`controllers.pd.QuaternionPD.from_bandwidth` with one
 natural frequency ``wn`` and one damping ``zeta`` for the three axes (the
-spacecraft file's ``control.bandwidth_rad_per_s`` and ``control.damping``).
+spacecraft file's ``control.bandwidth_rad_per_s`` and ``control.damping``), the same PD with one pair per
+axis, and the LQR's Bryson bounds per axis (see Per axis and LQR below).
 A candidate is judged on linear metrics of the body linearised at rest
 (:func:`controllers.analysis.attitude_closed_loop`), for a step of the
 attitude reference of ``step_angle`` about each body axis:
@@ -32,6 +33,25 @@ attitude reference of ``step_angle`` about each body axis:
   the gain factors ``[(2 - alpha) / (2 + alpha), (2 + alpha) / (2 - alpha)]``
   and the phase ``+-2 atan(alpha / 2)`` (Seiler, Packard and Gahinet 2020).
 
+Per axis. ``tune_pd(per_axis=True)`` gives each body axis its own ``wn_k`` and ``zeta_k``:
+``K = 2 J diag(wn^2)`` and ``C = 2 J diag(zeta wn)`` keep ``J^-1 K / 2`` and ``J^-1 C`` diagonal, so the linear
+axes stay uncoupled even with products of inertia, and each axis is searched alone with its own torque and
+momentum limits (the step about axis ``k`` loads ``|J e_k|``). The disk-margin root depends on ``zeta`` and
+``wn T`` only, so the three searches share it. The winner's margins are then computed on the 3-axis loop, where
+the axes' different gains and the products of inertia can lower the multiloop margin below any one axis's: a
+winner below the floor there is infeasible, and says so.
+
+LQR. The LQR (:func:`controllers.lqr.design_lqr`, Bryson's rule) on the rigid body at rest is, per principal axis,
+a PD on the double integrator ``q' = omega / 2``, ``J omega' = tau``: the Riccati equation gives
+``k_q = c / sin(a / 2)`` and ``k_omega = sqrt(J k_q + c^2 / b^2)`` for the bounds ``a`` (angle), ``b`` (rate) and
+``c`` (torque), so ``wn^2 = c / (2 J sin(a / 2))`` and ``zeta^2 = 1/2 + c^2 / (4 J^2 wn^2 b^2)`` (Bryson and Ho,
+*Applied Optimal Control*, 1975, sec. 5.2; the ``zeta >= 1 / sqrt(2)`` of every LQR on a double integrator).
+:func:`tune_lqr` therefore runs the per-axis search on dampings above ``1 / sqrt(2)``, maps each axis's
+``(wn, zeta)`` to Bryson bounds with the file's attitude bound ``a`` kept (:func:`lqr_bounds`), designs the LQR
+at the control period, and judges that design itself (:func:`lqr_metrics`: its gain's step on the linear
+loop, its sampled loop's disk margins). The discrete design is not exactly its continuous equivalent, so one
+scale on the three ``wn`` is then bisected to the fastest (or cheapest) sampled design within every requirement.
+
 Search. In time ``wn t`` the continuous closed loop is the same for every
 ``wn``: the settling time scales as ``1 / wn``, the peak momentum as ``wn``
 and the peak torque as ``wn^2``. For each damping, the largest ``wn`` the
@@ -56,7 +76,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import control
@@ -65,25 +85,36 @@ import scipy.optimize
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
 
+from attitude.linearize import linearize
 from attitude.rigid_body import RigidBody
 from attitude.validation import positive_per_axis, positive_scalar
 from controllers.analysis import attitude_closed_loop, loop_gain
 from controllers.disk_margins import disk_margins, loop_disk_margins
+from controllers.lqr import LQRController, LQRDesign, bryson_weights, design_lqr
 from controllers.pd import QuaternionPD
 
 __all__ = [
     "COSTS",
     "DAMPING_BOUNDS",
+    "LQR_DAMPING_BOUNDS",
+    "STRUCTURES",
     "PDMetrics",
     "RequirementConflict",
     "TuningRequirements",
     "TuningResult",
     "confirm_nonlinear",
+    "format_values",
+    "lqr_bounds",
+    "lqr_metrics",
     "minimum_step_time",
     "pd_metrics",
+    "tune_lqr",
     "tune_pd",
 ]
 
+#: The controller structures tuned: one PD for all axes (:func:`tune_pd`), a PD per axis
+#: (``tune_pd(per_axis=True)``) and the LQR's Bryson bounds per axis (:func:`tune_lqr`).
+STRUCTURES = ("pd", "pd_per_axis", "lqr")
 #: What a tuning minimises: the settling time of the step, or its peak torque (the control effort).
 COSTS = ("settling", "effort")
 #: Dampings searched [-]: below 0.2 the step rings for tens of periods; above 4 the slow pole is 16 times below wn.
@@ -112,6 +143,22 @@ SEARCH_MARGIN_RTOL = 1e-4
 ACTIVE_FRACTION = 1e-3
 
 _AXES = "xyz"
+
+
+def format_values(value: ArrayLike, digits: int = 4) -> str:
+    """A scalar as ``1.234``, three per-axis values as ``[1.234, 0.5, 2]`` (``digits`` significant digits).
+
+    Parameters
+    ----------
+    value : float or array_like (3,)
+        One value or one per body axis.
+    digits : int
+        Significant digits.
+    """
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim == 0:
+        return f"{float(arr):.{digits}g}"
+    return "[" + ", ".join(f"{v:.{digits}g}" for v in arr.ravel()) + "]"
 
 
 class RequirementConflict(ValueError):
@@ -224,10 +271,10 @@ class PDMetrics:
 
     Attributes
     ----------
-    wn : float
-        Natural frequency [rad/s].
-    zeta : float
-        Damping ratio [-].
+    wn : float or ndarray (3,)
+        Natural frequency, one or per body axis [rad/s] (for an LQR, the equivalent of :func:`lqr_bounds`).
+    zeta : float or ndarray (3,)
+        Damping ratio, one or per body axis [-] (likewise).
     settling_time : float
         The largest over the three step axes [s] (inf when it does not settle within the simulated span).
     peak_torque : ndarray (3,)
@@ -240,8 +287,8 @@ class PDMetrics:
         Whether the disk margin is that of the sampled loop.
     """
 
-    wn: float
-    zeta: float
+    wn: float | NDArray[np.float64]
+    zeta: float | NDArray[np.float64]
     settling_time: float
     peak_torque: NDArray[np.float64]
     peak_momentum: NDArray[np.float64]
@@ -251,8 +298,8 @@ class PDMetrics:
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready, with units in the names."""
         return {
-            "bandwidth_rad_per_s": self.wn,
-            "damping": self.zeta,
+            "bandwidth_rad_per_s": np.asarray(self.wn).tolist(),
+            "damping": np.asarray(self.zeta).tolist(),
             "settling_time_s": self.settling_time,
             "peak_torque_Nm": self.peak_torque.tolist(),
             "peak_momentum_Nms": self.peak_momentum.tolist(),
@@ -261,22 +308,35 @@ class PDMetrics:
         }
 
 
-def _step_system(body: RigidBody, pd: QuaternionPD) -> control.StateSpace:
-    """The linear closed loop with outputs ``[theta (3), omega (3), tau (3)]`` for the reference ``theta_ref``."""
-    closed = attitude_closed_loop(body, pd)
-    half_k = 0.5 * np.asarray(pd.K, dtype=float)
-    c_rate = np.asarray(pd.C, dtype=float)
+def _step_system(body: RigidBody, gains: Any) -> control.StateSpace:
+    """The linear closed loop with outputs ``[theta (3), omega (3), tau (3)]`` for the reference ``theta_ref``.
+
+    ``gains`` has ``K`` (on the error-quaternion vector part) and ``C`` (on the rate) [N m, N m s], (3, 3): a
+    :class:`~controllers.pd.QuaternionPD`, or an LQR's ``[K_q, K_omega]`` (:func:`lqr_metrics`).
+    """
+    closed = attitude_closed_loop(body, gains)
+    half_k = 0.5 * np.asarray(gains.K, dtype=float)
+    c_rate = np.asarray(gains.C, dtype=float)
     # tau = J omega' = K/2 (theta_ref - theta) - C omega
-    c_out = np.vstack([np.asarray(closed.A)[:3], np.asarray(closed.A)[3:] * 0.0, np.hstack([-half_k, -c_rate])])
-    c_out[:3] = np.hstack([np.eye(3), np.zeros((3, 3))])
-    c_out[3:6] = np.hstack([np.zeros((3, 3)), np.eye(3)])
+    c_out = np.vstack(
+        [
+            np.hstack([np.eye(3), np.zeros((3, 3))]),
+            np.hstack([np.zeros((3, 3)), np.eye(3)]),
+            np.hstack([-half_k, -c_rate]),
+        ]
+    )
     d_out = np.vstack([np.zeros((6, 3)), half_k])
     return control.ss(closed.A, closed.B, c_out, d_out)
 
 
-def _time_grid(system: control.StateSpace, wn: float, band: float, points: int) -> NDArray[np.float64]:
-    """Times covering a step's settling into ``band``: 1.5 times the time to the band plus three time constants."""
-    decay = float(np.min(-np.real(np.linalg.eigvals(np.asarray(system.A)))))
+def _time_grid(system: control.StateSpace, band: float, points: int, wn: float | None = None) -> NDArray[np.float64]:
+    """Times covering a step's settling into ``band``: 1.5 times the time to the band plus three time constants.
+
+    ``wn`` [rad/s] is the loop's natural frequency (default: the largest pole magnitude).
+    """
+    poles = np.linalg.eigvals(np.asarray(system.A))
+    decay = float(np.min(-np.real(poles)))
+    wn = float(np.max(np.abs(poles))) if wn is None else wn
     # The error decays like (wn t)^m exp(-decay t) (m = 1 for the double pole of zeta = 1).
     span = 1.5 * (math.log(1.0 / band) + 3.0 + math.log1p(wn / decay)) / decay
     return np.linspace(0.0, span, points)
@@ -290,15 +350,15 @@ def _settling(y: NDArray[np.float64], t: NDArray[np.float64], band: float) -> fl
 
 
 def _step_metrics(
-    body: RigidBody, wn: float, zeta: float, requirements: TuningRequirements
+    body: RigidBody, gains: Any, requirements: TuningRequirements, wn: float | None = None
 ) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
-    """Settling time [s], peak torque [N m] (3,) and peak momentum [N m s] (3,) of the continuous linear loop."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # the sample-rate warning: this loop is continuous
-        pd = QuaternionPD.from_bandwidth(body, wn=wn, zeta=zeta, period=1.0)
-    system = _step_system(body, pd)
+    """Settling time [s], peak torque [N m] (3,) and peak momentum [N m s] (3,) of the continuous linear loop.
+
+    ``wn`` [rad/s]: the loop's largest natural frequency when known (:func:`_time_grid`).
+    """
+    system = _step_system(body, gains)
     band = requirements.settling_band
-    t = _time_grid(system, wn, band, TIME_POINTS)
+    t = _time_grid(system, band, TIME_POINTS, wn)
     response = control.step_response(system, t)
     y = np.asarray(response.outputs) * requirements.step_angle  # (outputs 9, inputs 3, time)
     settling = 0.0
@@ -312,17 +372,28 @@ def _step_metrics(
     return settling, peak_torque, peak_momentum
 
 
-def _search_margin(body: RigidBody, wn: float, zeta: float, period: float | None) -> float:
-    """The disk margin of one axis's loop (every axis's, module docstring); NaN when the closed loop is unstable."""
+def _pd(body: RigidBody, wn: ArrayLike, zeta: ArrayLike, period: float | None) -> QuaternionPD:
+    """The PD at ``wn`` and ``zeta`` (scalars or per axis), its sample-rate warning silenced (the search caps wn)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        pd = QuaternionPD.from_bandwidth(body, wn=wn, zeta=zeta, period=period or 1.0)
-    loop = loop_gain(body, pd, sampled=period is not None)[0]
+        return QuaternionPD.from_bandwidth(body, wn=wn, zeta=zeta, period=period or 1.0)
+
+
+def _search_margin(body: RigidBody, wn: float, zeta: float, period: float | None) -> float:
+    """The disk margin of one axis's loop (every axis's, module docstring); NaN when the closed loop is unstable."""
+    loop = loop_gain(body, _pd(body, wn, zeta, period), sampled=period is not None)[0]
     return float(disk_margins(loop, rtol=SEARCH_MARGIN_RTOL).disk_margin)
 
 
+def _per_axis_or_scalar(value: ArrayLike, name: str) -> float | NDArray[np.float64]:
+    """A positive scalar, or three positive values per body axis (kept as given: one value stays one value)."""
+    if np.ndim(value) == 0:
+        return positive_scalar(value, name)
+    return positive_per_axis(value, name)
+
+
 def pd_metrics(
-    body: RigidBody, requirements: TuningRequirements, *, wn: float, zeta: float, period: float | None
+    body: RigidBody, requirements: TuningRequirements, *, wn: ArrayLike, zeta: ArrayLike, period: float | None
 ) -> PDMetrics:
     """The linear metrics of the PD at ``wn`` and ``zeta`` for the requirements' step (module docstring).
 
@@ -332,19 +403,17 @@ def pd_metrics(
         The spacecraft [kg m^2].
     requirements : TuningRequirements
         The step and its band.
-    wn : float
-        Natural frequency [rad/s].
-    zeta : float
-        Damping ratio [-].
+    wn : float or array_like (3,)
+        Natural frequency, one or per body axis [rad/s].
+    zeta : float or array_like (3,)
+        Damping ratio, one or per body axis [-].
     period : float or None
         Control period [s] of the sampled loop whose disk margin is judged; None: the continuous loop.
     """
-    wn = positive_scalar(wn, "wn")
-    zeta = positive_scalar(zeta, "zeta")
-    settling, torque, momentum = _step_metrics(body, wn, zeta, requirements)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        pd = QuaternionPD.from_bandwidth(body, wn=wn, zeta=zeta, period=period or 1.0)
+    wn = _per_axis_or_scalar(wn, "wn")
+    zeta = _per_axis_or_scalar(zeta, "zeta")
+    pd = _pd(body, wn, zeta, period)
+    settling, torque, momentum = _step_metrics(body, pd, requirements, float(np.max(wn)))
     margins = loop_disk_margins(body, pd, sampled=period is not None)
     return PDMetrics(wn, zeta, settling, torque, momentum, margins.smallest, period is not None)
 
@@ -371,9 +440,13 @@ class _Search:
         period: float | None,
         cost: str,
         zeta_grid: NDArray[np.float64],
+        axes: tuple[int, ...] = (0, 1, 2),
+        margin_roots: dict[tuple[float, float], tuple[float, float]] | None = None,
     ) -> None:
         self.body = body
         self.zeta_grid = zeta_grid
+        self.axes = list(axes)  # the step axes this search judges (one for a per-axis tuning)
+        self.margin_roots = {} if margin_roots is None else margin_roots  # shared by per-axis searches
         self.req = requirements
         self.period = period
         self.cost = cost
@@ -393,10 +466,10 @@ class _Search:
             [[1.0, 0.0], [0.0, 1.0], [-1.0, -2.0 * zeta]],
             [[0.0], [0.0], [1.0]],
         )
-        t = _time_grid(system, 1.0, self.req.settling_band, SEARCH_TIME_POINTS)
+        t = _time_grid(system, self.req.settling_band, SEARCH_TIME_POINTS, wn=1.0)
         y = np.asarray(control.step_response(system, t).outputs)[:, 0]  # (3, time): theta, theta', theta''
         settling = _settling(y[0], t, self.req.settling_band)
-        lever = np.linalg.norm(self.body.inertia, axis=0) * self.req.step_angle  # |J e_k| step_angle
+        lever = np.linalg.norm(self.body.inertia, axis=0)[self.axes] * self.req.step_angle  # |J e_k| step_angle
         return settling, lever * float(np.max(np.abs(y[2]))), lever * float(np.max(np.abs(y[1])))
 
     def at(self, zeta: float) -> _AtDamping:
@@ -405,29 +478,18 @@ class _Search:
             return self.cache[zeta]
         req = self.req
         settling_1, torque_1, momentum_1 = self.unit(zeta)
-        limits = {"torque_max": float(np.min(np.sqrt(req.torque_max / torque_1)))}
+        limits = {"torque_max": float(np.min(np.sqrt(req.torque_max[self.axes] / torque_1)))}
         if req.momentum_max is not None:
-            limits["momentum_max"] = float(np.min(req.momentum_max / momentum_1))
+            limits["momentum_max"] = float(np.min(req.momentum_max[self.axes] / momentum_1))
         if math.isfinite(self.wn_cap):
             limits["sample_rate"] = self.wn_cap
         wn_high = min(limits.values())
         wn_needed = settling_1 / req.settling_time
         alpha_low = math.nan
         if req.disk_margin_min is not None:
-            floor = req.disk_margin_min
-
-            def excess(wn: float) -> float:
-                alpha = _search_margin(self.body, wn, zeta, self.period)
-                return (alpha if math.isfinite(alpha) else 0.0) - floor
-
-            if excess(wn_high) < 0.0:
-                low = wn_high * 1e-4
-                alpha_low = excess(low) + floor
-                if alpha_low < floor:
-                    limits["disk_margin_min"] = 0.0
-                else:
-                    root = scipy.optimize.brentq(excess, low, wn_high, rtol=WN_RTOL)
-                    limits["disk_margin_min"] = root * (1.0 - 2.0 * WN_RTOL)
+            root, alpha_low = self.margin_root(zeta, wn_high)
+            if root < wn_high:
+                limits["disk_margin_min"] = root
         wn_max = min(limits.values())
         if self.cost == "settling":
             wn = wn_max
@@ -440,6 +502,34 @@ class _Search:
         out = _AtDamping(zeta, wn if ok else math.nan, value, limits, wn_needed, alpha_low)
         self.cache[zeta] = out
         return out
+
+    def margin_root(self, zeta: float, wn_high: float) -> tuple[float, float]:
+        """The largest wn whose disk margin meets the floor (inf: all up to the top) and the margin as wn -> 0.
+
+        The sampled loop's margin depends on ``zeta`` and ``wn T`` only, not on the axis (module docstring), so
+        the root is found below the sample-rate cap once per damping and shared by the per-axis searches
+        (``margin_roots``); the continuous loop's is found below ``wn_high``.
+        """
+        top = self.wn_cap if math.isfinite(self.wn_cap) else wn_high
+        key = (zeta, top)
+        if key not in self.margin_roots:
+            floor = self.req.disk_margin_min
+
+            def excess(wn: float) -> float:
+                alpha = _search_margin(self.body, wn, zeta, self.period)
+                return (alpha if math.isfinite(alpha) else 0.0) - floor
+
+            answer = (math.inf, math.nan)
+            if excess(top) < 0.0:
+                low = top * 1e-4
+                alpha_low = excess(low) + floor
+                if alpha_low < floor:
+                    answer = (0.0, alpha_low)
+                else:
+                    root = scipy.optimize.brentq(excess, low, top, rtol=WN_RTOL)
+                    answer = (root * (1.0 - 2.0 * WN_RTOL), alpha_low)
+            self.margin_roots[key] = answer
+        return self.margin_roots[key]
 
     def fastest_within_others(self, zeta: float) -> float:
         """The settling time of the fastest PD at ``zeta`` within every requirement but the settling time [s]."""
@@ -461,15 +551,16 @@ class _Search:
 
 @dataclass(frozen=True)
 class TuningResult:
-    """A tuned PD, or why none meets the requirements.
+    """A tuned PD or LQR, or why none meets the requirements.
 
     Attributes
     ----------
     feasible : bool
         Whether the returned gains meet every requirement on the linear metrics.
-    wn : float
-        The natural frequency [rad/s] (of the fastest PD within the other requirements when infeasible).
-    zeta : float
+    wn : float or ndarray (3,)
+        The natural frequency, one or per body axis [rad/s] (of the fastest PD within the other requirements
+        when infeasible; for an LQR, the per-axis equivalent its Bryson bounds were set from).
+    zeta : float or ndarray (3,)
         The damping ratio [-] (likewise).
     metrics : PDMetrics
         The linear metrics of those gains, computed directly (not by scaling).
@@ -487,12 +578,19 @@ class TuningResult:
     tradeoff : dict of ndarray
         Every damping and frequency of the trade-off sweep: ``zeta``, ``wn`` [rad/s], ``settling_time`` [s],
         ``disk_margin`` [-], and ``pareto`` (bool): no other candidate within torque and momentum settles
-        faster with a larger margin.
+        faster with a larger margin (of the slowest axis for a per-axis tuning).
+    structure : str
+        The controller tuned (:data:`STRUCTURES`).
+    lqr_bounds : dict of ndarray or None
+        For an LQR: its Bryson bounds ``angle_max`` [rad], ``rate_max`` [rad/s], ``torque_max`` [N m] per axis
+        (:func:`lqr_bounds`); None otherwise.
+    lqr : LQRDesign or None
+        For an LQR: the design at ``period`` on the linearised body (:func:`controllers.lqr.design_lqr`).
     """
 
     feasible: bool
-    wn: float
-    zeta: float
+    wn: float | NDArray[np.float64]
+    zeta: float | NDArray[np.float64]
     metrics: PDMetrics
     cost: str
     binding: tuple[str, ...]
@@ -500,13 +598,18 @@ class TuningResult:
     requirements: TuningRequirements
     period: float | None
     tradeoff: dict[str, NDArray[Any]]
+    structure: str = "pd"
+    lqr_bounds: dict[str, NDArray[np.float64]] | None = None
+    lqr: Any = None
 
     def summary(self) -> str:
         """One line: the gains and the verdict."""
         verdict = "meets every requirement" if self.feasible else "INFEASIBLE"
+        name = {"pd": "PD", "pd_per_axis": "PD per axis", "lqr": "LQR (equivalent)"}[self.structure]
         return (
-            f"PD wn = {self.wn:.4g} rad/s, zeta = {self.zeta:.4g}: settling {self.metrics.settling_time:.4g} s, "
-            f"disk margin {self.metrics.disk_margin:.4g}; {verdict} (binding: {', '.join(self.binding) or 'none'})"
+            f"{name} wn = {format_values(self.wn)} rad/s, zeta = {format_values(self.zeta)}: settling "
+            f"{self.metrics.settling_time:.4g} s, disk margin {self.metrics.disk_margin:.4g}; {verdict} "
+            f"(binding: {', '.join(self.binding) or 'none'})"
         )
 
     def plot(self, before: PDMetrics | None = None) -> Figure:
@@ -548,16 +651,126 @@ def _tradeoff(search: _Search, zetas: NDArray[np.float64]) -> dict[str, NDArray[
     }
 
 
-def _describe_limit(name: str, req: TuningRequirements, period: float | None) -> str:
+def _describe_limit(name: str, req: TuningRequirements, period: float | None, axes: list[int] | None = None) -> str:
+    axes = [0, 1, 2] if axes is None else axes
     if name == "torque_max":
-        return f"torque_max = {np.min(req.torque_max):.4g} N m (the step's peak torque, J wn^2 step_angle)"
+        return f"torque_max = {np.min(req.torque_max[axes]):.4g} N m (the step's peak torque, J wn^2 step_angle)"
     if name == "momentum_max":
-        return f"momentum_max = {np.min(req.momentum_max):.4g} N m s (the step's peak momentum)"
+        return f"momentum_max = {np.min(req.momentum_max[axes]):.4g} N m s (the step's peak momentum)"
     if name == "sample_rate":
         return f"wn at most a tenth of the sample rate 2 pi / {period:g} s"
     return f"disk_margin_min = {req.disk_margin_min:g}" + (
         f" at the {1.0 / period:g} Hz sample rate" if period is not None else ""
     )
+
+
+def _check_inputs(
+    body: Any, requirements: Any, cost: str, period: Any, tradeoff_points: Any, damping_bounds: Any, damping_points: Any
+) -> tuple[float | None, int, float, float, int]:
+    """The common checks of :func:`tune_pd` and :func:`tune_lqr`: the period, the counts and the damping bounds."""
+    if not isinstance(body, RigidBody) or body.batch_shape:
+        raise ValueError(f"body must be a single RigidBody, got {body!r}")
+    if not isinstance(requirements, TuningRequirements):
+        raise ValueError(f"requirements must be TuningRequirements, got {type(requirements).__name__}")
+    if cost not in COSTS:
+        raise ValueError(f"cost must be one of {COSTS}, got {cost!r}")
+    if period is not None:
+        period = positive_scalar(period, "period")
+    tradeoff_points = int(tradeoff_points)
+    if tradeoff_points < 0:
+        raise ValueError(f"tradeoff_points must be >= 0, got {tradeoff_points}")
+    low, high = (float(v) for v in damping_bounds)
+    if not (0.0 < low < high and math.isfinite(high)):
+        raise ValueError(f"damping_bounds must be 0 < low < high, finite, got {damping_bounds!r}")
+    damping_points = int(damping_points)
+    if damping_points < 3:
+        raise ValueError(f"damping_points must be at least 3, got {damping_points}")
+    return period, tradeoff_points, low, high, damping_points
+
+
+def _check_not_contradictory(body: RigidBody, requirements: TuningRequirements) -> None:
+    """Raise :class:`RequirementConflict` when the settling time is below the bang-bang step time."""
+    fastest = minimum_step_time(body, requirements)
+    if requirements.settling_time >= float(np.max(fastest)):
+        return
+    k = int(np.argmax(fastest))
+    # The momentum limit binds only when the bang-bang step would spin past it (it coasts).
+    inertia_k = float(np.diag(body.inertia)[k])
+    peak_rate = math.sqrt(
+        (requirements.step_angle - requirements.pointing_accuracy) * requirements.torque_max[k] / inertia_k
+    )
+    coasts = requirements.momentum_max is not None and peak_rate > requirements.momentum_max[k] / inertia_k
+    names = ("settling_time", "torque_max") + (("momentum_max",) if coasts else ())
+    raise RequirementConflict(
+        f"settling_time = {requirements.settling_time:.6g} s is shorter than the fastest possible step of "
+        f"{requirements.step_angle:.6g} rad about body {_AXES[k]}: {fastest[k]:.6g} s rest to rest at "
+        f"torque_max = {requirements.torque_max[k]:.6g} N m"
+        + (" coasting at momentum_max" if coasts else "")
+        + " (bang-bang; no controller is faster)",
+        names,
+    )
+
+
+@dataclass(frozen=True)
+class _Tuned:
+    """The search's answer for a set of step axes: one wn and zeta, or the closest PD when infeasible."""
+
+    feasible: bool
+    wn: float
+    zeta: float
+    point: _AtDamping
+    binding: tuple[str, ...]  # filled for an infeasible answer; a feasible one's comes from its metrics
+    message: str  # likewise
+    search: _Search
+
+
+def _tune_axes(search: _Search, low: float, high: float) -> _Tuned:
+    """The best damping and frequency of one search, or the diagnosis of why none meets the requirements."""
+    req, period = search.req, search.period
+    zeta = search.best(lambda z: search.at(z).cost)
+    point = search.at(zeta)
+    if math.isfinite(point.cost):
+        return _Tuned(True, point.wn, zeta, point, (), "", search)
+    # The fastest PD within everything but the settling time shows what holds it back (a diagnosis: the
+    # damping to DIAGNOSIS_TOLERANCE).
+    zeta = search.best(search.fastest_within_others, tolerance=DIAGNOSIS_TOLERANCE)
+    point = search.at(zeta)
+    wn_max = min(point.limits.values())
+    if wn_max <= 0.0:
+        margins = [search.at(float(z)).alpha_low for z in search.zeta_grid]
+        best_alpha = float(np.nanmax(margins))
+        message = (
+            f"disk_margin_min = {req.disk_margin_min:g} is out of reach: the largest disk margin of a "
+            f"PD with zeta in [{low:g}, {high:g}] is {best_alpha:.4g} (continuous, 2 zeta / sqrt(1 + zeta^2)"
+            + ("; sampling only lowers it)" if period is not None else ")")
+        )
+        return _Tuned(False, point.wn_needed, zeta, point, ("disk_margin_min",), message, search)
+    limiting = sorted(
+        (n for n, v in point.limits.items() if v <= wn_max * (1.0 + ACTIVE_FRACTION)),
+        key=lambda n: point.limits[n],
+    )
+    message = (
+        f"settling_time = {req.settling_time:g} s needs wn >= {point.wn_needed:.4g} rad/s at the "
+        f"best damping zeta = {zeta:.4g}, but "
+        + " and ".join(_describe_limit(n, req, period, search.axes) for n in limiting)
+        + f" allow at most wn = {wn_max:.4g} rad/s: the fastest PD within them settles in "
+        f"{search.fastest_within_others(zeta):.4g} s"
+    )
+    return _Tuned(False, wn_max, zeta, point, ("settling_time", *limiting), message, search)
+
+
+def _point_active(tuned: _Tuned) -> tuple[str, ...]:
+    """The requirements within ACTIVE_FRACTION of binding at a feasible search answer (from its scaled metrics)."""
+    point, wn = tuned.point, tuned.wn
+    active = [n for n, v in point.limits.items() if v <= wn * (1.0 + ACTIVE_FRACTION)]
+    if point.wn_needed >= wn * (1.0 - ACTIVE_FRACTION):
+        active.insert(0, "settling_time")
+    return tuple(active)
+
+
+def _sweep(search: _Search, low: float, high: float, zeta: float, points: int) -> dict[str, NDArray[Any]]:
+    # The sweep holds the result's damping too, so its front passes through the chosen point when the actuators bind.
+    return _tradeoff(search, np.union1d(np.geomspace(low, high, points), [zeta])) if points else {}
 
 
 def tune_pd(
@@ -566,11 +779,12 @@ def tune_pd(
     *,
     period: float | None,
     cost: str = "settling",
+    per_axis: bool = False,
     damping_bounds: tuple[float, float] = DAMPING_BOUNDS,
     damping_points: int = DAMPING_GRID_POINTS,
     tradeoff_points: int = 10,
 ) -> TuningResult:
-    """The PD (one ``wn`` and ``zeta`` for all axes) that meets the requirements at the least cost.
+    """The PD (one ``wn`` and ``zeta`` for all axes, or one per axis) that meets the requirements at the least cost.
 
     Parameters
     ----------
@@ -584,6 +798,9 @@ def tune_pd(
     cost : str
         ``"settling"`` (the shortest settling time) or ``"effort"`` (the smallest peak torque that still
         settles in time).
+    per_axis : bool
+        One ``wn`` and ``zeta`` per body axis (module docstring, Per axis): each axis as fast (or cheap) as its
+        own torque and momentum allow, where one pair for all is held back by the weakest axis.
     damping_bounds : tuple of float
         The dampings searched [-] (:data:`DAMPING_BOUNDS`).
     damping_points : int
@@ -603,89 +820,280 @@ def tune_pd(
     ValueError
         For a bad argument.
     """
-    if not isinstance(body, RigidBody) or body.batch_shape:
-        raise ValueError(f"body must be a single RigidBody, got {body!r}")
-    if not isinstance(requirements, TuningRequirements):
-        raise ValueError(f"requirements must be TuningRequirements, got {type(requirements).__name__}")
-    if cost not in COSTS:
-        raise ValueError(f"cost must be one of {COSTS}, got {cost!r}")
-    if period is not None:
-        period = positive_scalar(period, "period")
-    tradeoff_points = int(tradeoff_points)
-    if tradeoff_points < 0:
-        raise ValueError(f"tradeoff_points must be >= 0, got {tradeoff_points}")
-    fastest = minimum_step_time(body, requirements)
-    if requirements.settling_time < float(np.max(fastest)):
-        k = int(np.argmax(fastest))
-        # The momentum limit binds only when the bang-bang step would spin past it (it coasts).
-        inertia_k = float(np.diag(body.inertia)[k])
-        peak_rate = math.sqrt(
-            (requirements.step_angle - requirements.pointing_accuracy) * requirements.torque_max[k] / inertia_k
-        )
-        coasts = requirements.momentum_max is not None and peak_rate > requirements.momentum_max[k] / inertia_k
-        names = ("settling_time", "torque_max") + (("momentum_max",) if coasts else ())
-        raise RequirementConflict(
-            f"settling_time = {requirements.settling_time:.6g} s is shorter than the fastest possible step of "
-            f"{requirements.step_angle:.6g} rad about body {_AXES[k]}: {fastest[k]:.6g} s rest to rest at "
-            f"torque_max = {requirements.torque_max[k]:.6g} N m"
-            + (" coasting at momentum_max" if coasts else "")
-            + " (bang-bang; no controller is faster)",
-            names,
-        )
-
-    low, high = (float(v) for v in damping_bounds)
-    if not (0.0 < low < high and math.isfinite(high)):
-        raise ValueError(f"damping_bounds must be 0 < low < high, finite, got {damping_bounds!r}")
-    damping_points = int(damping_points)
-    if damping_points < 3:
-        raise ValueError(f"damping_points must be at least 3, got {damping_points}")
-    search = _Search(body, requirements, period, cost, np.geomspace(low, high, damping_points))
-    zeta = search.best(lambda z: search.at(z).cost)
-    point = search.at(zeta)
-    feasible = math.isfinite(point.cost)
-    if feasible:
-        wn = point.wn
-        metrics = pd_metrics(body, requirements, wn=wn, zeta=zeta, period=period)
-        binding = _active(metrics, requirements, point, cost)
-        message = f"wn = {wn:.6g} rad/s, zeta = {zeta:.6g} ({cost} minimised); binding: " + (
+    period, tradeoff_points, low, high, damping_points = _check_inputs(
+        body, requirements, cost, period, tradeoff_points, damping_bounds, damping_points
+    )
+    _check_not_contradictory(body, requirements)
+    grid = np.geomspace(low, high, damping_points)
+    if per_axis:
+        roots: dict[tuple[float, float], tuple[float, float]] = {}
+        tuned = [_tune_axes(_Search(body, requirements, period, cost, grid, (k,), roots), low, high) for k in range(3)]
+        return _combine_axes(body, requirements, period, cost, "pd_per_axis", tuned, low, high, tradeoff_points)
+    one = _tune_axes(_Search(body, requirements, period, cost, grid), low, high)
+    metrics = pd_metrics(body, requirements, wn=one.wn, zeta=one.zeta, period=period)
+    if one.feasible:
+        binding = _active(metrics, requirements, one.point, cost)
+        message = f"wn = {one.wn:.6g} rad/s, zeta = {one.zeta:.6g} ({cost} minimised); binding: " + (
             ", ".join(_describe_limit(n, requirements, period) if n != "settling_time" else n for n in binding)
             or "none"
         )
     else:
-        # The fastest PD within everything but the settling time shows what holds it back (a diagnosis: the
-        # damping to DIAGNOSIS_TOLERANCE).
-        zeta = search.best(search.fastest_within_others, tolerance=DIAGNOSIS_TOLERANCE)
-        point = search.at(zeta)
-        wn_max = min(point.limits.values())
-        if wn_max <= 0.0:
-            margins = [search.at(float(z)).alpha_low for z in search.zeta_grid]
-            best_alpha = float(np.nanmax(margins))
-            wn = point.wn_needed
-            binding = ("disk_margin_min",)
-            message = (
-                f"disk_margin_min = {requirements.disk_margin_min:g} is out of reach: the largest disk margin of a "
-                f"PD with zeta in [{low:g}, {high:g}] is {best_alpha:.4g} (continuous, 2 zeta / sqrt(1 + zeta^2)"
-                + ("; sampling only lowers it)" if period is not None else ")")
-            )
-        else:
-            wn = wn_max
-            limiting = sorted(
-                (n for n, v in point.limits.items() if v <= wn_max * (1.0 + ACTIVE_FRACTION)),
-                key=lambda n: point.limits[n],
-            )
-            binding = ("settling_time", *limiting)
-            message = (
-                f"settling_time = {requirements.settling_time:g} s needs wn >= {point.wn_needed:.4g} rad/s at the "
-                f"best damping zeta = {zeta:.4g}, but "
-                + " and ".join(_describe_limit(n, requirements, period) for n in limiting)
-                + f" allow at most wn = {wn_max:.4g} rad/s: the fastest PD within them settles in "
-                f"{search.fastest_within_others(zeta):.4g} s"
-            )
-        metrics = pd_metrics(body, requirements, wn=wn, zeta=zeta, period=period)
-    # The sweep holds the result's damping too, so its front passes through the chosen point when the actuators bind.
-    sweep = np.union1d(np.geomspace(low, high, tradeoff_points), [zeta]) if tradeoff_points else None
-    tradeoff = _tradeoff(search, sweep) if sweep is not None else {}
-    return TuningResult(feasible, wn, zeta, metrics, cost, binding, message, requirements, period, tradeoff)
+        binding, message = one.binding, one.message
+    tradeoff = _sweep(one.search, low, high, one.zeta, tradeoff_points)
+    return TuningResult(one.feasible, one.wn, one.zeta, metrics, cost, binding, message, requirements, period, tradeoff)
+
+
+def _combine_axes(
+    body: RigidBody,
+    requirements: TuningRequirements,
+    period: float | None,
+    cost: str,
+    structure: str,
+    tuned: list[_Tuned],
+    low: float,
+    high: float,
+    tradeoff_points: int,
+) -> TuningResult:
+    """One per-axis PD from three one-axis searches, its metrics computed on the coupled 3-axis loop."""
+    wn = np.array([t.wn for t in tuned])
+    zeta = np.array([t.zeta for t in tuned])
+    metrics = pd_metrics(body, requirements, wn=wn, zeta=zeta, period=period)
+    feasible = all(t.feasible for t in tuned)
+    binding: list[str] = []
+    parts = []
+    for axis, t in zip(_AXES, tuned):
+        names = _point_active(t) if t.feasible else t.binding
+        binding += [f"{n} ({axis})" for n in names]
+        parts.append(
+            f"{axis}: wn = {t.wn:.6g} rad/s, zeta = {t.zeta:.6g}, binding " + (", ".join(names) or "none")
+            if t.feasible
+            else f"{axis}: {t.message}"
+        )
+    message = f"per axis ({cost} minimised): " + "; ".join(parts)
+    floor = requirements.disk_margin_min
+    if feasible and floor is not None and not metrics.disk_margin >= floor:
+        # Each axis met the floor alone; products of inertia couple the axes of the 3-axis loop.
+        feasible = False
+        binding.append("disk_margin_min (3-axis loop)")
+        message += (
+            f"; but the 3-axis loop's smallest disk margin {metrics.disk_margin:.4g} is below disk_margin_min = "
+            f"{floor:g} (the products of inertia couple the axes)"
+        )
+    # The trade-off of the slowest axis (the one that sets the settling time), or the first that fails.
+    order = [t for t in tuned if not t.feasible] or sorted(tuned, key=lambda t: -t.point.wn_needed / t.wn)
+    slowest = order[0]
+    tradeoff = _sweep(slowest.search, low, high, slowest.zeta, tradeoff_points)
+    return TuningResult(
+        feasible, wn, zeta, metrics, cost, tuple(binding), message, requirements, period, tradeoff, structure
+    )
+
+
+#: Dampings an LQR reaches on the rigid body at rest (module docstring, LQR): ``zeta >= 1 / sqrt(2)``, equal
+#: only without a rate weight; the lower bound keeps the rate bound finite (``4 zeta^2 - 2 >= 0.016``).
+LQR_DAMPING_BOUNDS = (0.71, 4.0)
+#: The scales of the equivalent wn searched for the sampled LQR (its zero-order hold is not in the equivalent) ...
+LQR_SCALE_RANGE = (0.5, 1.5)
+#: ... by this many bisections (the scale to 1e-3).
+LQR_SCALE_BISECTIONS = 10
+
+
+@dataclass(frozen=True)
+class _StateGains:
+    """``K`` on the error-quaternion vector part and ``C`` on the rate [N m, N m s] of a state feedback."""
+
+    K: NDArray[np.float64]
+    C: NDArray[np.float64]
+
+
+def lqr_bounds(body: RigidBody, wn: ArrayLike, zeta: ArrayLike, angle_max: ArrayLike) -> dict[str, NDArray[np.float64]]:
+    """Bryson bounds whose LQR on the body at rest places each axis at ``wn`` and ``zeta`` (module docstring, LQR).
+
+    With the attitude bound ``angle_max`` kept, the torque bound is ``2 J wn^2 sin(angle_max / 2)`` (the PD's
+    torque at that error) and the rate bound ``torque / (J wn sqrt(4 zeta^2 - 2))``, ``J`` the axis's moment.
+
+    Parameters
+    ----------
+    body : RigidBody
+        The spacecraft [kg m^2] (its diagonal moments; exact for principal body axes).
+    wn : float or array_like (3,)
+        Natural frequency per axis [rad/s].
+    zeta : float or array_like (3,)
+        Damping ratio per axis [-], above ``1 / sqrt(2)`` (an LQR on a double integrator cannot go below).
+    angle_max : float or array_like (3,)
+        Bryson's attitude bound per axis [rad], in ``(0, pi]`` (kept as given).
+
+    Returns
+    -------
+    dict of ndarray (3,)
+        ``angle_max`` [rad], ``rate_max`` [rad/s], ``torque_max`` [N m]: the arguments of
+        :func:`controllers.lqr.bryson_weights`.
+    """
+    wn = positive_per_axis(wn, "wn", "rad/s")
+    zeta = positive_per_axis(zeta, "zeta")
+    angle = positive_per_axis(angle_max, "angle_max", "rad")
+    if np.any(angle > math.pi):
+        raise ValueError(f"angle_max must not exceed pi rad, got {angle.tolist()}")
+    if np.any(zeta <= 1.0 / math.sqrt(2.0)):
+        raise ValueError(
+            f"zeta must be above 1/sqrt(2) = 0.7071 for an LQR on the rigid body (zeta^2 = 1/2 + a rate weight "
+            f"term), got {zeta.tolist()}"
+        )
+    inertia = np.diag(body.inertia)
+    torque = 2.0 * inertia * wn**2 * np.sin(0.5 * angle)
+    rate = torque / (inertia * wn * np.sqrt(4.0 * zeta**2 - 2.0))
+    return {"angle_max": angle, "rate_max": rate, "torque_max": torque}
+
+
+def lqr_metrics(
+    body: RigidBody,
+    requirements: TuningRequirements,
+    design: LQRDesign,
+    *,
+    wn: ArrayLike = math.nan,
+    zeta: ArrayLike = math.nan,
+) -> PDMetrics:
+    """The linear metrics of an LQR for the requirements' step: its gain on the body at rest, its sampled loop.
+
+    Parameters
+    ----------
+    body : RigidBody
+        The spacecraft [kg m^2].
+    requirements : TuningRequirements
+        The step and its band.
+    design : LQRDesign
+        The LQR on :func:`attitude.linearize.linearize` of the body (states ``[q_ev, omega]``).
+    wn : float or array_like (3,)
+        The equivalent natural frequency recorded in the metrics [rad/s] (not used to compute them).
+    zeta : float or array_like (3,)
+        The equivalent damping recorded in the metrics [-] (likewise).
+    """
+    if not isinstance(design, LQRDesign) or np.shape(design.K) != (3, 6):
+        raise ValueError(f"design must be an LQRDesign of the 6-state attitude model, got {design!r}")
+    gain = np.asarray(design.K, dtype=float)
+    settling, torque, momentum = _step_metrics(body, _StateGains(gain[:, :3], gain[:, 3:]), requirements)
+    margins = loop_disk_margins(linearize(body), design, sampled=design.period is not None)
+    return PDMetrics(wn, zeta, settling, torque, momentum, margins.smallest, design.period is not None)
+
+
+def _misses(metrics: PDMetrics, req: TuningRequirements) -> list[str]:
+    """The requirements the metrics miss (a relative 1e-9 for the rounding of a limit met exactly)."""
+    slack = 1.0 + 1e-9
+    missed = []
+    if not metrics.settling_time <= req.settling_time * slack:
+        missed.append("settling_time")
+    if np.any(metrics.peak_torque > req.torque_max * slack):
+        missed.append("torque_max")
+    if req.momentum_max is not None and np.any(metrics.peak_momentum > req.momentum_max * slack):
+        missed.append("momentum_max")
+    if req.disk_margin_min is not None and not metrics.disk_margin * slack >= req.disk_margin_min:
+        missed.append("disk_margin_min")
+    return missed
+
+
+def tune_lqr(
+    body: RigidBody,
+    requirements: TuningRequirements,
+    *,
+    period: float | None,
+    angle_max: ArrayLike,
+    cost: str = "settling",
+    damping_bounds: tuple[float, float] = LQR_DAMPING_BOUNDS,
+    damping_points: int = DAMPING_GRID_POINTS,
+    tradeoff_points: int = 10,
+) -> TuningResult:
+    """The LQR weights (Bryson bounds per axis) that meet the requirements at the least cost (module docstring, LQR).
+
+    Parameters
+    ----------
+    body : RigidBody
+        The spacecraft [kg m^2].
+    requirements : TuningRequirements
+        What the LQR must meet.
+    period : float or None
+        Control period [s]: the design is discrete at it (:func:`controllers.lqr.design_lqr`) and its disk
+        margin that of the sampled loop; None: continuous.
+    angle_max : float or array_like (3,)
+        Bryson's attitude bound per axis [rad], kept; the rate and torque bounds are tuned.
+    cost : str
+        ``"settling"`` or ``"effort"`` (:func:`tune_pd`).
+    damping_bounds : tuple of float
+        The equivalent dampings searched [-], above ``1 / sqrt(2)`` (:data:`LQR_DAMPING_BOUNDS`).
+    damping_points : int
+        Dampings of the first grid (at least 3).
+    tradeoff_points : int
+        Dampings of the trade-off sweep of the equivalent PD (five frequencies each); 0: none.
+
+    Returns
+    -------
+    TuningResult
+        With ``structure = "lqr"``, ``lqr_bounds``, ``lqr`` and the metrics of that design.
+
+    Raises
+    ------
+    RequirementConflict
+        As :func:`tune_pd`.
+    ValueError
+        For a bad argument (a damping bound at or below ``1 / sqrt(2)`` among them).
+    """
+    period, tradeoff_points, low, high, damping_points = _check_inputs(
+        body, requirements, cost, period, tradeoff_points, damping_bounds, damping_points
+    )
+    if low <= 1.0 / math.sqrt(2.0):
+        raise ValueError(f"damping_bounds must lie above 1/sqrt(2) = 0.7071 for an LQR, got {damping_bounds!r}")
+    angle = positive_per_axis(angle_max, "angle_max", "rad")
+    _check_not_contradictory(body, requirements)
+    grid = np.geomspace(low, high, damping_points)
+    roots: dict[tuple[float, float], tuple[float, float]] = {}
+    tuned = [_tune_axes(_Search(body, requirements, period, cost, grid, (k,), roots), low, high) for k in range(3)]
+    equivalent = _combine_axes(body, requirements, period, cost, "lqr", tuned, low, high, tradeoff_points)
+    plant = linearize(body)
+    wn0, zeta = np.asarray(equivalent.wn, dtype=float), np.asarray(equivalent.zeta, dtype=float)
+    cap = math.inf if period is None else SAMPLE_RATE_FRACTION * 2.0 * math.pi / period
+
+    def evaluate(scale: float) -> tuple[dict[str, NDArray[np.float64]], LQRDesign, PDMetrics, list[str]]:
+        bounds = lqr_bounds(body, wn0 * scale, zeta, angle)
+        q_weight, r_weight = bryson_weights(**bounds)
+        design = design_lqr(plant, Q=q_weight, R=r_weight, period=period)
+        metrics = lqr_metrics(body, requirements, design, wn=wn0 * scale, zeta=zeta)
+        return bounds, design, metrics, _misses(metrics, requirements)
+
+    # The sampled LQR is not exactly its continuous equivalent: one scale on the three wn, the largest (settling)
+    # or smallest (effort) whose design meets every requirement, by bisection within LQR_SCALE_RANGE.
+    at_one = evaluate(1.0)
+    scale = 1.0
+    if equivalent.feasible:
+        low, high = LQR_SCALE_RANGE[0], min(LQR_SCALE_RANGE[1], cap / float(np.max(wn0)))
+        anchor = 1.0 if not at_one[3] else None
+        if anchor is None:  # a passing scale on the side the misses point to (faster when only settling misses)
+            side = np.geomspace(1.0, high if at_one[3] == ["settling_time"] else low, 5)[1:]
+            anchor = next((float(v) for v in side if not evaluate(float(v))[3]), None)
+        if anchor is not None:
+            end = high if cost == "settling" else low
+            good, bad = (end, end) if not evaluate(end)[3] else (anchor, end)
+            for _ in range(LQR_SCALE_BISECTIONS if good != bad else 0):
+                middle = 0.5 * (good + bad)
+                good, bad = (middle, bad) if not evaluate(middle)[3] else (good, middle)
+            scale = good
+    bounds, design, metrics, missed = evaluate(scale) if scale != 1.0 else at_one
+    feasible = equivalent.feasible and not missed
+    message = equivalent.message
+    binding = equivalent.binding
+    if scale != 1.0:
+        aim = "fastest" if cost == "settling" else "cheapest"
+        message += f"; every wn scaled by {scale:.4g} for the {aim} sampled LQR within the requirements"
+    if equivalent.feasible and missed:
+        binding = (*binding, *(f"{m} (sampled LQR)" for m in missed))
+        message += f"; the sampled LQR misses {', '.join(missed)} at every scale in {LQR_SCALE_RANGE}: infeasible"
+    return replace(
+        equivalent,
+        feasible=feasible,
+        wn=wn0 * scale,
+        metrics=metrics,
+        binding=tuple(binding),
+        message="LQR " + message,
+        lqr_bounds=bounds,
+        lqr=design,
+    )
 
 
 def _active(metrics: PDMetrics, req: TuningRequirements, point: _AtDamping, cost: str) -> tuple[str, ...]:
@@ -752,7 +1160,7 @@ def plot_tradeoff(result: TuningResult, before: PDMetrics | None = None) -> Figu
             mfc="none",
             mec="k",
             mew=1.5,
-            label=f"before: wn {before.wn:.3g} rad/s, zeta {before.zeta:.3g}{note}",
+            label=f"before: {_gains_label(result, before)}{note}",
         )
         y_high = max(y_high, 1.1 * before.settling_time) if math.isfinite(before.settling_time) else y_high
     ax.plot(
@@ -762,34 +1170,55 @@ def plot_tradeoff(result: TuningResult, before: PDMetrics | None = None) -> Figu
         ms=16,
         color="C2",
         mec="k",
-        label=f"{'tuned' if result.feasible else 'closest (infeasible)'}: wn {m.wn:.3g} rad/s, zeta {m.zeta:.3g}",
+        label=f"{'tuned' if result.feasible else 'closest (infeasible)'}: {_gains_label(result, m)}",
     )
     ax.set_xlim(x_low, x_high)
     ax.set_yscale("log")
     ax.set_ylim(0.3 * min(m.settling_time, req.settling_time), min(y_high, 20.0 * req.settling_time))
     ax.set_xlabel("disk margin alpha at the plant input [-]" + (" (sampled loop)" if result.period else ""))
     ax.set_ylabel(f"settling time into {100 * req.settling_band:.3g} % of the step [s]")
-    ax.set_title("PD tuning: settling time vs disk margin (shaded: fails a requirement)")
+    title = {
+        "pd": "PD tuning",
+        "pd_per_axis": "PD per axis tuning\n(sweep: the slowest axis)",
+        "lqr": "LQR tuning\n(sweep: the slowest axis's PD equivalent; the star: the sampled LQR)",
+    }[result.structure]
+    ax.set_title(
+        title.replace("\n", ": settling time vs disk margin (shaded: fails a requirement)\n", 1)
+        if "\n" in title
+        else f"{title}: settling time vs disk margin (shaded: fails a requirement)",
+        fontsize=10,
+    )
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8, loc="upper left")
     return fig
+
+
+def _gains_label(result: TuningResult, metrics: PDMetrics) -> str:
+    """The gains of a point of the trade-off figure, in words."""
+    if result.structure == "lqr":
+        if np.all(np.isnan(np.asarray(metrics.wn, dtype=float))):
+            return "the file's LQR bounds"
+        return f"LQR, equivalent wn {format_values(metrics.wn, 3)} rad/s, zeta {format_values(metrics.zeta, 3)}"
+    return f"wn {format_values(metrics.wn, 3)} rad/s, zeta {format_values(metrics.zeta, 3)}"
 
 
 def confirm_nonlinear(
     body: RigidBody,
     requirements: TuningRequirements,
     *,
-    wn: float,
-    zeta: float,
+    wn: ArrayLike | None = None,
+    zeta: ArrayLike | None = None,
     period: float,
+    lqr: LQRDesign | None = None,
     wheels: Any = None,
     axis: ArrayLike = (1.0, 0.0, 0.0),
     hold_time: float | None = None,
 ) -> dict[str, Any]:
-    """Fly the PD's step on the nonlinear plant and judge its settling time and pointing.
+    """Fly the PD's (or the LQR's) step on the nonlinear plant and judge its settling time and pointing.
 
-    :meth:`QuaternionPD.from_bandwidth` with gyroscopic compensation, the truth fed back, from rest at the
-    identity to ``step_angle`` about ``axis``, through the wheels (their torque and momentum limits) when given.
+    :meth:`QuaternionPD.from_bandwidth` with gyroscopic compensation (or :class:`controllers.lqr.LQRController`
+    of ``lqr``), the truth fed back, from rest at the identity to ``step_angle`` about ``axis``, through the
+    wheels (their torque and momentum limits) when given.
     Judged with :class:`attitude.simulation.slew_windows.SlewWindows` (the slew ends at ``t = 0``: the step
     is the whole manoeuvre): ``settling_time`` is the time the error enters the pointing accuracy for good,
     ``pointing_error`` the largest error over the hold that follows the required settling time.
@@ -800,12 +1229,14 @@ def confirm_nonlinear(
         The spacecraft (wheels included) [kg m^2].
     requirements : TuningRequirements
         The step, the accuracy and the settling time.
-    wn : float
-        Natural frequency [rad/s].
-    zeta : float
-        Damping ratio [-].
+    wn : float or array_like (3,), optional
+        Natural frequency, one or per axis [rad/s] (the PD; not with ``lqr``).
+    zeta : float or array_like (3,), optional
+        Damping ratio, one or per axis [-] (likewise).
     period : float
         Control period [s].
+    lqr : LQRDesign, optional
+        Fly this LQR (at its period, which must equal ``period``) instead of a PD.
     wheels : ReactionWheels, optional
         The actuators; None: the commanded torque acts on the body.
     axis : array_like (3,)
@@ -831,8 +1262,15 @@ def confirm_nonlinear(
     hold = max(30.0, requirements.settling_time) if hold_time is None else positive_scalar(hold_time, "hold_time")
     windows = SlewWindows(0.0, requirements.settling_time, hold, requirements.pointing_accuracy)
     target = quat.from_rotation_vector(axis * requirements.step_angle)
-    pd = QuaternionPD.from_bandwidth(body, wn=wn, zeta=zeta, period=period, gyroscopic=True, q_ref=target)
-    run = simulate(body, quat.identity(), np.zeros(3), windows.hold_end_s, controller=pd, wheels=wheels)
+    if (lqr is None) == (wn is None or zeta is None):
+        raise ValueError("give either wn and zeta (a PD) or lqr (an LQRDesign), not both or neither")
+    if lqr is None:
+        controller: Any = QuaternionPD.from_bandwidth(
+            body, wn=wn, zeta=zeta, period=period, gyroscopic=True, q_ref=target
+        )
+    else:
+        controller = LQRController(lqr, q_ref=target, period=period)
+    run = simulate(body, quat.identity(), np.zeros(3), windows.hold_end_s, controller=controller, wheels=wheels)
     judged = windows.metrics(run.t, quat.error_angle(target, run.q))
     settling = float(judged["slew_time"])
     pointing = float(judged["pointing_error_hold"])

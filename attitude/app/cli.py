@@ -655,7 +655,8 @@ def _cmd_tune(args: argparse.Namespace) -> int:
         )
     if not out.parent.exists():
         raise UsageError(f"--out {out}: the folder {out.parent} does not exist")
-    _progress("tuning the PD on the linear metrics, then the nonlinear step and the dispersed check ...", args.quiet)
+    law = "the LQR's Bryson bounds" if args.structure == "lqr" else "the PD"
+    _progress(f"tuning {law} on the linear metrics, then the nonlinear step and the dispersed check ...", args.quiet)
     figure = args.figure if args.figure is not None else out.with_suffix(".png")
     if figure.exists() and not args.force:
         raise UsageError(f"--figure {figure}: the file exists; not overwritten (use --force to replace it)")
@@ -976,7 +977,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser(
         "tune",
-        help="tune the PD to the file's requirements and write the gains into a new file",
+        help="tune the PD (or the LQR weights) to the file's requirements and write them into a new file",
         formatter_class=fmt_class,
         description=(
             "Find the PD bandwidth and damping that meet the file's requirements (a step of --step-deg, by\n"
@@ -986,6 +987,8 @@ def build_parser() -> argparse.ArgumentParser:
             "and requirements.disk_margin_min at the control period) at the least settling time or effort;\n"
             "confirm it on the nonlinear plant and the dispersed check; write the file with the new gains\n"
             "(every other key and comment kept) and the trade-off figure (settling time vs disk margin).\n"
+            "--structure lqr tunes the [control.lqr] rate and torque bounds per axis instead (angle_max_deg kept),\n"
+            "flies the LQR in the nonlinear step and on the file's dispersed inertias.\n"
             "Exit code 1 when infeasible (the binding requirement is named) or a confirmation fails."
         ),
         epilog=_EPILOG,
@@ -993,7 +996,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("file", nargs="?", default=None, metavar="FILE", help="spacecraft file (default: the built-in)")
     p.add_argument("--out", type=Path, default=None, metavar="NEWFILE", help="the tuned file (default FILE_tuned.toml)")
     p.add_argument("--cost", choices=("settling", "effort"), default="settling", help="what to minimise")
-    p.add_argument("--structure", choices=("pd",), default="pd", help="the controller tuned")
+    p.add_argument(
+        "--structure",
+        choices=("pd", "lqr"),
+        default="pd",
+        help="the controller tuned: the [control] PD (one bandwidth and damping) or the [control.lqr] Bryson "
+        "bounds per axis (rate and torque; angle_max_deg kept)",
+    )
     p.add_argument(
         "--step-deg",
         type=float,

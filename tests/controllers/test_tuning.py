@@ -1,4 +1,4 @@
-"""Tests of controllers.tuning: the PD tuned to requirements.
+"""Tests of controllers.tuning: the PD (shared or per axis) and the LQR weights tuned to requirements.
 
 Checked against: the closed-form optimum of a continuous PD on a double integrator (disk margin
 ``2 zeta / sqrt(1 + zeta^2)`` (Seiler, Packard and Gahinet 2020, the PD example), peak torque ``J wn^2 theta_0``
@@ -18,11 +18,20 @@ import pytest
 import scipy.optimize
 
 from attitude.actuators import ReactionWheels
+from attitude.linearize import linearize
 from attitude.rigid_body import RigidBody
 from controllers.analysis import attitude_closed_loop
 from controllers.disk_margins import loop_disk_margins
+from controllers.lqr import bryson_weights
 from controllers.pd import QuaternionPD
-from controllers.tuning import RequirementConflict, TuningRequirements, confirm_nonlinear, tune_pd
+from controllers.tuning import (
+    RequirementConflict,
+    TuningRequirements,
+    confirm_nonlinear,
+    lqr_bounds,
+    tune_lqr,
+    tune_pd,
+)
 
 BAND = 0.02
 
@@ -181,3 +190,79 @@ def test_contradictory_requirements_raise_naming_the_keys(cubesat):
             settling_time=60.0, step_angle=1.0, pointing_accuracy=0.01, torque_max=1.0, disk_margin_min=2.0
         )
     assert info.value.names == ("disk_margin_min",)
+
+
+def test_per_axis_known_answer_each_axis_at_its_own_torque_limit():
+    """Per axis, continuous, loose margin: each axis is the known answer of the shared test alone, wn_k =
+    sqrt(torque_k / (J_k theta_0)) (the peak torque J wn^2 theta_0 at t = 0) and zeta* = 0.7797 (2 % overshoot) for
+    every axis; the settling time is the slowest axis's, T1(zeta*) / min(wn_k), and the shared PD is that slowest
+    wn for all three. Tolerances as in the shared known-answer tests."""
+    body, req, wn_torque = _double_integrator_case(1.0)
+    result = tune_pd(body, req, period=None, per_axis=True, tradeoff_points=0)
+    wn_axes = np.sqrt(req.torque_max / np.diag(body.inertia))
+    zeta_star = -math.log(BAND) / math.sqrt(math.pi**2 + math.log(BAND) ** 2)
+    assert result.feasible and result.structure == "pd_per_axis"
+    np.testing.assert_allclose(result.wn, wn_axes, rtol=1e-9)
+    np.testing.assert_allclose(result.zeta, zeta_star, rtol=2e-3)
+    assert result.metrics.settling_time == pytest.approx(_unit_settling(zeta_star) / wn_torque, rel=2e-3)
+    assert result.binding == ("torque_max (x)", "torque_max (y)", "torque_max (z)")
+    # The shared PD is held to the slowest axis (test_known_answer_settling_optimum_when_margin_is_loose: wn_torque,
+    # y's 0.447 rad/s); per axis x and z go to 0.5 rad/s.
+    assert float(np.min(result.wn)) == pytest.approx(wn_torque, rel=1e-9) and np.max(result.wn) > 1.1 * wn_torque
+
+
+def test_lqr_bounds_place_the_continuous_poles_exactly():
+    """The Bryson bounds of lqr_bounds, through control.lqr (the Riccati solver, independent of the derivation), put
+    each principal axis's closed-loop poles at the roots of s^2 + 2 zeta wn s + wn^2 (1e-9 relative: the CARE is
+    solved to machine precision; no damping of 1, whose defective double pole is computed only to sqrt(eps)).
+    Below zeta = 1/sqrt(2) no LQR exists on a double integrator: refused."""
+    body = RigidBody(np.diag([2.0, 3.0, 4.0]))
+    wn, zeta = np.array([0.5, 1.0, 2.0]), np.array([0.75, 1.2, 1.6])
+    bounds = lqr_bounds(body, wn, zeta, angle_max=[0.1, 0.2, 0.05])
+    q_weight, r_weight = bryson_weights(**bounds)
+    plant = linearize(body)
+    gain, _, _ = control.lqr(plant, q_weight, r_weight)
+    poles = np.linalg.eigvals(np.asarray(plant.A) - np.asarray(plant.B) @ np.asarray(gain, dtype=float))
+    expected = np.concatenate([np.roots([1.0, 2.0 * z * w, w**2]) for w, z in zip(wn, zeta)])
+    key = lambda p: (round(p.real, 6), round(p.imag, 6))  # noqa: E731
+    np.testing.assert_allclose(sorted(poles, key=key), sorted(expected, key=key), rtol=1e-9)
+    with pytest.raises(ValueError, match=r"zeta must be above 1/sqrt\(2\)"):
+        lqr_bounds(body, wn, [0.7, 1.0, 1.0], angle_max=0.1)
+
+
+def test_tuned_lqr_meets_every_requirement_on_its_own_closed_loop(cubesat):
+    """The LQR tuned for the design's 1 deg step (angle_max kept at 1 deg), checked on its own gain: the continuous
+    closed loop x' = (A - B K) x + B K x_ref on the linearised body simulated here with control.forced_response
+    (settling into the band, peak torque |K (x_ref - x)| per axis, 20000 samples over 3x the settling), the
+    sampled loop's disk margins (loop_disk_margins), and the nonlinear step through the wheels."""
+    body, wheels, req60, _ = cubesat
+    req = TuningRequirements(
+        settling_time=60.0,
+        step_angle=math.radians(1.0),
+        pointing_accuracy=req60.pointing_accuracy,
+        torque_max=req60.torque_max,
+        momentum_max=req60.momentum_max,
+        disk_margin_min=0.8,
+    )
+    result = tune_lqr(body, req, period=0.1, angle_max=math.radians(1.0), tradeoff_points=0)
+    assert result.feasible and result.structure == "lqr", result.message
+    assert np.all(np.asarray(result.zeta) > 1.0 / math.sqrt(2.0))
+    plant = linearize(body)
+    gain = result.lqr.K
+    a_closed = np.asarray(plant.A) - np.asarray(plant.B) @ gain
+    t = np.linspace(0.0, 3.0 * result.metrics.settling_time, 20001)
+    for k in range(3):
+        x_ref = np.zeros(6)
+        x_ref[k] = math.sin(0.5 * req.step_angle)
+        forced = control.forced_response(
+            control.ss(a_closed, np.asarray(plant.B) @ gain @ x_ref[:, None], np.eye(6), 0.0), t, np.ones_like(t)
+        )
+        x = np.asarray(forced.states)
+        angle = 2.0 * np.arcsin(np.clip(x[k], -1.0, 1.0)) / req.step_angle
+        outside = np.nonzero(np.abs(angle - 1.0) > req.settling_band)[0]
+        assert t[outside[-1] + 1] <= req.settling_time
+        torque = gain @ (x_ref[:, None] - x)
+        assert np.max(np.linalg.norm(torque, axis=0)) <= req.torque_max[k] * (1 + 1e-6)
+    assert loop_disk_margins(plant, result.lqr).smallest >= req.disk_margin_min
+    flown = confirm_nonlinear(body, req, lqr=result.lqr, period=0.1, wheels=wheels, axis=(0.0, 1.0, 0.0))
+    assert flown["passed"], flown

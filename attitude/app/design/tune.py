@@ -16,8 +16,13 @@ winner is then flown on the nonlinear plant through the wheels
 (:func:`controllers.tuning.confirm_nonlinear`) and in the design's dispersed
 check (:func:`attitude.app.design.dispersed.dispersed_check`: the planned slew
 tracked with the new gains, with gyro, star tracker and MEKF, on the file's
-``[montecarlo]`` dispersions). The new file is the input's text with
-``control.bandwidth_rad_per_s`` and ``control.damping`` replaced
+``[montecarlo]`` dispersions). With ``--structure lqr`` the
+``[control.lqr]`` Bryson bounds are tuned instead (:func:`controllers.tuning.tune_lqr`: the attitude bound
+``angle_max_deg`` kept, the rate and torque bounds per axis), the LQR flown in the nonlinear step, and its
+dispersed confirmation is that step flown on the file's ``[montecarlo]`` inertia dispersion (the design's
+campaign flies the PD, which this structure leaves as it is). The new file is the input's text with
+``control.bandwidth_rad_per_s`` and ``control.damping`` (or ``control.lqr.rate_max_deg_per_s`` and
+``control.lqr.torque_max_Nm``) replaced
 (:func:`attitude.config.writer.replace_values`): every other key and
 comment kept, and a header line saying what changed.
 """
@@ -34,23 +39,27 @@ from matplotlib.figure import Figure
 
 from attitude import quaternion as quat
 from attitude.app import assembly
-from attitude.app.design.dispersed import dispersed_check
+from attitude.app.design.dispersed import FAILING_RUNS_LISTED, dispersed_check
 from attitude.config import ConfigError, SpacecraftConfig, default_config, default_config_text
 from attitude.config.writer import replace_values
 from controllers.disk_margins import loop_disk_margins
+from controllers.lqr import LQRController
 from controllers.tuning import (
     PDMetrics,
     RequirementConflict,
     TuningRequirements,
     TuningResult,
     confirm_nonlinear,
+    lqr_metrics,
     pd_metrics,
+    tune_lqr,
     tune_pd,
 )
 
 __all__ = [
     "STRUCTURES",
     "TuneOutcome",
+    "dispersed_step_check",
     "flown_disk_margin",
     "step_source",
     "tune_config",
@@ -59,8 +68,11 @@ __all__ = [
     "tuning_section",
 ]
 
-#: Controller structures `attitude tune` can tune.
-STRUCTURES = ("pd",)
+#: Controller structures `attitude tune` can tune and write back: the ``[control]`` PD (one bandwidth and damping,
+#: what the file holds) and the ``[control.lqr]`` Bryson bounds (per axis). A PD per axis
+#: (``controllers.tuning.tune_pd(per_axis=True)``) has no place in the file: its ``[control]`` PD is one pair (the
+#: rate-limited eigenaxis PD needs ``K = k J``).
+STRUCTURES = ("pd", "lqr")
 #: The file key each tuning requirement comes from (named when requirements contradict themselves).
 REQUIREMENT_KEYS = {
     "settling_time": "requirements.settling_time_s",
@@ -188,9 +200,24 @@ class TuneOutcome:
         """Before and after, one row per metric, with the requirement."""
         req = self.result.requirements
         after = self.result.metrics
+        if self.result.structure == "lqr":
+            old = self.config.control.lqr
+            new = self.tuned.control.lqr if self.tuned is not None else None
+            gains = [
+                (f"lqr.rate_max_deg_per_s ({a})", float(np.degrees(old.rate_max[k])), _bound(new, "rate_max", k, True))
+                for k, a in enumerate("xyz")
+            ] + [
+                (f"lqr.torque_max_Nm ({a})", float(old.torque_max[k]), _bound(new, "torque_max", k, False))
+                for k, a in enumerate("xyz")
+            ]
+            gain_rows = [(m, b, a, None) for m, b, a in gains]
+        else:
+            gain_rows = [
+                ("bandwidth_rad_per_s", self.before.wn, after.wn, None),
+                ("damping", self.before.zeta, after.zeta, None),
+            ]
         rows = [
-            ("bandwidth_rad_per_s", self.before.wn, after.wn, None),
-            ("damping", self.before.zeta, after.zeta, None),
+            *gain_rows,
             ("settling_time_s (linear)", self.before.settling_time, after.settling_time, f"<= {req.settling_time:g}"),
             (
                 "peak_torque_Nm",
@@ -213,9 +240,15 @@ class TuneOutcome:
         ]
         return [{"metric": m, "before": b, "after": a, "required": r} for m, b, a, r in rows]
 
+    @property
+    def structure(self) -> str:
+        """The controller tuned (:data:`STRUCTURES`)."""
+        return self.result.structure
+
     def summary(self) -> dict[str, Any]:
         """JSON-ready: the verdict, the gains, the table, what binds and the confirmations."""
         return {
+            "structure": self.result.structure,
             "feasible": self.result.feasible,
             "passed": self.passed,
             "cost": self.result.cost,
@@ -229,6 +262,14 @@ class TuneOutcome:
             "dispersed": self.dispersed,
             "flown_disk_margin": self.flown_disk_margin,
         }
+
+
+def _bound(bounds: Any, name: str, axis: int, degrees: bool) -> float:
+    """One axis's Bryson bound of a ``[control.lqr]`` table (NaN without one), in the file's unit."""
+    if bounds is None:
+        return math.nan
+    value = float(getattr(bounds, name)[axis])
+    return math.degrees(value) if degrees else value
 
 
 def tune_config(
@@ -249,7 +290,7 @@ def tune_config(
     cost : str
         ``"settling"`` or ``"effort"`` (:func:`controllers.tuning.tune_pd`).
     structure : str
-        The controller tuned: ``"pd"`` (:data:`STRUCTURES`).
+        The controller tuned: ``"pd"`` or ``"lqr"`` (:data:`STRUCTURES`).
     dispersed_runs : int
         Runs of the dispersed confirmation (0: none).
     tradeoff_points : int
@@ -260,50 +301,152 @@ def tune_config(
     Raises
     ------
     ConfigError
-        When the requirements contradict themselves (the keys named).
+        When the requirements contradict themselves (the keys named), or ``"lqr"`` for a file without
+        ``[control.lqr]``.
     ValueError
         For a structure other than :data:`STRUCTURES`.
     """
     if structure not in STRUCTURES:
         raise ValueError(f"structure must be one of {STRUCTURES}, got {structure!r}")
+    if structure == "lqr" and config.control.lqr is None:
+        raise ConfigError(
+            "structure 'lqr' tunes the [control.lqr] Bryson bounds (rate and torque, with its angle_max_deg kept), "
+            "but the file has no [control.lqr] table: add one with angle_max_deg, rate_max_deg_per_s and "
+            "torque_max_Nm",
+            "control.lqr",
+            config.source or "<config>",
+        )
     body = assembly.rigid_body(config)
     wheels = assembly.reaction_wheels(config)
     requirements = tuning_requirements(config, step_deg)
     period = config.control.period_s
     try:
-        result = tune_pd(body, requirements, period=period, cost=cost, tradeoff_points=tradeoff_points)
+        if structure == "lqr":
+            result = tune_lqr(
+                body,
+                requirements,
+                period=period,
+                angle_max=config.control.lqr.angle_max,
+                cost=cost,
+                tradeoff_points=tradeoff_points,
+            )
+        else:
+            result = tune_pd(body, requirements, period=period, cost=cost, tradeoff_points=tradeoff_points)
     except RequirementConflict as exc:
         raise _config_error(exc, config, step_source(config, step_deg)[1]) from exc
-    before = pd_metrics(
-        body, requirements, wn=config.control.bandwidth_rad_per_s, zeta=config.control.damping, period=period
-    )
+    if structure == "lqr":
+        before = lqr_metrics(body, requirements, assembly.lqr(config, body)[1])
+    else:
+        before = pd_metrics(
+            body, requirements, wn=config.control.bandwidth_rad_per_s, zeta=config.control.damping, period=period
+        )
     if not result.feasible:
         return TuneOutcome(config, None, result, before, None, None)
-    control = replace(config.control, bandwidth_rad_per_s=float(result.wn), damping=float(result.zeta))
+    if structure == "lqr":
+        bounds = result.lqr_bounds
+        lqr_table = replace(
+            config.control.lqr,
+            rate_max_deg_per_s=tuple(float(v) for v in np.degrees(bounds["rate_max"])),
+            torque_max_Nm=tuple(float(v) for v in bounds["torque_max"]),
+        )
+        control = replace(config.control, lqr=lqr_table)
+    else:
+        control = replace(config.control, bandwidth_rad_per_s=float(result.wn), damping=float(result.zeta))
     tuned = replace(config, control=control)
     axis = np.asarray(
         quat.to_rotation_vector(
             quat.error_quaternion(config.requirements.slew.q_start(), config.requirements.slew.q_target())
         )
     )
+    gains: dict[str, Any] = {"lqr": result.lqr} if structure == "lqr" else {"wn": result.wn, "zeta": result.zeta}
     nonlinear = confirm_nonlinear(
         body,
         requirements,
-        wn=result.wn,
-        zeta=result.zeta,
         period=period,
         wheels=wheels,
         axis=axis,
         hold_time=config.requirements.hold_time_judged_s,
+        **gains,
     )
     dispersed = None
     if dispersed_runs > 0 and config.montecarlo is not None:
-        dispersed = dispersed_check(tuned, dispersed_runs, None, DISPERSED_NODES)
-    return TuneOutcome(config, tuned, result, before, nonlinear, dispersed, flown_disk_margin(tuned, body))
+        if structure == "lqr":
+            dispersed = dispersed_step_check(tuned, requirements, dispersed_runs, axis)
+        else:
+            dispersed = dispersed_check(tuned, dispersed_runs, None, DISPERSED_NODES)
+    controller = LQRController(result.lqr) if structure == "lqr" else None
+    return TuneOutcome(config, tuned, result, before, nonlinear, dispersed, flown_disk_margin(tuned, body, controller))
 
 
-def flown_disk_margin(config: SpacecraftConfig, body: Any = None) -> float | None:
-    """The file's PD's smallest disk margin at the wheels' input with its modes and filters, or None without them.
+def dispersed_step_check(
+    config: SpacecraftConfig, requirements: TuningRequirements, runs: int, axis: Any
+) -> dict[str, Any] | None:
+    """The file's LQR, designed on the nominal body, flown in the tuning's step on dispersed bodies.
+
+    The bodies are the file's ``[montecarlo]`` inertia dispersion, drawn as the campaign draws them
+    (:func:`attitude.montecarlo.dispersions.draw_parameters`, ``montecarlo.seed``, runs ``0 .. runs - 1``);
+    each is judged by :func:`controllers.tuning.confirm_nonlinear` through the wheels.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The tuned file (its ``[control.lqr]``, ``[montecarlo]`` and wheels).
+    requirements : TuningRequirements
+        The step, the accuracy and the settling time.
+    runs : int
+        Dispersed bodies flown (>= 1).
+    axis : array_like (3,)
+        The step axis in body axes.
+
+    Returns
+    -------
+    dict or None
+        ``runs``, ``failures``, ``failing_runs`` (the first few), ``worst_settling_time_s``,
+        ``worst_pointing_error_rad`` and a one-line ``statement``; None without an inertia dispersion.
+    """
+    mc = config.montecarlo
+    if mc is None or mc.inertia is None:
+        return None
+    from attitude.montecarlo.dispersions import dispersions_from_config, draw_parameters
+    from attitude.rigid_body import RigidBody
+
+    nominal = assembly.rigid_body(config)
+    wheels = assembly.reaction_wheels(config)
+    design = assembly.lqr(config, nominal)[1]
+    inertia = {"inertia": dispersions_from_config(mc, nominal.inertia, config.requirements.slew.q_start())["inertia"]}
+    flown = []
+    for run in range(int(runs)):
+        body = RigidBody(draw_parameters(inertia, mc.seed, run)["inertia"])
+        flown.append(
+            confirm_nonlinear(
+                body,
+                requirements,
+                lqr=design,
+                period=config.control.period_s,
+                wheels=wheels,
+                axis=axis,
+                hold_time=config.requirements.hold_time_judged_s,
+            )
+        )
+    failing = [i for i, f in enumerate(flown) if not f["passed"]]
+    worst_settling = max(f["settling_time_s"] for f in flown)
+    worst_pointing = max(f["pointing_error_rad"] for f in flown)
+    return {
+        "runs": len(flown),
+        "failures": len(failing),
+        "failing_runs": failing[:FAILING_RUNS_LISTED],
+        "worst_settling_time_s": worst_settling,
+        "worst_pointing_error_rad": worst_pointing,
+        "statement": (
+            f"the tuned LQR's {math.degrees(requirements.step_angle):g} deg step on {len(flown)} dispersed bodies "
+            f"(montecarlo.inertia): {len(failing)} failures; worst settling {worst_settling:.4g} s, worst pointing "
+            f"{math.degrees(worst_pointing):.3g} deg"
+        ),
+    }
+
+
+def flown_disk_margin(config: SpacecraftConfig, body: Any = None, controller: Any = None) -> float | None:
+    """The file's PD's (or a controller's) smallest disk margin at the wheels' input with its modes and filters.
 
     Parameters
     ----------
@@ -311,6 +454,8 @@ def flown_disk_margin(config: SpacecraftConfig, body: Any = None) -> float | Non
         The spacecraft file (its ``[control]`` PD, ``[[flexible_modes]]`` and ``[[control.filters]]``).
     body : RigidBody, optional
         The file's body (built when None).
+    controller : object, optional
+        The law judged (e.g. an :class:`controllers.lqr.LQRController`); default the file's PD.
 
     Returns
     -------
@@ -319,10 +464,10 @@ def flown_disk_margin(config: SpacecraftConfig, body: Any = None) -> float | Non
         without filters, whose loop the tuning itself judged.
     """
     body = assembly.rigid_body(config) if body is None else body
-    pd = assembly.quaternion_pd(config, body)
-    flown = assembly.command_filtered(config, pd)
+    law = assembly.quaternion_pd(config, body) if controller is None else controller
+    flown = assembly.command_filtered(config, law)
     flexible = assembly.flexible_plant_model(config)
-    if flexible is None and flown is pd:
+    if flexible is None and flown is law:
         return None
     return float(loop_disk_margins(body if flexible is None else flexible, flown).smallest)
 
@@ -349,6 +494,20 @@ def tuned_file_text(outcome: TuneOutcome) -> str:
     if outcome.tuned is None:
         raise ValueError("outcome must be feasible: an infeasible tuning has no gains to write")
     old, new = outcome.config.control, outcome.tuned.control
+    if outcome.structure == "lqr":
+        rate = [float(f"{v:.6g}") for v in new.lqr.rate_max_deg_per_s]
+        torque = [float(f"{v:.6g}") for v in new.lqr.torque_max_Nm]
+        text = replace_values(
+            _source_text(outcome.config),
+            {"control.lqr.rate_max_deg_per_s": rate, "control.lqr.torque_max_Nm": torque},
+        )
+        header = (
+            f"# Tuned by `attitude tune --structure lqr` ({outcome.result.cost} minimised): "
+            f"control.lqr.rate_max_deg_per_s {old.lqr.rate_max_deg_per_s} -> {rate}, control.lqr.torque_max_Nm "
+            f"{old.lqr.torque_max_Nm} -> {torque} (angle_max_deg kept).\n"
+            "# The comments beside those keys describe the values before tuning.\n"
+        )
+        return header + text
     text = replace_values(
         _source_text(outcome.config),
         {"control.bandwidth_rad_per_s": new.bandwidth_rad_per_s, "control.damping": new.damping},

@@ -12,11 +12,14 @@ import io
 import json
 import math
 
+import numpy as np
 import pytest
 
+from attitude.app import assembly
 from attitude.app.cli import main
 from attitude.app.design.tune import tune_config, tuning_requirements
 from attitude.config import ConfigError, default_config, default_config_text, load_config, parse_config
+from controllers.tuning import lqr_metrics
 
 
 @pytest.fixture(scope="module")
@@ -123,3 +126,48 @@ def test_a_contradictory_file_is_not_blamed_on_step_deg(tmp_path, capsys):
     assert "requirements.settling_time_s" in err and "--step-deg" not in err
     assert main(["tune", str(path), "--runs", "0", "--quiet", "--step-deg", "-1"]) == 2
     assert "--step-deg" in capsys.readouterr().err
+
+
+@pytest.fixture(scope="module")
+def tuned_lqr(tmp_path_factory):
+    """`attitude tune --structure lqr` on the built-in file, with two dispersed bodies."""
+    folder = tmp_path_factory.mktemp("tune_lqr")
+    source = folder / "sat.toml"
+    source.write_text(default_config_text(), encoding="utf-8")
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        code = main(["tune", str(source), "--structure", "lqr", "--runs", "2", "--json", "--quiet"])
+    return source, folder / "sat_tuned.toml", code, json.loads(printed.getvalue())
+
+
+def test_tune_lqr_writes_the_bryson_bounds_and_keeps_the_pd(tuned_lqr):
+    """--structure lqr: the new file reads back with the tuned rate and torque bounds per axis (to the 6 digits
+    written), angle_max_deg and the PD unchanged; the LQR designed from the file again meets the requirements on the
+    same metrics (controllers.tuning.lqr_metrics of assembly.lqr), was flown in the nonlinear step and on two
+    dispersed bodies of montecarlo.inertia."""
+    source, out, code, summary = tuned_lqr
+    assert code == 0, summary["message"]
+    before, after = load_config(source), load_config(out)
+    assert after.control.lqr.angle_max_deg == before.control.lqr.angle_max_deg
+    assert (after.control.bandwidth_rad_per_s, after.control.damping) == (0.4, 0.7)
+    rows = {row["metric"]: row for row in summary["table"]}
+    for k, axis in enumerate("xyz"):
+        assert after.control.lqr.rate_max_deg_per_s[k] == pytest.approx(
+            rows[f"lqr.rate_max_deg_per_s ({axis})"]["after"], rel=1e-5
+        )
+        assert after.control.lqr.torque_max_Nm[k] == pytest.approx(
+            rows[f"lqr.torque_max_Nm ({axis})"]["after"], rel=1e-5
+        )
+    req = tuning_requirements(after)
+    metrics = lqr_metrics(assembly.rigid_body(after), req, assembly.lqr(after)[1])
+    assert metrics.settling_time <= req.settling_time and metrics.disk_margin >= req.disk_margin_min
+    assert np.all(metrics.peak_torque <= req.torque_max * (1 + 1e-4))  # 6 written digits: 1e-5 of the torque
+    assert summary["structure"] == "lqr" and summary["nonlinear"]["passed"]
+    assert summary["dispersed"]["runs"] == 2 and summary["dispersed"]["failures"] == 0
+
+
+def test_tune_lqr_without_its_table_names_the_key():
+    """--structure lqr tunes [control.lqr]: a file without it is refused naming control.lqr."""
+    without_lqr = dataclasses.replace(default_config().control, lqr=None)
+    with pytest.raises(ConfigError, match=r"control\.lqr"):
+        tune_config(dataclasses.replace(default_config(), control=without_lqr), structure="lqr", dispersed_runs=0)
