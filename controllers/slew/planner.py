@@ -3,7 +3,8 @@
 :func:`plan_slew` solves a minimum-time or minimum-energy reorientation by
 direct multiple shooting on the one definition of the rigid-body equations
 of motion, subject to boundary states, a torque set (per-axis box or the
-envelope of a reaction-wheel set), a body-rate limit and keep-out cones.
+envelope of a reaction-wheel set), a body-rate limit and keep-out cones; or
+on the wheels themselves, their momenta as states (``wheel_states=True``).
 
 This module is the public entry point; the work is split by job:
 
@@ -15,12 +16,13 @@ This module is the public entry point; the work is split by job:
 * :mod:`controllers.slew.multistart`: the starts solved (in worker processes when asked) and reported;
 * :mod:`controllers.slew.optimality`: Pontryagin's conditions checked from the NLP's multipliers;
 * :mod:`controllers.slew.refine`: multi-phase refinement of a minimum-time answer;
+* :mod:`controllers.slew.wheel_states`: the plan on the wheels (``wheel_states=True``);
 * :mod:`controllers.slew.plan`: :class:`SlewPlan`, its resampling and figure;
 * :mod:`controllers.slew.checks`: blocked paths, verification, eigenaxis comparison, failure causes.
 
 See docs/slew_planning.md for the formulation (transcription, final
 attitude, scaling, keep-out margins, rate limit, guesses, refinement,
-smoothing, verification, reaction wheels).
+smoothing, verification, reaction wheels, the wheel polytope and momentum).
 """
 
 from __future__ import annotations
