@@ -219,7 +219,9 @@ def plan_slew(
     InfeasibleSlewError
         The problem is infeasible, e.g. a ``duration`` shorter than the
         minimum time for these limits, or keep-out cones that separate a
-        boresight's initial and final directions (also a ValueError).
+        boresight's initial and final directions, or (wheel states) a final
+        state whose conserved angular momentum the wheels cannot hold within
+        ``momentum_max`` (also a ValueError).
     SlewPlanningError
         IPOPT failed on every start (and on the eigenaxis fallback start), or
         the re-simulation missed the target.

@@ -15,6 +15,8 @@ What each test checks against:
   the target, and every motor torque and wheel momentum stays within its limit.
 * The momentum limit binds: a wheel set with a small ``momentum_max`` is slower than the same
   wheels with a large one, its wheels reach the limit and never exceed it.
+* Minimum energy: no dearer than a feasible slew of the same duration (the minimum-time plan, then
+  rest); a duration below the minimum time is infeasible.
 * Conservation: with non-zero initial wheel momenta the total inertial angular momentum
   ``C_NB (I_s omega + A h)`` of the re-simulated slew stays constant (no external torque) while
   its body components turn with the body.
@@ -147,6 +149,36 @@ def test_total_momentum_conserved():
     assert np.max(np.linalg.norm(total_N - total_N[0], axis=1)) < 1e-8 * size
     assert np.linalg.norm(total_B[-1] - total_B[0]) > 0.5 * size
     assert np.allclose(plan.wheel_momentum[0], h0)
+
+
+def test_minimum_energy_and_starts():
+    """Minimum energy over 1.5 minimum times beats a feasible slew of that duration; too short is infeasible.
+
+    The minimum-time plan followed by a rest at the target is a feasible slew of the longer duration with the
+    minimum-time plan's energy, so the minimum-energy plan must cost no more (it costs about a quarter).
+    """
+    wheels = pyramid(0.3)
+    qf = quat.from_axis_angle([0.0, 1.0, 0.0], np.pi / 3)
+    fastest = plan_slew(BODY, Q0, qf, torque_max=wheels, wheel_states=True, nodes=NODES, starts=("eigenaxis", "random"))
+    assert [s["family"] for s in fastest.info["starts"]] == ["eigenaxis", "random"]
+    duration = 1.5 * fastest.duration
+    cheapest = plan_slew(
+        BODY, Q0, qf, torque_max=wheels, wheel_states=True, nodes=NODES, objective="energy", duration=duration
+    )
+    assert cheapest.duration == pytest.approx(duration, rel=1e-12)
+    assert cheapest.objective_value < fastest.info["energy_n2m2s"]
+    check_resimulation(cheapest, np.zeros(4))
+    with pytest.raises(InfeasibleSlewError, match="admit no such slew"):
+        plan_slew(
+            BODY,
+            Q0,
+            qf,
+            torque_max=wheels,
+            wheel_states=True,
+            nodes=NODES,
+            objective="energy",
+            duration=0.7 * fastest.duration,
+        )
 
 
 def test_figure_and_save(tmp_path):
