@@ -181,6 +181,26 @@ def test_minimum_energy_and_starts():
         )
 
 
+def test_friction_and_moving_ends():
+    """Wheels with viscous and Coulomb friction, initial wheel momenta and a final rate: the re-simulation agrees.
+
+    The NLP runs on the wheel set scaled to its units (friction included); a wrong scaling of a friction
+    coefficient would leave the independent re-simulation (SI units) off the target by far more than 1e-4 rad.
+    """
+    wheels = ReactionWheels.pyramid(
+        spin_inertia=SPIN_INERTIA,
+        torque_max=TORQUE_MAX,
+        momentum_max=0.3,
+        viscous_friction=2e-3,
+        coulomb_friction=2e-3,
+        coulomb_smoothing_speed=5.0,
+    )
+    h0 = np.full(4, 0.02)
+    qf = quat.from_axis_angle([1.0, 1.0, 0.0], 1.2)
+    plan = plan_slew(BODY, Q0, qf, torque_max=wheels, wheel_states=True, nodes=NODES, h_wheels0=h0, omegaf=[0, 0, 0.01])
+    check_resimulation(plan, h0)
+
+
 def test_figure_and_save(tmp_path):
     """The wheel figure draws both panels and a saved plan loads with its wheel histories."""
     qf = quat.from_axis_angle([1.0, 0.0, 0.0], np.pi / 4)
