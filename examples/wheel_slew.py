@@ -17,6 +17,11 @@ before and after, under a 3 deg/s body-rate limit (a separate requirement).
    and is slower; the figure shows every wheel torque and momentum against
    its limit.
 
+Figures: the angle to go and the body torque along the slew axis of every
+plan (``wheel_states_against_box_and_allocation.png``), and the wheel
+torques and momenta against their limits of the polytope plan and of the
+momentum-limited plan.
+
 Run ``python examples/wheel_slew.py --out DIR`` (``--quick`` for fewer nodes).
 """
 
@@ -27,10 +32,12 @@ import time
 from pathlib import Path
 
 import numpy as np
+from matplotlib.figure import Figure
 
 from attitude import ReactionWheels, RigidBody
 from attitude import quaternion as quat
-from controllers import plan_slew
+from controllers import SlewPlan, plan_slew
+from controllers.slew.reference import axis_angle
 from controllers.slew.wheel_states import wheel_torque_box
 
 INERTIA = np.array([[12.0, 0.4, -0.3], [0.4, 10.5, 0.2], [-0.3, 0.2, 8.5]])  # kg m^2
@@ -99,10 +106,43 @@ def main() -> None:
         f"momentum/limit {check['momentum_ratio_max']:.6f}, "
         f"total momentum drift {check['angular_momentum_drift']:.1e} N m s"
     )
+    comparison_figure(plans).savefig(args.out / "wheel_states_against_box_and_allocation.png", dpi=110)
     plans["vertex", "wheel states (polytope)"].plot_wheels().savefig(args.out / "wheel_states_polytope.png", dpi=110)
     limited.plot_wheels().savefig(args.out / "wheel_states_momentum_limited.png", dpi=110)
     limited.plot().savefig(args.out / "wheel_states_momentum_limited_plan.png", dpi=110)
     print(f"\nfigures in {args.out}; done in {time.perf_counter() - start:.1f} s")
+
+
+def comparison_figure(plans: dict[tuple[str, str], SlewPlan]) -> Figure:
+    """Angle to go and body torque along the slew axis of each plan, one panel per slew axis."""
+    axes_names = sorted({axis for axis, _ in plans}, key=["x", "vertex"].index)
+    fig = Figure(figsize=(11, 6.5), layout="constrained")
+    ax = fig.subplots(2, len(axes_names), sharex="col", squeeze=False)
+    # Wider lines under narrower ones: plans that coincide (the polytope reaches the allocation about x and the
+    # box about the vertex axis) stay visible.
+    styles = {"box": ("tab:gray", 4.0), "allocation": ("tab:orange", 2.6), "polytope": ("tab:blue", 1.3)}
+    for col, axis_name in enumerate(axes_names):
+        for (name_axis, name), plan in plans.items():
+            if name_axis != axis_name:
+                continue
+            key = next((k for k in styles if k in name), None)
+            color, width = styles[key] if key is not None and "mN m s" not in name else ("tab:red", 1.3)
+            ls = "--" if "mN m s" in name else "-"
+            fine = plan.resample(plan.duration / 400.0)
+            to_go = np.degrees(quat.error_angle(plan.q_target, quat.normalize(fine.q)))
+            label = f"{name}: {plan.duration:.1f} s"
+            ax[0, col].plot(fine.t, to_go, color=color, ls=ls, lw=width, label=label)
+            axis, _ = axis_angle(plan.q[0], plan.q_target)
+            ax[1, col].step(plan.t, 1e3 * plan.torque @ axis, where="post", color=color, ls=ls, lw=width, label=name)
+        ax[0, col].set_title(f"90 deg about {'body x' if axis_name == 'x' else 'the vertex (+, +, +, -) axis'}")
+        ax[0, col].set_ylabel("angle to go [deg]")
+        ax[1, col].set_ylabel("body torque along the slew axis [mN m]")
+        ax[1, col].set_xlabel("time [s]")
+        ax[0, col].legend(fontsize="small")
+        for a in ax[:, col]:
+            a.grid(True, alpha=0.3)
+    fig.suptitle("minimum-time slews of one wheel set under three torque models (same grid, no refinement)")
+    return fig
 
 
 if __name__ == "__main__":
