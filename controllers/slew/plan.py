@@ -14,9 +14,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
+from attitude.actuators import ReactionWheels
 from attitude.integrators import casadi_rk4_step
 from attitude.results import ResultIO
 from attitude.rigid_body import RigidBody
+from attitude.simulation.plant import PlantModel
 from attitude.validation import check_positive, check_vector, positive_scalar
 from controllers.slew.keep_out import KeepOutCone
 from controllers.slew.optimality import summary_words
@@ -24,7 +26,15 @@ from controllers.slew.optimality import summary_words
 if TYPE_CHECKING:
     import matplotlib.figure
 
-__all__ = ["STATUS_WORDS", "SlewPlan", "cone_arrays", "plan_title", "plot_plan", "states_between"]
+__all__ = [
+    "STATUS_WORDS",
+    "SlewPlan",
+    "cone_arrays",
+    "plan_title",
+    "plot_plan",
+    "plot_wheel_plan",
+    "states_between",
+]
 
 #: IPOPT statuses in words for figure titles.
 STATUS_WORDS = {"Solve_Succeeded": "converged", "Solved_To_Acceptable_Level": "converged (acceptable level)"}
@@ -136,6 +146,20 @@ class SlewPlan(ResultIO):
     optimality_flagged : bool
         The plan fails Pontryagin's necessary conditions beyond their
         tolerances (``info["pontryagin"]``): not a time-optimal extremal.
+    wheel_torque : ndarray (n, n_wheels) or None
+        Motor torque per wheel [N m], held like ``torque`` (plans with the
+        wheel momenta as states, :mod:`controllers.slew.wheel_states`; then
+        ``torque`` is the motor reaction ``-A u`` on the body and ``inertia``
+        the whole spacecraft's, wheels included). None otherwise.
+    wheel_momentum : ndarray (n, n_wheels) or None
+        Absolute spin-axis momentum per wheel ``h`` [N m s] (the simulation
+        engine's wheel state); :attr:`wheel_relative_momentum` is the part the
+        speed limit bounds.
+    wheel_set : dict or None
+        The wheel set as the keyword arguments of
+        :class:`attitude.actuators.ReactionWheels` (``axes_B``,
+        ``spin_inertia``, ``torque_max``, ``momentum_max``, the friction);
+        :meth:`wheels` rebuilds it.
     """
 
     t: NDArray[np.float64]
@@ -170,6 +194,24 @@ class SlewPlan(ResultIO):
     costate: NDArray[np.float64] | None = None
     pontryagin_residual: float | None = None
     optimality_flagged: bool = False
+    wheel_torque: NDArray[np.float64] | None = None
+    wheel_momentum: NDArray[np.float64] | None = None
+    wheel_set: dict[str, Any] | None = None
+
+    def wheels(self) -> ReactionWheels | None:
+        """The planned wheel set (:attr:`wheel_set`), None for a plan without wheel states."""
+        return None if self.wheel_set is None else ReactionWheels(**self.wheel_set)
+
+    @property
+    def wheel_relative_momentum(self) -> NDArray[np.float64] | None:
+        """Wheel momentum relative to the body ``J Omega = h - J a . omega`` [N m s] (n, n_wheels); None without wheels.
+
+        This is what ``momentum_max`` (the wheel-speed limit) bounds.
+        """
+        wheels = self.wheels()
+        if wheels is None or self.wheel_momentum is None:
+            return None
+        return wheels.spin_inertia * wheels.wheel_speed(self.wheel_momentum, self.omega)
 
     def summary(self) -> str:
         """One line: objective, duration, starts that reached the best, and the Pontryagin check."""
@@ -230,11 +272,33 @@ class SlewPlan(ResultIO):
             t_new = np.append(t_new, self.duration)
         else:
             t_new[-1] = self.duration
-        x = states_between(RigidBody(self.inertia), self.t, self.q, self.omega, self.torque, t_new)
         k = np.clip(np.searchsorted(self.t, t_new, side="right") - 1, 0, self.t.size - 2)
         info = dict(self.info)
         info["resampled_dt_s"] = dt
-        return replace(self, t=t_new, q=x[:, :4], omega=x[:, 4:], torque=self.torque[k].copy(), info=info, costate=None)
+        wheels = self.wheels()
+        if wheels is None or self.wheel_momentum is None or self.wheel_torque is None:
+            x = states_between(RigidBody(self.inertia), self.t, self.q, self.omega, self.torque, t_new)
+            return replace(
+                self, t=t_new, q=x[:, :4], omega=x[:, 4:], torque=self.torque[k].copy(), info=info, costate=None
+            )
+        x = states_between(
+            RigidBody(self.inertia), self.t, self.q, self.omega, self.wheel_torque, t_new, self.wheel_momentum, wheels
+        )
+        return replace(
+            self,
+            t=t_new,
+            q=x[:, :4],
+            omega=x[:, 4:7],
+            torque=self.torque[k].copy(),
+            wheel_torque=self.wheel_torque[k].copy(),
+            wheel_momentum=x[:, 7:],
+            info=info,
+            costate=None,
+        )
+
+    def plot_wheels(self) -> matplotlib.figure.Figure:
+        """Wheel torques and momenta against their limits (:func:`plot_wheel_plan`; plans with wheel states)."""
+        return plot_wheel_plan(self)
 
     def plot(
         self,
@@ -265,10 +329,64 @@ class SlewPlan(ResultIO):
         )
 
 
+def plot_wheel_plan(plan: SlewPlan) -> matplotlib.figure.Figure:
+    """Motor torque and momentum relative to the body per wheel against their limits (:meth:`SlewPlan.plot_wheels`).
+
+    Torques in mN m and momenta in mN m s, each wheel in its own colour with
+    its limits dashed; a limit the plan reaches is where the wheel binds.
+
+    Parameters
+    ----------
+    plan : SlewPlan
+        A plan with the wheel momenta as states (:attr:`SlewPlan.wheel_set`).
+    """
+    from matplotlib.figure import Figure
+
+    wheels = plan.wheels()
+    if wheels is None or plan.wheel_torque is None:
+        raise ValueError("plan must hold wheel states (plan_slew(..., wheel_states=True)); this plan has none")
+    fine = plan.resample(plan.duration / 400.0) if plan.t.size < 400 else plan
+    relative = fine.wheel_relative_momentum
+    fig = Figure(figsize=(11, 4.8), layout="constrained")
+    ax = fig.subplots(1, 2, sharex=True)
+    for i in range(wheels.n_wheels):
+        # Wider lines under narrower ones: wheels that a symmetric slew drives alike stay visible.
+        style = {"color": f"C{i}", "lw": 1.2 + 1.2 * (wheels.n_wheels - 1 - i), "alpha": 0.85}
+        ax[0].step(plan.t, 1e3 * plan.wheel_torque[:, i], where="post", label=f"wheel {i + 1}", **style)
+        ax[1].plot(fine.t, 1e3 * relative[:, i], label=f"wheel {i + 1}", **style)
+    for a, limit in ((ax[0], wheels.torque_max), (ax[1], wheels.momentum_max)):
+        for value in np.unique(limit):
+            for sign in (1.0, -1.0):
+                a.axhline(sign * 1e3 * value, color="black", ls="--", lw=0.9)
+        a.plot([], [], color="black", ls="--", lw=0.9, label="limit")
+    ax[0].set_ylabel("motor torque [mN m]")
+    ax[0].set_title("wheel motor torque and torque_max")
+    ax[1].set_ylabel(r"momentum relative to the body $J\,\Omega$ [mN m s]")
+    ax[1].set_title("wheel momentum and momentum_max (the speed limit)")
+    for a in ax:
+        a.grid(True, alpha=0.3)
+        a.margins(x=0)
+        a.set_xlabel("time [s]")
+        a.legend(loc="best", fontsize="small")
+    fig.suptitle(plan_title(plan))
+    return fig
+
+
 def states_between(
-    body: RigidBody, t: NDArray, q: NDArray, omega: NDArray, torque: NDArray, t_new: NDArray
+    body: RigidBody,
+    t: NDArray,
+    q: NDArray,
+    omega: NDArray,
+    torque: NDArray,
+    t_new: NDArray,
+    wheel_momentum: NDArray | None = None,
+    wheels: ReactionWheels | None = None,
 ) -> NDArray[np.float64]:
     """States at ``t_new`` integrated from the preceding node of ``t`` under the ZOH torque (RK4, 8 sub-steps).
+
+    With ``wheels`` the state is ``[q, omega, h]`` and ``torque`` the motor
+    torques: the hold step of :class:`attitude.simulation.plant.PlantModel`
+    (the hub body and its wheels, as the simulation engine flies them).
 
     Parameters
     ----------
@@ -281,15 +399,25 @@ def states_between(
     omega : ndarray
         Node body rates [rad/s], shape (N + 1, 3).
     torque : ndarray
-        Body torque held over each interval [N m], shape (N, 3).
+        Body torque held over each interval [N m], shape (N, 3); with
+        ``wheels``, the motor torque per wheel (N, n_wheels).
     t_new : ndarray
         Times at which to return the states [s].
+    wheel_momentum : ndarray, optional
+        Node wheel momenta ``h`` [N m s], shape (N + 1, n_wheels) (with ``wheels``).
+    wheels : ReactionWheels, optional
+        The wheel set; ``body`` is then the whole spacecraft, wheels included.
     """
     k = np.clip(np.searchsorted(t, t_new, side="right") - 1, 0, t.size - 2)
     dt = t_new - t[k]
-    x0 = np.concatenate([q[k], omega[k]], axis=1)
-    step = casadi_rk4_step(body, substeps=8).map(t_new.size)
-    out = np.asarray(step(x0.T, torque[k].T, dt[None, :])).T
+    if wheels is None or wheel_momentum is None:
+        x0 = np.concatenate([q[k], omega[k]], axis=1)
+        step = casadi_rk4_step(body, substeps=8).map(t_new.size)
+        out = np.asarray(step(x0.T, torque[k].T, dt[None, :])).T
+    else:
+        x0 = np.concatenate([q[k], omega[k], wheel_momentum[k]], axis=1)
+        hold = PlantModel(wheels.hub_body(body), wheels).compiled_step(8).map(t_new.size)
+        out = np.asarray(hold(x0.T, torque[k].T, np.zeros((3, t_new.size)), dt[None, :])).T
     exact = dt == 0
     out[exact] = x0[exact]
     return out

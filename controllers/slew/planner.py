@@ -3,7 +3,8 @@
 :func:`plan_slew` solves a minimum-time or minimum-energy reorientation by
 direct multiple shooting on the one definition of the rigid-body equations
 of motion, subject to boundary states, a torque set (per-axis box or the
-envelope of a reaction-wheel set), a body-rate limit and keep-out cones.
+envelope of a reaction-wheel set), a body-rate limit and keep-out cones; or
+on the wheels themselves, their momenta as states (``wheel_states=True``).
 
 This module is the public entry point; the work is split by job:
 
@@ -15,12 +16,13 @@ This module is the public entry point; the work is split by job:
 * :mod:`controllers.slew.multistart`: the starts solved (in worker processes when asked) and reported;
 * :mod:`controllers.slew.optimality`: Pontryagin's conditions checked from the NLP's multipliers;
 * :mod:`controllers.slew.refine`: multi-phase refinement of a minimum-time answer;
+* :mod:`controllers.slew.wheel_states`: the plan on the wheels (``wheel_states=True``);
 * :mod:`controllers.slew.plan`: :class:`SlewPlan`, its resampling and figure;
 * :mod:`controllers.slew.checks`: blocked paths, verification, eigenaxis comparison, failure causes.
 
 See docs/slew_planning.md for the formulation (transcription, final
 attitude, scaling, keep-out margins, rate limit, guesses, refinement,
-smoothing, verification, reaction wheels).
+smoothing, verification, reaction wheels, the wheel polytope and momentum).
 """
 
 from __future__ import annotations
@@ -69,6 +71,7 @@ from controllers.slew.problem import (
 from controllers.slew.reference import axis_angle, eigenaxis_profile
 from controllers.slew.refine import REFINEMENT_SLACK, drop_empty, refine_phases
 from controllers.slew.transcription import check_ipopt_options, sigint_guard, solve_grid
+from controllers.slew.wheel_states import check_wheel_state_options, plan_with_wheel_states
 
 __all__ = [
     "plan_slew",
@@ -102,6 +105,8 @@ def plan_slew(
     verify_tolerance: float = 1e-4,
     keep_out_margin: bool = True,
     progress: bool | None = False,
+    wheel_states: bool = False,
+    h_wheels0: ArrayLike | None = None,
 ) -> SlewPlan:
     """Plan a minimum-time or minimum-energy slew (docs/slew_planning.md for the method).
 
@@ -186,6 +191,18 @@ def plan_slew(
         (:func:`attitude.progress.progress_bar`; erased when the plan is
         done): None draws it when stderr is a terminal, True always,
         False (default) never.
+    wheel_states : bool
+        With ``torque_max`` a ReactionWheels: plan the motor torques within
+        the wheels' torque polytope, with the wheel momenta as states, their
+        gyroscopic coupling and the wheel-speed limit ``momentum_max``
+        (:mod:`controllers.slew.wheel_states`; docs/slew_planning.md,
+        Reaction-wheel polytope and wheel momentum). Keep-out cones,
+        refinement, warm starts, smoothing and worker processes are refused;
+        ``body`` is the whole spacecraft, wheels included. Default False:
+        the allocation envelope bounds the body torque, no wheel momentum.
+    h_wheels0 : array_like (n_wheels,), optional
+        Initial absolute wheel momenta [N m s] with ``wheel_states`` (default
+        zero, as :func:`attitude.simulation.simulate`'s ``h_wheels0``).
 
     Returns
     -------
@@ -202,7 +219,9 @@ def plan_slew(
     InfeasibleSlewError
         The problem is infeasible, e.g. a ``duration`` shorter than the
         minimum time for these limits, or keep-out cones that separate a
-        boresight's initial and final directions (also a ValueError).
+        boresight's initial and final directions, or (wheel states) a final
+        state whose conserved angular momentum the wheels cannot hold within
+        ``momentum_max`` (also a ValueError).
     SlewPlanningError
         IPOPT failed on every start (and on the eigenaxis fallback start), or
         the re-simulation missed the target.
@@ -240,6 +259,13 @@ def plan_slew(
             if duration is None:
                 raise ValueError("duration [s] is required for objective='energy'")
             duration = float(check_positive(duration, "duration"))
+        if not isinstance(wheel_states, (bool, np.bool_)):
+            raise ValueError(f"wheel_states must be True or False, got {wheel_states!r}")
+        if wheel_states:
+            check_wheel_state_options(torque_max, keep_out, refine, initial_guess, smoothing, workers)
+            refine = False
+        elif h_wheels0 is not None:
+            raise ValueError("h_wheels0 is only used with wheel_states=True (the wheel momenta as states)")
         if refine is None:
             refine = objective == "time"
         if refine and objective != "time":
@@ -263,6 +289,22 @@ def plan_slew(
         options = check_ipopt_options(ipopt_options)
         prob = prob.scaled_to(duration if duration is not None else _eigenaxis_time(prob))
         duration_s = None if duration is None else duration / prob.t_s
+        if wheel_states:
+            return plan_with_wheel_states(
+                prob,
+                torque_max,
+                h_wheels0,
+                objective,
+                duration_s,
+                n,
+                specs,
+                perturbation,
+                gen,
+                max_iter,
+                options,
+                verify_tolerance,
+                wall_start,
+            )
         notes: list[str] = []
 
         base_X, base_U, base_T = base_guess(prob, n, duration_s)

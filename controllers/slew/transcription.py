@@ -30,6 +30,7 @@ __all__ = [
     "Transcription",
     "check_ipopt_options",
     "interval_function",
+    "ipopt_setup",
     "sigint_guard",
     "solve_grid",
     "solve_nlp",
@@ -178,31 +179,40 @@ class Transcription:
         Number of intervals.
     options : mapping
         IPOPT options of the caller (override :data:`IPOPT_DEFAULTS`).
+    state_size : int
+        Rows of the state ``[q, omega T_s, ...]``: 7, or ``7 + n_wheels`` with
+        the wheel momenta as states (:mod:`controllers.slew.wheel_states`).
     """
 
-    def __init__(self, prob: Problem, n: int, options: Mapping[str, Any]) -> None:
+    def __init__(self, prob: Problem, n: int, options: Mapping[str, Any], state_size: int = 7) -> None:
         self.prob = prob
         self.n = n
         self.opti = ca.Opti()
-        self.X = self.opti.variable(7, n + 1)
+        self.X = self.opti.variable(state_size, n + 1)
         self.options = options
         self.continuity: Any = None
         self.initial: Any = None
         self.path: list[tuple[Any, list[int]]] = []
 
-    def constrain(self, U: Any, H: Any) -> None:
+    def constrain(self, U: Any, H: Any, interval: IntervalFunction | None = None, x0: Any = None) -> None:
         """Dynamics, boundary conditions and path constraints for torques ``U`` and lengths ``H``.
 
         Parameters
         ----------
         U : casadi.MX
-            Torque expressions (3, n), units of ``tau_s``.
+            Control expressions (3, n) body torques in units of ``tau_s``, or
+            the controls of ``interval``.
         H : casadi.MX
             Interval-length expressions (1, n), units of ``T_s``.
+        interval : IntervalFunction, optional
+            The interval's defect and path rows; default
+            :func:`interval_function` of the rigid body.
+        x0 : array_like, optional
+            The initial state (nondimensional); default ``prob.x0``.
         """
         prob, opti, X = self.prob, self.opti, self.X
         n = self.n
-        f = interval_function(prob)
+        f = interval_function(prob) if interval is None else interval
         defect, g, g_start, g_end = f.fun.map(n)(X[:, :-1], U, H, X[:, 1:])
         self.continuity = ca.vec(defect) == 0
         opti.subject_to(self.continuity)
@@ -224,9 +234,9 @@ class Transcription:
         for con, _ in path:
             opti.subject_to(con)
         self.path = path
-        self.initial = X[:, 0] == prob.x0
+        self.initial = X[:, 0] == (prob.x0 if x0 is None else x0)
         opti.subject_to(self.initial)
-        opti.subject_to(X[4:, -1] == prob.omegaf * prob.t_s)
+        opti.subject_to(X[4:7, -1] == prob.omegaf * prob.t_s)
         w, x, y, z = prob.qf
         err = multiply_components([w, -x, -y, -z], [X[i, -1] for i in range(4)])
         opti.subject_to(ca.vertcat(*err[1:]) == 0)
@@ -281,8 +291,9 @@ class Transcription:
         multiplier of ``x_0 = x0``.
         """
         opti, n = self.opti, self.n
-        nu = np.asarray(opti.debug.value(opti.dual(self.continuity)), dtype=float).reshape(7, n, order="F")
-        nu0 = -np.asarray(opti.debug.value(opti.dual(self.initial)), dtype=float).reshape(7, 1)
+        rows = self.X.shape[0]
+        nu = np.asarray(opti.debug.value(opti.dual(self.continuity)), dtype=float).reshape(rows, n, order="F")
+        nu0 = -np.asarray(opti.debug.value(opti.dual(self.initial)), dtype=float).reshape(rows, 1)
         path = np.zeros(n)
         for con, intervals in self.path:
             mu = np.abs(np.atleast_1d(np.asarray(opti.debug.value(opti.dual(con)), dtype=float)))
@@ -450,7 +461,15 @@ def check_ipopt_options(options: Any) -> dict[str, Any]:
 
 
 def ipopt_setup(tr: Transcription, max_iter: int) -> None:
-    """Attach IPOPT with :data:`IPOPT_DEFAULTS`, ``max_iter`` and the caller's options."""
+    """Attach IPOPT with :data:`IPOPT_DEFAULTS`, ``max_iter`` and the caller's options.
+
+    Parameters
+    ----------
+    tr : Transcription
+        The problem.
+    max_iter : int
+        IPOPT iteration limit.
+    """
     opts = dict(IPOPT_DEFAULTS)
     opts["max_iter"] = int(max_iter)
     opts.update(tr.options)
