@@ -73,10 +73,11 @@ __all__ = [
 #: The objectives of :func:`plan_robust_slew`: the sigma-weighted mean of the terminal errors, or the largest.
 ROBUST_OBJECTIVES = ("expected", "worst")
 
-#: Default weight of the energy, relative to the nominal plan's, against the terminal error relative to the
-#: nominal plan's (docs/slew_planning.md): small enough not to trade robustness for energy, large enough to
-#: pick one plan among equally robust ones (and the minimum-energy plan itself at zero uncertainty).
-ENERGY_WEIGHT = 1e-3
+#: Default weight of the energy [rad^2]: the cost counts the nominal plan's energy as a terminal error of
+#: 0.1 deg (squared), so a robust plan doubles the energy only where that buys more than 0.1 deg (rms over
+#: the sigma points), and as the uncertainty vanishes the plan becomes the minimum-energy one
+#: (docs/slew_planning.md, Robust (unscented) slews).
+ENERGY_WEIGHT = math.radians(0.1) ** 2
 
 
 # ---------------------------------------------------------------------------
@@ -462,9 +463,11 @@ def plan_robust_slew(
     error of the sigma points of the moments' uncertainty (each flown by the same torque from the same
     start), ``e = 4 |vec(qf* q(T))|^2 + (rate_error_time |omega(T) - omegaf|)^2`` [rad^2] (``4 sin^2``
     of half the error angle: the squared angle for small errors), their unscented mean
-    (``"expected"``) or their largest (``"worst"``), plus ``energy_weight`` times the energy, both
-    relative to the nominal plan's. The warm start is the nominal plan: :func:`plan_slew`'s minimum-energy
-    slew over the same duration, whose sigma points start on their own flights under its torque.
+    (``"expected"``) or their largest (``"worst"``), plus ``energy_weight`` times the energy relative to
+    the nominal plan's. Sigma points equal to the nominal body are the nominal body (its error is zero by
+    the end conditions), so with no uncertainty the problem is the minimum-energy slew. The warm start is
+    the nominal plan, :func:`plan_slew`'s minimum-energy slew over the same duration, with each sigma
+    body's states those of its own flight under that torque.
 
     Parameters
     ----------
@@ -487,15 +490,16 @@ def plan_robust_slew(
         Weight of the rate error [s]: a rate error counts as the attitude it drifts in this time (default
         ``duration``).
     energy_weight : float
-        Weight of the energy relative to the nominal plan's (>= 0; :data:`ENERGY_WEIGHT`).
+        Weight of the energy [rad^2], >= 0: the nominal plan's energy costs as much as a terminal error of
+        ``sqrt(energy_weight)`` rad (default :data:`ENERGY_WEIGHT`, 0.1 deg).
     nodes : int
         Intervals of the uniform grid (>= 4).
     substeps : int
         RK4 steps per interval.
     max_iter : int
-        IPOPT iteration limit.
+        IPOPT iteration limit of the robust solve (the nominal plans keep :func:`plan_slew`'s).
     ipopt_options : dict, optional
-        Extra IPOPT options (override :data:`controllers.slew.IPOPT_DEFAULTS`).
+        Extra IPOPT options of every solve (override :data:`controllers.slew.IPOPT_DEFAULTS`).
     verify_tolerance : float
         Largest accepted terminal attitude error of the nominal body's re-simulation [rad] (rate:
         ``verify_tolerance / T_s``), as :func:`plan_slew`.
@@ -551,7 +555,6 @@ def plan_robust_slew(
             duration=duration,
             nodes=n,
             substeps=substeps,
-            max_iter=max_iter,
             ipopt_options=options,
         )
         prob = prob.scaled_to(duration)
@@ -562,7 +565,8 @@ def plan_robust_slew(
         nominal_att, nominal_rate = _sigma_errors(prob, bodies, nominal.t, nominal_torque)
         nominal_value = _mean_or_worst(objective, weights, nominal_att, nominal_rate, rate_error_time)
         nominal_energy_s = float(np.sum(nominal_torque**2) * h) / tau_s**2
-        error_scale = nominal_value if nominal_value > 0 else 1.0
+        # A constant factor on the whole cost: the optimum is the same, IPOPT sees a cost near one.
+        cost_scale = max(nominal_value, energy_weight) or 1.0
 
         # The nominal body: plan_slew's transcription (dynamics, both ends, torque set).
         tr = Transcription(prob, n, options)
@@ -576,9 +580,12 @@ def plan_robust_slew(
         w_f = prob.qf
         omega_f_s = prob.omegaf * t_s
         rate_weight_s = rate_error_time / t_s
-        sigma_states, errors, guesses = [], [], []
+        errors, guesses = [], []
         x_guess = nominal.q, nominal.omega * t_s
-        for b in bodies:
+        for point, b in zip(points, bodies):
+            if not np.any(point):
+                errors.append(0.0)  # the nominal body, whose end state is fixed: no copy
+                continue
             sub = replace(prob, body=b, body_s=RigidBody(b.inertia / prob.j_s))
             free = opti.variable(7, n)
             X = ca.horzcat(x0, free)
@@ -586,7 +593,6 @@ def plan_robust_slew(
             opti.subject_to(ca.vec(defect) == 0)
             qe = quat.multiply_components([w_f[0], -w_f[1], -w_f[2], -w_f[3]], [X[i, -1] for i in range(4)])
             errors.append(_terminal_error(ca.vertcat(*qe[1:]), X[4:, -1] - omega_f_s, rate_weight_s))
-            sigma_states.append(free)
             guesses.append((free, _flight(sub, prob.x0, nominal_torque.T / tau_s, h)[:, 1:]))
         energy_s = ca.sum2(ca.sum1(U * U) * H)
         if objective == "expected":
@@ -595,10 +601,12 @@ def plan_robust_slew(
         else:
             bound = opti.variable()
             for e in errors:
-                opti.subject_to(e <= bound)
+                if not isinstance(e, float):
+                    opti.subject_to(e <= bound)
+            opti.subject_to(bound >= 0.0)
             robust_cost = bound
             extra_guess = [(bound, nominal_value)]
-        opti.minimize(robust_cost / error_scale + energy_weight * energy_s / max(nominal_energy_s, 1e-300))
+        opti.minimize((robust_cost + energy_weight * energy_s / max(nominal_energy_s, 1e-300)) / cost_scale)
         ipopt_setup(tr, max_iter)
         nominal_x = np.concatenate([x_guess[0], x_guess[1]], axis=1).T
         initial = [(tr.X, nominal_x), (U, nominal_torque.T / tau_s), *guesses, *extra_guess]
