@@ -25,6 +25,7 @@ from benchmarks import (
     bench_robust,
     bench_slew,
     bench_slew_multistart,
+    bench_slew_robust,
     bench_tune,
 )
 
@@ -40,6 +41,7 @@ SUITES = {
     "robust": bench_robust.run,
     "tune": bench_tune.run,
     "slew_multistart": bench_slew_multistart.run,
+    "slew_robust": bench_slew_robust.run,
 }
 
 

@@ -398,6 +398,82 @@ class RobustSlewPlan(ResultIO):
             f"{self.energy:.4g} N^2 m^2 s (nominal {self.nominal_energy:.4g})"
         )
 
+    def sigma_terminal_error(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Each sigma point's terminal error ``sqrt(4 sin^2(angle / 2) + (rate_error_time rate)^2)`` [rad].
+
+        Returns
+        -------
+        (ndarray (7,), ndarray (7,))
+            Under this plan, and under the nominal plan.
+        """
+
+        def combined(angle: NDArray, rate: NDArray) -> NDArray[np.float64]:
+            return np.sqrt(4.0 * np.sin(angle / 2.0) ** 2 + (self.rate_error_time * rate) ** 2)
+
+        return (
+            combined(self.sigma_attitude_error, self.sigma_rate_error),
+            combined(self.nominal_sigma_attitude_error, self.nominal_sigma_rate_error),
+        )
+
+    def plot(self) -> matplotlib.figure.Figure:
+        """The robust and the nominal torque over time [mN m], and each sigma point's terminal errors."""
+        from matplotlib.figure import Figure
+
+        from attitude.plotting import AXIS_COLORS
+
+        fig = Figure(figsize=(12, 7.5), layout="constrained")
+        grid = fig.add_gridspec(2, 2)
+        ax_t = fig.add_subplot(grid[0, :])
+        for i, name in enumerate("xyz"):
+            ax_t.step(
+                self.t, 1e3 * self.torque[:, i], where="post", color=AXIS_COLORS[i], label=rf"robust $\tau_{name}$"
+            )
+            ax_t.step(
+                self.t,
+                1e3 * self.nominal_torque[:, i],
+                where="post",
+                color=AXIS_COLORS[i],
+                ls="--",
+                lw=1.0,
+                label=rf"nominal $\tau_{name}$",
+            )
+        for bound in self.torque_envelope:
+            ax_t.axhline(1e3 * bound, color="gray", ls=":", lw=0.8)
+            ax_t.axhline(-1e3 * bound, color="gray", ls=":", lw=0.8)
+        ax_t.set_xlabel("time [s]")
+        ax_t.set_ylabel("torque [mN m]")
+        ax_t.set_title("torque: robust plan (solid), nominal minimum-energy plan (dashed), torque box (dotted)")
+        top = 1e3 * float(np.max(self.torque_envelope))
+        ax_t.set_ylim(-1.1 * top, 1.5 * top)  # room for the legend above the box
+        ax_t.legend(ncols=6, fontsize="small", loc="upper center")
+        ax_t.grid(True, alpha=0.3)
+        labels = [
+            ", ".join(f"I{i + 1} {100 * c:+.3g} %" for i, c in enumerate(point) if c) or "nominal"
+            for point in self.sigma_moment_change
+        ]
+        x = np.arange(len(labels))
+        for ax, (robust, nominal, unit, title) in zip(
+            (fig.add_subplot(grid[1, 0]), fig.add_subplot(grid[1, 1])),
+            (
+                (
+                    np.degrees(self.sigma_attitude_error),
+                    np.degrees(self.nominal_sigma_attitude_error),
+                    "deg",
+                    "attitude",
+                ),
+                (np.degrees(self.sigma_rate_error), np.degrees(self.nominal_sigma_rate_error), "deg/s", "rate"),
+            ),
+        ):
+            ax.bar(x - 0.2, robust, width=0.4, color="tab:blue", label="robust plan")
+            ax.bar(x + 0.2, nominal, width=0.4, color="tab:orange", label="nominal plan")
+            ax.set_xticks(x, labels, rotation=30, fontsize="small")
+            ax.set_ylabel(f"terminal {title} error [{unit}]")
+            ax.set_title(f"sigma points' terminal {title} error (open loop)")
+            ax.legend(fontsize="small")
+            ax.grid(True, axis="y", alpha=0.3)
+        fig.suptitle(self.summary())
+        return fig
+
     def nominal_reference(self) -> ReferenceTrajectory:
         """The nominal plan as a :class:`controllers.tracking.ReferenceTrajectory` (to fly or track it)."""
         return ReferenceTrajectory(t=self.t, q=self.nominal_q, omega=self.nominal_omega, torque=self.nominal_torque)
