@@ -29,6 +29,7 @@ from attitude import quaternion as quat
 from attitude.propagate import propagate
 from controllers.slew import (
     InfeasibleSlewError,
+    RobustSlewComparison,
     RobustSlewPlan,
     SlewPlanningError,
     compare_robust_slew,
@@ -130,6 +131,22 @@ def test_robust_plan_has_a_smaller_open_loop_spread_than_the_nominal_plan(robust
     # The figure shows the four flights.
     fig = comparison.plot()
     assert len(fig.axes) == 6
+
+
+def test_plan_and_comparison_save_and_load(robust_plan, tmp_path):
+    """ResultIO round trip: the arrays bit for bit and the info dict (DESIGN.md, results)."""
+    loaded = RobustSlewPlan.load(robust_plan.save(tmp_path / "plan"))
+    np.testing.assert_array_equal(loaded.torque, robust_plan.torque)
+    np.testing.assert_array_equal(loaded.sigma_inertia, robust_plan.sigma_inertia)
+    assert loaded.info == robust_plan.info
+    comparison = compare_robust_slew(
+        robust_plan, inertia_uncertainty=0.03, wn=0.3, zeta=0.7, period=0.5, samples=8, rng=5
+    )
+    again = RobustSlewComparison.load(comparison.save(tmp_path / "mc"))
+    for case in comparison.attitude_error:
+        np.testing.assert_array_equal(again.attitude_error[case], comparison.attitude_error[case])
+    assert again.info["distribution"] == "normal"
+    assert len(robust_plan.plot().axes) == 3
 
 
 def test_worst_objective_lowers_the_largest_sigma_point_error(robust_plan):
