@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
@@ -593,6 +594,12 @@ def plan_robust_slew(
     SlewPlanningError
         IPOPT did not converge, or the nominal body misses the target on re-simulation: no plan is
         returned.
+
+    Warns
+    -----
+    RuntimeWarning
+        The robust plan's sigma-point error exceeds the nominal plan's (a worse local optimum; also in
+        ``plan.info["warnings"]``).
     """
     with sigint_guard("robust slew planning interrupted (Ctrl-C)"):
         wall_start = time.perf_counter()
@@ -700,6 +707,16 @@ def plan_robust_slew(
         check = verify(prob, t, np.vstack([torque, torque[-1:]]), verify_tolerance)
         sigma_att, sigma_rate = _sigma_errors(prob, bodies, t, torque)
         X = values["X"].reshape(7, n + 1)
+        value = _mean_or_worst(objective, weights, sigma_att, sigma_rate, rate_error_time)
+        notes = []
+        # Warm-started on the nominal plan, whose cost it can only lower: a higher error is a worse local optimum.
+        if value > nominal_value * (1.0 + 1e-6) + 1e-15:
+            notes.append(
+                f"the robust plan's sigma-point terminal error {value:.4g} rad^2 exceeds the nominal plan's "
+                f"{nominal_value:.4g} rad^2: IPOPT ended in a worse local optimum (try other nodes)"
+            )
+        for note in notes:
+            warnings.warn(note, RuntimeWarning, stacklevel=2)
         energy = float(np.sum(torque**2) * duration / n)
         return RobustSlewPlan(
             t=t,
@@ -708,7 +725,7 @@ def plan_robust_slew(
             torque=np.vstack([torque, torque[-1:]]),
             duration=duration,
             objective=objective,
-            objective_value=_mean_or_worst(objective, weights, sigma_att, sigma_rate, rate_error_time),
+            objective_value=value,
             nominal_objective_value=nominal_value,
             energy=energy,
             nominal_energy=float(nominal.objective_value),
@@ -746,6 +763,7 @@ def plan_robust_slew(
                 "minimum_time_s": fastest.duration,
                 "torque_set": prob.torque_set.label,
                 "nominal_plan_status": nominal.status,
+                "warnings": notes,
             },
         )
 
@@ -920,6 +938,12 @@ def compare_robust_slew(
     Returns
     -------
     RobustSlewComparison
+
+    Raises
+    ------
+    ValueError
+        Bad input (named), or a sample that gives no physical body (a normal spread wide enough to break
+        ``I3 <= I1 + I2`` or to reach -100 %: use a narrower spread or the uniform set).
     """
     if not isinstance(plan, RobustSlewPlan):
         raise ValueError(f"plan must be a RobustSlewPlan, got {type(plan).__name__}")

@@ -194,7 +194,7 @@ def test_bad_input_is_named():
     with pytest.raises(ValueError, match="objective must be one of"):
         plan_robust_slew(BODY, Q0, QF, inertia_uncertainty=UNCERTAINTY, objective="mean", **kwargs)
     with pytest.raises(ValueError, match="physical body"):
-        # +-10 % of the default moments break I3 <= I1 + I2 for diag(1, 2, 2.9) at (0, -10 %, 0).
+        # +-10 % of diag(1, 2, 2.9) kg m^2 breaks I3 <= I1 + I2 at the sigma point (0, -10 %, 0): 2.9 > 1 + 1.8.
         plan_robust_slew(
             RigidBody([1.0, 2.0, 2.9]), Q0, QF, inertia_uncertainty=UNCERTAINTY, torque_max=1.0, duration=10.0
         )
