@@ -26,6 +26,7 @@ from benchmarks import (
     bench_slew,
     bench_slew_multistart,
     bench_slew_wheels,
+    bench_slew_robust,
     bench_tune,
 )
 
@@ -42,6 +43,7 @@ SUITES = {
     "tune": bench_tune.run,
     "slew_multistart": bench_slew_multistart.run,
     "slew_wheels": bench_slew_wheels.run,
+    "slew_robust": bench_slew_robust.run,
 }
 
 
