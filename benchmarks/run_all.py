@@ -25,8 +25,8 @@ from benchmarks import (
     bench_robust,
     bench_slew,
     bench_slew_multistart,
-    bench_slew_wheels,
     bench_slew_robust,
+    bench_slew_wheels,
     bench_tune,
 )
 
