@@ -24,7 +24,8 @@ import numpy as np
 
 from attitude import RigidBody
 from attitude import quaternion as quat
-from controllers.slew.robust import RobustSlewPlan, compare_robust_slew, plan_robust_slew
+from controllers.slew.robust import RobustSlewPlan, plan_robust_slew
+from controllers.slew.robust_comparison import compare_robust_slew
 from controllers.worst_case import UncertaintySet
 
 try:

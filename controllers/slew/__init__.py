@@ -6,13 +6,8 @@ from controllers.slew.plan import SlewPlan
 from controllers.slew.planner import plan_slew
 from controllers.slew.problem import InfeasibleSlewError, SlewPlanningError, momentum_rate_max
 from controllers.slew.reference import PUBLISHED_BILIMORIA_WIE, EigenaxisSlew, eigenaxis_slew
-from controllers.slew.robust import (
-    RobustSlewComparison,
-    RobustSlewPlan,
-    compare_robust_slew,
-    plan_robust_slew,
-    unscented_sigma_points,
-)
+from controllers.slew.robust import RobustSlewPlan, plan_robust_slew, unscented_sigma_points
+from controllers.slew.robust_comparison import RobustSlewComparison, compare_robust_slew
 from controllers.slew.transcription import IPOPT_DEFAULTS
 
 __all__ = [
