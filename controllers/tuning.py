@@ -52,6 +52,14 @@ at the control period, and judges that design itself (:func:`lqr_metrics`: its g
 loop, its sampled loop's disk margins). The discrete design is not exactly its continuous equivalent, so one
 scale on the three ``wn`` is then bisected to the fastest (or cheapest) sampled design within every requirement.
 
+Modes and filters. With a :class:`MarginLoop` (the flexible plant of :func:`attitude.linearize.flexible_plant`
+and the command filters as they fly) the disk margin is judged on that loop instead, each axis's loop alone
+in the search (the axes differ now, so per-axis searches no longer share the margin's root) and per axis and
+multiloop at the winner. The step metrics stay those of the rigid body: the modes are well above the
+bandwidth or they would bind the margin first. A mode can make the margin non-monotonic in ``wn`` (a
+collocated mode phase-stabilised at one bandwidth, not at another); the root search then finds one crossing,
+and the winner's own margins, computed afterwards on every loop, are what the result is judged on.
+
 Search. In time ``wn t`` the continuous closed loop is the same for every
 ``wn``: the settling time scales as ``1 / wn``, the peak momentum as ``wn``
 and the peak torque as ``wn^2``. For each damping, the largest ``wn`` the
@@ -98,6 +106,7 @@ __all__ = [
     "DAMPING_BOUNDS",
     "LQR_DAMPING_BOUNDS",
     "STRUCTURES",
+    "MarginLoop",
     "PDMetrics",
     "RequirementConflict",
     "TuningRequirements",
@@ -379,10 +388,71 @@ def _pd(body: RigidBody, wn: ArrayLike, zeta: ArrayLike, period: float | None) -
         return QuaternionPD.from_bandwidth(body, wn=wn, zeta=zeta, period=period or 1.0)
 
 
-def _search_margin(body: RigidBody, wn: float, zeta: float, period: float | None) -> float:
-    """The disk margin of one axis's loop (every axis's, module docstring); NaN when the closed loop is unstable."""
-    loop = loop_gain(body, _pd(body, wn, zeta, period), sampled=period is not None)[0]
-    return float(disk_margins(loop, rtol=SEARCH_MARGIN_RTOL).disk_margin)
+@dataclass(frozen=True)
+class MarginLoop:
+    """The loop whose disk margin a tuning judges: the plant and the filters that fly (module docstring, Modes).
+
+    Parameters
+    ----------
+    plant : control LTI, optional
+        The plant of the loop (e.g. :func:`attitude.linearize.flexible_plant`, with the outputs of the rigid
+        plant); None: the rigid body at rest.
+    command_filter : callable, optional
+        ``command_filter(law)`` returns the law as flown (e.g. wrapped in
+        :class:`controllers.filters.FilteredController`); None: no filters.
+    """
+
+    plant: Any = None
+    command_filter: Any = None
+
+    @property
+    def rigid(self) -> bool:
+        """True for the rigid, unfiltered loop (the default)."""
+        return self.plant is None and self.command_filter is None
+
+    def flown(self, law: Any) -> Any:
+        """The law as flown (filtered when there are filters).
+
+        Parameters
+        ----------
+        law : object
+            A controller (PD, LQR).
+        """
+        return law if self.command_filter is None else self.command_filter(law)
+
+    def margins(self, body: RigidBody, law: Any, sampled: bool) -> Any:
+        """:func:`controllers.disk_margins.loop_disk_margins` of the law on this loop (per axis and multiloop).
+
+        Parameters
+        ----------
+        body : RigidBody
+            The rigid body (the plant when ``plant`` is None) [kg m^2].
+        law : object
+            The controller, before filtering.
+        sampled : bool
+            Whether the loop is sampled at the law's period.
+        """
+        return loop_disk_margins(body if self.plant is None else self.plant, self.flown(law), sampled=sampled)
+
+
+def _search_margin(
+    body: RigidBody,
+    wn: float,
+    zeta: float,
+    period: float | None,
+    loop: MarginLoop | None = None,
+    axes: list[int] | None = None,
+) -> float:
+    """The smallest disk margin of the axes' loops (each alone); NaN when the closed loop is unstable.
+
+    On the rigid, unfiltered loop every axis's loop is the same (module docstring): one is evaluated.
+    """
+    loop = loop or MarginLoop()
+    pd = _pd(body, wn, zeta, period)
+    loops = loop_gain(body if loop.plant is None else loop.plant, loop.flown(pd), sampled=period is not None)
+    axes = [0] if loop.rigid or axes is None else axes
+    margins = [float(disk_margins(loops[k], rtol=SEARCH_MARGIN_RTOL).disk_margin) for k in axes]
+    return math.nan if any(math.isnan(m) for m in margins) else min(margins)
 
 
 def _per_axis_or_scalar(value: ArrayLike, name: str) -> float | NDArray[np.float64]:
@@ -393,7 +463,13 @@ def _per_axis_or_scalar(value: ArrayLike, name: str) -> float | NDArray[np.float
 
 
 def pd_metrics(
-    body: RigidBody, requirements: TuningRequirements, *, wn: ArrayLike, zeta: ArrayLike, period: float | None
+    body: RigidBody,
+    requirements: TuningRequirements,
+    *,
+    wn: ArrayLike,
+    zeta: ArrayLike,
+    period: float | None,
+    loop: MarginLoop | None = None,
 ) -> PDMetrics:
     """The linear metrics of the PD at ``wn`` and ``zeta`` for the requirements' step (module docstring).
 
@@ -409,12 +485,14 @@ def pd_metrics(
         Damping ratio, one or per body axis [-].
     period : float or None
         Control period [s] of the sampled loop whose disk margin is judged; None: the continuous loop.
+    loop : MarginLoop, optional
+        The plant and filters of the loop whose disk margin is judged (default: the rigid body, unfiltered).
     """
     wn = _per_axis_or_scalar(wn, "wn")
     zeta = _per_axis_or_scalar(zeta, "zeta")
     pd = _pd(body, wn, zeta, period)
     settling, torque, momentum = _step_metrics(body, pd, requirements, float(np.max(wn)))
-    margins = loop_disk_margins(body, pd, sampled=period is not None)
+    margins = (loop or MarginLoop()).margins(body, pd, sampled=period is not None)
     return PDMetrics(wn, zeta, settling, torque, momentum, margins.smallest, period is not None)
 
 
@@ -441,12 +519,14 @@ class _Search:
         cost: str,
         zeta_grid: NDArray[np.float64],
         axes: tuple[int, ...] = (0, 1, 2),
-        margin_roots: dict[tuple[float, float], tuple[float, float]] | None = None,
+        margin_roots: dict[tuple[Any, ...], tuple[float, float]] | None = None,
+        loop: MarginLoop | None = None,
     ) -> None:
         self.body = body
         self.zeta_grid = zeta_grid
         self.axes = list(axes)  # the step axes this search judges (one for a per-axis tuning)
         self.margin_roots = {} if margin_roots is None else margin_roots  # shared by per-axis searches
+        self.loop = loop or MarginLoop()
         self.req = requirements
         self.period = period
         self.cost = cost
@@ -511,12 +591,13 @@ class _Search:
         (``margin_roots``); the continuous loop's is found below ``wn_high``.
         """
         top = self.wn_cap if math.isfinite(self.wn_cap) else wn_high
-        key = (zeta, top)
+        # With modes or filters each axis's loop differs: the root is the axes' own.
+        key = (zeta, top) if self.loop.rigid else (zeta, top, tuple(self.axes))
         if key not in self.margin_roots:
             floor = self.req.disk_margin_min
 
             def excess(wn: float) -> float:
-                alpha = _search_margin(self.body, wn, zeta, self.period)
+                alpha = _search_margin(self.body, wn, zeta, self.period, self.loop, self.axes)
                 return (alpha if math.isfinite(alpha) else 0.0) - floor
 
             answer = (math.inf, math.nan)
@@ -636,7 +717,8 @@ def _tradeoff(search: _Search, zetas: NDArray[np.float64]) -> dict[str, NDArray[
         settling_1 = point.wn_needed * search.req.settling_time
         for fraction in np.geomspace(1.0, 0.2, 5):
             wn = wn_actuator * fraction
-            rows.append((zeta, wn, settling_1 / wn, _search_margin(search.body, wn, float(zeta), search.period)))
+            alpha = _search_margin(search.body, wn, float(zeta), search.period, search.loop, search.axes)
+            rows.append((zeta, wn, settling_1 / wn, alpha))
     table = np.array(rows)
     settling, alpha = table[:, 2], np.nan_to_num(table[:, 3], nan=0.0)
     pareto = np.array(
@@ -780,6 +862,7 @@ def tune_pd(
     period: float | None,
     cost: str = "settling",
     per_axis: bool = False,
+    loop: MarginLoop | None = None,
     damping_bounds: tuple[float, float] = DAMPING_BOUNDS,
     damping_points: int = DAMPING_GRID_POINTS,
     tradeoff_points: int = 10,
@@ -801,6 +884,9 @@ def tune_pd(
     per_axis : bool
         One ``wn`` and ``zeta`` per body axis (module docstring, Per axis): each axis as fast (or cheap) as its
         own torque and momentum allow, where one pair for all is held back by the weakest axis.
+    loop : MarginLoop, optional
+        The plant (flexible modes) and filters of the loop whose disk margin is judged, in the search and at
+        the winner (module docstring, Modes and filters); default the rigid body, unfiltered.
     damping_bounds : tuple of float
         The dampings searched [-] (:data:`DAMPING_BOUNDS`).
     damping_points : int
@@ -825,12 +911,15 @@ def tune_pd(
     )
     _check_not_contradictory(body, requirements)
     grid = np.geomspace(low, high, damping_points)
+    loop = loop or MarginLoop()
     if per_axis:
-        roots: dict[tuple[float, float], tuple[float, float]] = {}
-        tuned = [_tune_axes(_Search(body, requirements, period, cost, grid, (k,), roots), low, high) for k in range(3)]
-        return _combine_axes(body, requirements, period, cost, "pd_per_axis", tuned, low, high, tradeoff_points)
-    one = _tune_axes(_Search(body, requirements, period, cost, grid), low, high)
-    metrics = pd_metrics(body, requirements, wn=one.wn, zeta=one.zeta, period=period)
+        roots: dict[tuple[Any, ...], tuple[float, float]] = {}
+        tuned = [
+            _tune_axes(_Search(body, requirements, period, cost, grid, (k,), roots, loop), low, high) for k in range(3)
+        ]
+        return _combine_axes(body, requirements, period, cost, "pd_per_axis", tuned, low, high, tradeoff_points, loop)
+    one = _tune_axes(_Search(body, requirements, period, cost, grid, loop=loop), low, high)
+    metrics = pd_metrics(body, requirements, wn=one.wn, zeta=one.zeta, period=period, loop=loop)
     if one.feasible:
         binding = _active(metrics, requirements, one.point, cost)
         message = f"wn = {one.wn:.6g} rad/s, zeta = {one.zeta:.6g} ({cost} minimised); binding: " + (
@@ -853,11 +942,12 @@ def _combine_axes(
     low: float,
     high: float,
     tradeoff_points: int,
+    loop: MarginLoop,
 ) -> TuningResult:
     """One per-axis PD from three one-axis searches, its metrics computed on the coupled 3-axis loop."""
     wn = np.array([t.wn for t in tuned])
     zeta = np.array([t.zeta for t in tuned])
-    metrics = pd_metrics(body, requirements, wn=wn, zeta=zeta, period=period)
+    metrics = pd_metrics(body, requirements, wn=wn, zeta=zeta, period=period, loop=loop)
     feasible = all(t.feasible for t in tuned)
     binding: list[str] = []
     parts = []
@@ -872,12 +962,12 @@ def _combine_axes(
     message = f"per axis ({cost} minimised): " + "; ".join(parts)
     floor = requirements.disk_margin_min
     if feasible and floor is not None and not metrics.disk_margin >= floor:
-        # Each axis met the floor alone; products of inertia couple the axes of the 3-axis loop.
+        # Each axis met the floor alone; products of inertia (and modes) couple the axes of the 3-axis loop.
         feasible = False
         binding.append("disk_margin_min (3-axis loop)")
         message += (
             f"; but the 3-axis loop's smallest disk margin {metrics.disk_margin:.4g} is below disk_margin_min = "
-            f"{floor:g} (the products of inertia couple the axes)"
+            f"{floor:g} (the products of inertia or the modes couple the axes)"
         )
     # The trade-off of the slowest axis (the one that sets the settling time), or the first that fails.
     order = [t for t in tuned if not t.feasible] or sorted(tuned, key=lambda t: -t.point.wn_needed / t.wn)
@@ -951,6 +1041,7 @@ def lqr_metrics(
     *,
     wn: ArrayLike = math.nan,
     zeta: ArrayLike = math.nan,
+    loop: MarginLoop | None = None,
 ) -> PDMetrics:
     """The linear metrics of an LQR for the requirements' step: its gain on the body at rest, its sampled loop.
 
@@ -966,12 +1057,17 @@ def lqr_metrics(
         The equivalent natural frequency recorded in the metrics [rad/s] (not used to compute them).
     zeta : float or array_like (3,)
         The equivalent damping recorded in the metrics [-] (likewise).
+    loop : MarginLoop, optional
+        The plant and filters of the loop whose disk margin is judged (default: the linearised rigid body).
     """
     if not isinstance(design, LQRDesign) or np.shape(design.K) != (3, 6):
         raise ValueError(f"design must be an LQRDesign of the 6-state attitude model, got {design!r}")
     gain = np.asarray(design.K, dtype=float)
     settling, torque, momentum = _step_metrics(body, _StateGains(gain[:, :3], gain[:, 3:]), requirements)
-    margins = loop_disk_margins(linearize(body), design, sampled=design.period is not None)
+    loop = loop or MarginLoop()
+    plant = linearize(body) if loop.plant is None else loop.plant
+    flown = design if loop.command_filter is None else loop.flown(LQRController(design))
+    margins = loop_disk_margins(plant, flown, sampled=design.period is not None)
     return PDMetrics(wn, zeta, settling, torque, momentum, margins.smallest, design.period is not None)
 
 
@@ -997,6 +1093,7 @@ def tune_lqr(
     period: float | None,
     angle_max: ArrayLike,
     cost: str = "settling",
+    loop: MarginLoop | None = None,
     damping_bounds: tuple[float, float] = LQR_DAMPING_BOUNDS,
     damping_points: int = DAMPING_GRID_POINTS,
     tradeoff_points: int = 10,
@@ -1016,6 +1113,8 @@ def tune_lqr(
         Bryson's attitude bound per axis [rad], kept; the rate and torque bounds are tuned.
     cost : str
         ``"settling"`` or ``"effort"`` (:func:`tune_pd`).
+    loop : MarginLoop, optional
+        The plant and filters of the loop whose disk margin is judged (:func:`tune_pd`).
     damping_bounds : tuple of float
         The equivalent dampings searched [-], above ``1 / sqrt(2)`` (:data:`LQR_DAMPING_BOUNDS`).
     damping_points : int
@@ -1043,9 +1142,12 @@ def tune_lqr(
     angle = positive_per_axis(angle_max, "angle_max", "rad")
     _check_not_contradictory(body, requirements)
     grid = np.geomspace(low, high, damping_points)
-    roots: dict[tuple[float, float], tuple[float, float]] = {}
-    tuned = [_tune_axes(_Search(body, requirements, period, cost, grid, (k,), roots), low, high) for k in range(3)]
-    equivalent = _combine_axes(body, requirements, period, cost, "lqr", tuned, low, high, tradeoff_points)
+    loop = loop or MarginLoop()
+    roots: dict[tuple[Any, ...], tuple[float, float]] = {}
+    tuned = [
+        _tune_axes(_Search(body, requirements, period, cost, grid, (k,), roots, loop), low, high) for k in range(3)
+    ]
+    equivalent = _combine_axes(body, requirements, period, cost, "lqr", tuned, low, high, tradeoff_points, loop)
     plant = linearize(body)
     wn0, zeta = np.asarray(equivalent.wn, dtype=float), np.asarray(equivalent.zeta, dtype=float)
     cap = math.inf if period is None else SAMPLE_RATE_FRACTION * 2.0 * math.pi / period
@@ -1054,7 +1156,7 @@ def tune_lqr(
         bounds = lqr_bounds(body, wn0 * scale, zeta, angle)
         q_weight, r_weight = bryson_weights(**bounds)
         design = design_lqr(plant, Q=q_weight, R=r_weight, period=period)
-        metrics = lqr_metrics(body, requirements, design, wn=wn0 * scale, zeta=zeta)
+        metrics = lqr_metrics(body, requirements, design, wn=wn0 * scale, zeta=zeta, loop=loop)
         return bounds, design, metrics, _misses(metrics, requirements)
 
     # The sampled LQR is not exactly its continuous equivalent: one scale on the three wn, the largest (settling)

@@ -689,8 +689,8 @@ def _cmd_tune(args: argparse.Namespace) -> int:
             floor = config.requirements.disk_margin_min
             verdict = "" if floor is None else (" PASS" if outcome.flown_disk_margin >= floor else " FAIL")
             print(
-                f"disk margin with the file's flexible modes and filters (the loops that fly; the tuning used the "
-                f"rigid loop): {outcome.flown_disk_margin:.4g}{verdict}"
+                f"disk margin with the file's flexible modes and filters (the loops that fly, per axis and "
+                f"multiloop): {outcome.flown_disk_margin:.4g}{verdict}"
             )
         print(f"Wrote {out}" if outcome.tuned is not None else "INFEASIBLE: no file written", end="")
         print(f" and the trade-off figure {figure}")

@@ -45,6 +45,7 @@ from attitude.config.writer import replace_values
 from controllers.disk_margins import loop_disk_margins
 from controllers.lqr import LQRController
 from controllers.tuning import (
+    MarginLoop,
     PDMetrics,
     RequirementConflict,
     TuningRequirements,
@@ -61,6 +62,7 @@ __all__ = [
     "TuneOutcome",
     "dispersed_step_check",
     "flown_disk_margin",
+    "margin_loop",
     "step_source",
     "tune_config",
     "tuned_file_text",
@@ -170,10 +172,10 @@ class TuneOutcome:
         :func:`attitude.app.design.dispersed.dispersed_check` of the tuned file (None when infeasible, without
         ``[montecarlo]``, or not asked for).
     flown_disk_margin : float or None
-        The tuned PD's smallest disk margin at the wheels' input on the loops that fly, with the file's
-        ``[[flexible_modes]]`` and ``[[control.filters]]`` (the design's verdict judges these; the tuning itself
-        works on the rigid, unfiltered loop); None for a rigid, unfiltered file or when infeasible. NaN: a
-        closed loop is unstable.
+        The tuned law's smallest disk margin at the wheels' input on the loops that fly, with the file's
+        ``[[flexible_modes]]`` and ``[[control.filters]]``, per axis and multiloop (the design's verdict judges
+        these; the search judged them too, by :func:`margin_loop`); None for a rigid, unfiltered file or when
+        infeasible. NaN: a closed loop is unstable.
     """
 
     config: SpacecraftConfig
@@ -320,6 +322,7 @@ def tune_config(
     wheels = assembly.reaction_wheels(config)
     requirements = tuning_requirements(config, step_deg)
     period = config.control.period_s
+    loop = margin_loop(config)
     try:
         if structure == "lqr":
             result = tune_lqr(
@@ -328,17 +331,23 @@ def tune_config(
                 period=period,
                 angle_max=config.control.lqr.angle_max,
                 cost=cost,
+                loop=loop,
                 tradeoff_points=tradeoff_points,
             )
         else:
-            result = tune_pd(body, requirements, period=period, cost=cost, tradeoff_points=tradeoff_points)
+            result = tune_pd(body, requirements, period=period, cost=cost, loop=loop, tradeoff_points=tradeoff_points)
     except RequirementConflict as exc:
         raise _config_error(exc, config, step_source(config, step_deg)[1]) from exc
     if structure == "lqr":
-        before = lqr_metrics(body, requirements, assembly.lqr(config, body)[1])
+        before = lqr_metrics(body, requirements, assembly.lqr(config, body)[1], loop=loop)
     else:
         before = pd_metrics(
-            body, requirements, wn=config.control.bandwidth_rad_per_s, zeta=config.control.damping, period=period
+            body,
+            requirements,
+            wn=config.control.bandwidth_rad_per_s,
+            zeta=config.control.damping,
+            period=period,
+            loop=loop,
         )
     if not result.feasible:
         return TuneOutcome(config, None, result, before, None, None)
@@ -376,6 +385,23 @@ def tune_config(
             dispersed = dispersed_check(tuned, dispersed_runs, None, DISPERSED_NODES)
     controller = LQRController(result.lqr) if structure == "lqr" else None
     return TuneOutcome(config, tuned, result, before, nonlinear, dispersed, flown_disk_margin(tuned, body, controller))
+
+
+def margin_loop(config: SpacecraftConfig) -> MarginLoop:
+    """The loop whose disk margin the tuning judges: the file's flexible plant and command filters, as they fly.
+
+    Parameters
+    ----------
+    config : SpacecraftConfig
+        The spacecraft file (its ``[[flexible_modes]]`` and ``[[control.filters]]``).
+    """
+    filters = None
+    if config.control.filters:
+
+        def filters(law: Any) -> Any:
+            return assembly.command_filtered(config, law)
+
+    return MarginLoop(plant=assembly.flexible_plant_model(config), command_filter=filters)
 
 
 def dispersed_step_check(

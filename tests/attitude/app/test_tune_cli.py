@@ -17,9 +17,11 @@ import pytest
 
 from attitude.app import assembly
 from attitude.app.cli import main
-from attitude.app.design.tune import tune_config, tuning_requirements
+from attitude.app.design.tune import margin_loop, tune_config, tuning_requirements
 from attitude.config import ConfigError, default_config, default_config_text, load_config, parse_config
-from controllers.tuning import lqr_metrics
+from controllers.disk_margins import loop_disk_margins
+from controllers.pd import QuaternionPD
+from controllers.tuning import lqr_metrics, tune_pd
 
 
 @pytest.fixture(scope="module")
@@ -99,22 +101,30 @@ def test_json_output_has_before_and_after(tuned):
 
 
 def test_the_tuned_gains_are_judged_on_the_loops_that_fly():
-    """The tuning works on the rigid, unfiltered loop; a file with a 2 Hz solar-array mode coupled strongly about z
-    (participation 0.3 sqrt(kg) m: L^T L = 0.09 of the 0.21 kg m^2 about z) gets its tuned PD judged on the
-    flexible plant too, as the design's verdict judges it. There the tuned bandwidth (about 1.5 rad/s) leaves the
-    z loop below the 0.8 floor, so the outcome fails and says so, where the rigid loop alone would pass; the
-    default, rigid file has no such figure."""
+    """The tuning judges the disk margin on the loops that fly: a file with a 2 Hz solar-array mode coupled strongly
+    about z (participation 0.3 sqrt(kg) m: L^T L = 0.09 of the 0.21 kg m^2 about z) and a notch gets the flexible
+    plant and the filters in its margin loop, as the design's verdict judges them. On that loop the rigid tuning's
+    bandwidth (1.54 rad/s) leaves the z loop below the 0.8 floor (recomputed here with loop_disk_margins on
+    assembly.flexible_plant_model), so the tuned PD is slower and meets the floor there, per axis and multiloop.
+    Three dampings about the rigid optimum keep the search short (the damping optimum is not what is tested)."""
     text = default_config_text().replace(
         "[requirements]\n",
         "[[flexible_modes]]\nfrequency_Hz = 2.0\ndamping = 0.005\nparticipation_B_sqrt_kg_m = [0.0, 0.0, 0.3]\n\n"
         "[requirements]\n",
         1,
     )
-    outcome = tune_config(parse_config(text), dispersed_runs=0, tradeoff_points=0)
-    assert outcome.result.feasible and outcome.result.metrics.disk_margin >= 0.8  # the rigid loop meets the floor
-    assert outcome.flown_disk_margin is not None and outcome.flown_disk_margin < 0.8
-    assert not outcome.passed and outcome.summary()["flown_disk_margin"] == outcome.flown_disk_margin
-    assert tune_config(default_config(), dispersed_runs=0, tradeoff_points=0).flown_disk_margin is None
+    config = parse_config(text)
+    loop = margin_loop(config)
+    assert loop.plant is not None and loop.command_filter is None and margin_loop(default_config()).rigid
+    body, req = assembly.rigid_body(config), tuning_requirements(config)
+    flexible = assembly.flexible_plant_model(config)
+    rigid_tuned = QuaternionPD.from_bandwidth(body, wn=1.541, zeta=0.69, period=0.1)
+    assert loop_disk_margins(flexible, rigid_tuned).smallest < 0.8
+    result = tune_pd(body, req, period=0.1, loop=loop, damping_bounds=(0.6, 0.8), damping_points=3, tradeoff_points=0)
+    assert result.feasible and "disk_margin_min" in result.binding
+    assert result.wn < 1.5
+    tuned = QuaternionPD.from_bandwidth(body, wn=result.wn, zeta=result.zeta, period=0.1)
+    assert loop_disk_margins(flexible, tuned).smallest >= 0.8
 
 
 def test_a_contradictory_file_is_not_blamed_on_step_deg(tmp_path, capsys):
