@@ -14,6 +14,14 @@ Optimality evidence):
   omega)``, ``I`` symmetric), so ``tau_i = -tau_max_i sign(sigma_i)`` wherever
   ``sigma_i != 0`` (bang-bang); ``sigma_i = 0`` over an arc is a singular arc.
 
+With a rate limit or keep-out cone active, the constraints are adjoined
+directly (Hartl, Sethi and Vickson, SIAM Review 37(2), 1995): the costate
+jumps where the path meets the boundary, ``H`` (equal to ``H + mu^T g`` on
+the trajectory) is still zero, and the torque still minimises ``H`` over the
+box; each interval's ``H`` is taken with its own continuity multiplier
+(:func:`interval_costates`), and the switching function is not checked on
+intervals where a path row is active.
+
 The costates are the multipliers of the continuity constraints of the
 multiple-shooting NLP (:meth:`controllers.slew.transcription.Transcription.solve`):
 no fit, no extra solve. A converged answer meets the *discrete* conditions by
@@ -29,12 +37,14 @@ from __future__ import annotations
 
 from typing import Any
 
+import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from attitude.rigid_body import RigidBody
 from controllers.slew.problem import Problem
 from controllers.slew.refine import SATURATION_TOLERANCE
+from controllers.slew.transcription import interval_function
 
 __all__ = [
     "HAMILTONIAN_GRID_FACTOR",
@@ -43,6 +53,7 @@ __all__ = [
     "SWITCHING_ZERO_FRACTION",
     "check_solution",
     "costate_physical",
+    "interval_costates",
     "pontryagin_check",
     "summary_words",
 ]
@@ -62,7 +73,8 @@ HAMILTONIAN_GRID_FACTOR = 4.0
 
 #: A switching function ``sigma_i`` counts as away from its zeros on an
 #: interval when ``|sigma_i| tau_max_i`` at both ends is at least this
-#: fraction of its largest value over the plan and all axes, with one sign.
+#: fraction of its largest value over the intervals checked (no path row
+#: active) and all axes, with one sign.
 SWITCHING_ZERO_FRACTION = 0.05
 
 #: A path constraint's multiplier counts as active above this fraction of
@@ -102,6 +114,8 @@ def pontryagin_check(
     torque_box: ArrayLike | None,
     checked: ArrayLike | None = None,
     hamiltonian_tolerance: float = HAMILTONIAN_TOLERANCE,
+    costate_start: ArrayLike | None = None,
+    path_active: ArrayLike | None = None,
 ) -> dict[str, Any]:
     """Pontryagin's conditions of a minimum-time plan on its nodes (module docstring).
 
@@ -122,12 +136,19 @@ def pontryagin_check(
         Per-axis torque bound [N m] for the switching check; None skips it
         (a torque set that is not a box: only the Hamiltonian is checked).
     checked : array_like of bool (n,), optional
-        Intervals to check (default all): those where no path constraint is
-        active, since an active rate limit or keep-out cone adds its
-        multipliers to the adjoint equation.
+        Intervals to check (default all).
     hamiltonian_tolerance : float
         Largest accepted ``max |H|`` (:data:`HAMILTONIAN_TOLERANCE` for a
         grid-converged plan, ``HAMILTONIAN_GRID_FACTOR / n`` for a grid answer).
+    costate_start : array_like (n, 7), optional
+        Costate at the start of each interval, carried back from its end
+        through the interval's flow (:func:`interval_costates`); default the
+        node costates ``costate[:-1]``, which hold the jumps of the path
+        constraints active at the node (the same where none is active).
+    path_active : array_like of bool (n,), optional
+        Intervals where a path constraint (rate limit, keep-out cone) is
+        active: ``H`` is checked there, the switching function is not (the
+        torque there also answers to the constraint, docs/slew_planning.md).
 
     Returns
     -------
@@ -146,24 +167,16 @@ def pontryagin_check(
     n = q.shape[0] - 1
     tau = np.asarray(torque, dtype=float)[:n]
     mask = np.ones(n, dtype=bool) if checked is None else np.asarray(checked, dtype=bool)
+    active = np.zeros(n, dtype=bool) if path_active is None else np.asarray(path_active, dtype=bool)
+    lam_start = lam[:-1] if costate_start is None else np.asarray(costate_start, dtype=float)
     x = np.concatenate([q, omega], axis=1)
     notes = []
     if not np.any(mask):
-        return {
-            "hamiltonian_residual": None,
-            "hamiltonian_mean": None,
-            "hamiltonian_spread": None,
-            "switching_disagreement": None,
-            "switching_decided": 0,
-            "intervals_checked": 0,
-            "intervals": n,
-            "passes": None,
-            "note": "not checked: a path constraint (rate limit or keep-out cone) is active on every interval",
-        }
+        raise ValueError("checked must select at least one interval, got none")
     if not np.all(mask):
-        notes.append(f"checked on {int(np.sum(mask))} of {n} intervals: a path constraint is active on the others")
+        notes.append(f"checked on {int(np.sum(mask))} of {n} intervals")
     # H at both ends of each interval with the interval's torque.
-    h_start = 1.0 + np.sum(lam[:-1] * body.state_derivative(x[:-1], tau), axis=1)
+    h_start = 1.0 + np.sum(lam_start * body.state_derivative(x[:-1], tau), axis=1)
     h_end = 1.0 + np.sum(lam[1:] * body.state_derivative(x[1:], tau), axis=1)
     h = np.concatenate([h_start[mask], h_end[mask]])
     out: dict[str, Any] = {
@@ -174,21 +187,27 @@ def pontryagin_check(
         "switching_decided": 0,
         "intervals_checked": int(np.sum(mask)),
         "intervals": n,
+        "intervals_path_active": int(np.sum(active & mask)),
     }
     out["hamiltonian_tolerance"] = float(hamiltonian_tolerance)
     passes = out["hamiltonian_residual"] <= hamiltonian_tolerance
+    if np.any(active & mask):
+        notes.append(
+            f"a path constraint is active on {int(np.sum(active & mask))} of {n} intervals: H checked there, "
+            "the switching function not"
+        )
     if torque_box is None:
         notes.append("switching check skipped: the torque set is not a per-axis box")
     else:
         box = np.broadcast_to(np.asarray(torque_box, dtype=float), (3,))
-        sigma = lam[:, 4:] @ body.inertia_inv.T  # I^-1 lambda_omega at the nodes, (n + 1, 3)
-        weight = np.abs(sigma) * box
-        scale = float(np.max(weight))
-        s0, s1 = sigma[:-1], sigma[1:]
-        decided = (np.sign(s0) == np.sign(s1)) & (
-            np.minimum(weight[:-1], weight[1:]) >= SWITCHING_ZERO_FRACTION * scale
-        )
-        decided &= mask[:, None]
+        # I^-1 lambda_omega at both ends of each interval, with the interval's own costates, (n, 3) each.
+        s0 = lam_start[:, 4:] @ body.inertia_inv.T
+        s1 = lam[1:, 4:] @ body.inertia_inv.T
+        w0, w1 = np.abs(s0) * box, np.abs(s1) * box
+        free = mask & ~active
+        scale = float(np.max(np.maximum(w0, w1)[free])) if np.any(free) else 0.0
+        decided = (np.sign(s0) == np.sign(s1)) & (np.minimum(w0, w1) >= SWITCHING_ZERO_FRACTION * scale)
+        decided &= free[:, None]
         wrong = tau * np.sign(s1) > -(1.0 - SATURATION_TOLERANCE) * box
         count = int(np.sum(decided))
         out["switching_decided"] = count
@@ -197,6 +216,39 @@ def pontryagin_check(
     out["passes"] = bool(passes)
     out["note"] = "; ".join(notes)
     return out
+
+
+def interval_costates(prob: Problem, sol: Any) -> NDArray[np.float64]:
+    """Costate at the start of each interval, carried back from its end through the interval's flow (7, n + 1).
+
+    Column ``k < n`` is ``(dF_k / dx_k)^T nu_k``: the multiplier ``nu_k`` of
+    interval ``k``'s continuity defect (the costate at its end, node
+    ``k + 1``) carried back through the RK4 flow ``F_k`` of that interval
+    alone. Where no path constraint is active at node ``k`` this is the node
+    costate ``nu_{k-1}``; where one is, ``nu_{k-1}`` also holds the
+    constraint's jump (its multiplier times its gradient, docs/slew_planning.md,
+    Optimality evidence), which belongs to the costate just *before* the
+    node. The last column is the final node's costate, unchanged.
+    Nondimensional, like ``sol.costate``.
+
+    Parameters
+    ----------
+    prob : Problem
+        The validated, nondimensional problem.
+    sol : Solution
+        The answer, with its ``costate`` (7, n + 1).
+    """
+    fun = interval_function(prob).fun
+    x, u, h, x_next = (ca.SX.sym(name, fun.size1_in(i)) for i, name in enumerate(("x", "u", "h", "x_next")))
+    defect = fun(x, u, h, x_next)[0]
+    # dF/dx of the defect F(x, u, h) - x_next, as its transpose times nu: the carried-back costate.
+    nu = ca.SX.sym("nu", 7)
+    back = ca.Function("carry_back", [x, u, h, x_next, nu], [ca.mtimes(ca.jacobian(defect, x).T, nu)])
+    n = sol.U.shape[1]
+    out = np.asarray(
+        back.map(n)(sol.X[:, :-1], sol.U, sol.H.reshape(1, n), sol.X[:, 1:], sol.costate[:, 1:]), dtype=float
+    )
+    return np.hstack([out, sol.costate[:, -1:]])
 
 
 def summary_words(check: dict[str, Any] | None) -> str:
@@ -239,16 +291,6 @@ def check_solution(
         return {"passes": None, "note": "not checked: the Pontryagin check is for minimum-time plans"}
     path = sol.path_multiplier if sol.path_multiplier is not None else np.zeros(sol.U.shape[1])
     active = path > PATH_ACTIVE * (1.0 + float(np.max(np.abs(sol.costate))))
-    if np.any(active):
-        # A state constraint's multiplier enters the adjoint equation, and the costate jumps where an arc on
-        # the boundary begins or ends: the unconstrained conditions do not apply (docs/slew_planning.md).
-        return {
-            "passes": None,
-            "note": (
-                f"not checked: a path constraint (rate limit or keep-out cone) is active on {int(np.sum(active))} "
-                f"of {active.size} intervals, and its multipliers enter the adjoint equation"
-            ),
-        }
     box = prob.torque_set.envelope if prob.torque_set.is_box else None
     out = pontryagin_check(
         prob.body,
@@ -258,6 +300,8 @@ def check_solution(
         costate_physical(prob, sol.costate),
         box,
         hamiltonian_tolerance=HAMILTONIAN_TOLERANCE if grid_converged else HAMILTONIAN_GRID_FACTOR / sol.U.shape[1],
+        costate_start=costate_physical(prob, interval_costates(prob, sol))[:-1],
+        path_active=active,
     )
     out["tolerances"] = {
         "hamiltonian": out["hamiltonian_tolerance"],
