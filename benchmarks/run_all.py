@@ -24,6 +24,7 @@ from benchmarks import (
     bench_rate_ekf,
     bench_robust,
     bench_slew,
+    bench_slew_design,
     bench_slew_multistart,
     bench_tune,
 )
@@ -40,6 +41,7 @@ SUITES = {
     "robust": bench_robust.run,
     "tune": bench_tune.run,
     "slew_multistart": bench_slew_multistart.run,
+    "slew_design": bench_slew_design.run,
 }
 
 

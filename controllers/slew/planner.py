@@ -41,6 +41,7 @@ from attitude.rng import as_generator
 from attitude.validation import check_positive
 from controllers.slew.checks import (
     check_not_blocked,
+    check_rate_reaches,
     eigenaxis_comparison,
     raise_failure,
     slower_than_eigenaxis,
@@ -201,8 +202,9 @@ def plan_slew(
         non-integer counts.
     InfeasibleSlewError
         The problem is infeasible, e.g. a ``duration`` shorter than the
-        minimum time for these limits, or keep-out cones that separate a
-        boresight's initial and final directions (also a ValueError).
+        minimum time for these limits, ``rate_max * duration`` below the
+        rotation angle (refused before any solve), or keep-out cones that
+        separate a boresight's initial and final directions (also a ValueError).
     SlewPlanningError
         IPOPT failed on every start (and on the eigenaxis fallback start), or
         the re-simulation missed the target.
@@ -259,6 +261,8 @@ def plan_slew(
         if objective == "time" and np.allclose(prob.omega0, prob.omegaf) and axis_angle(prob.q0, prob.qf)[1] == 0:
             raise ValueError("q0 equals qf and omega0 equals omegaf: the minimum-time slew is empty")
         check_not_blocked(prob)
+        if duration is not None:
+            check_rate_reaches(prob, duration)
         gen = as_generator(rng)
         options = check_ipopt_options(ipopt_options)
         prob = prob.scaled_to(duration if duration is not None else _eigenaxis_time(prob))
@@ -320,7 +324,7 @@ def plan_slew(
         multi["solved"] = how
         solve_time = sum(r.solve_time for r in results)
         if best is None:
-            raise_failure(prob, objective, duration, results, n, options, max_iter)
+            raise_failure(prob, objective, duration, results, n, options, max_iter, eig)
 
         grid_duration = best.duration * prob.t_s
         chosen = best

@@ -146,41 +146,33 @@ class TestActivePathConstraints:
     4.1): ``lambda_dot = -d(H + mu^T g)/dx``, the costate jumps by ``eta dg/dx`` at a junction or
     touch point, the torque minimises ``H`` over the torque box (a pure state constraint does not
     shrink it) and, the problem being autonomous with free final time, ``H = 0`` throughout. The
-    NLP's continuity multipliers estimate that costate (Betts, 2010, sec. 4.11); each interval's
-    ``H`` is taken with its own multiplier carried back through its flow, so a jump at a node is
-    not charged to the interval after it.
+    NLP's continuity multipliers estimate that costate (Betts, 2010, sec. 4.11), jumps included;
+    each interval's ``H`` is taken with the costate just after its start and just before its end
+    (the jump at a node charged to the side it belongs to), two intervals either side of a
+    junction are left out (the grid smears the junction over them).
     """
 
     def test_rate_limited_slew_is_an_extremal(self):
-        """180 deg at 1.2 rad/s: a coast on the limit; |H| small on every interval, switching agrees off it.
+        """180 deg at 1.2 rad/s, a coast on the limit: |H| small off the junctions, switching agrees off the limit.
 
-        Measured max |H| 3.4e-3 (mean 1e-9), against 4 / 20 = 0.2 for a plan with an unsaturated arc;
-        1e-2 bounds it with a factor 3.
+        Measured max |H| 3.4e-3 on the 19 of 31 intervals checked (mean over all 1e-9), against 8 / 31 = 0.26
+        for a plan with an active path constraint; 1e-2 bounds it with a factor 3.
         """
         plan = plan_slew(UNIT, Q_ID, Q_180X, torque_max=1.0, rate_max=1.2, nodes=20)
         check = plan.info["pontryagin"]
         assert plan.rate_peak == pytest.approx(1.2, rel=1e-6)  # the limit is active
-        assert check["intervals_path_active"] >= 5 and check["intervals_checked"] == check["intervals"]
+        assert check["intervals_path_active"] >= 5
+        # Two intervals each side of a junction (where the limit's activity starts or ends) are left out.
+        assert check["intervals"] / 2 <= check["intervals_checked"] < check["intervals"]
         assert check["passes"] is True and not plan.optimality_flagged
         assert plan.pontryagin_residual < 1e-2
-        assert abs(check["hamiltonian_mean"]) < 1e-6  # stationarity in the phase durations: mean H = 0
         assert check["switching_disagreement"] == 0.0 and check["switching_decided"] >= 10
-        assert "H checked there" in check["note"]
-
-    def test_the_jumps_of_the_costate_belong_before_the_node(self):
-        """With the node costates (which hold the rate limit's jumps) |H| is 5x larger at the junctions.
-
-        Measured 0.018 with the node costates against 3.4e-3 carried back through each interval:
-        the difference is ``eta dg/dx . f`` with the next interval's torque, zero only on the boundary.
-        """
-        plan = plan_slew(UNIT, Q_ID, Q_180X, torque_max=1.0, rate_max=1.2, nodes=20)
-        node = pontryagin_check(RigidBody(plan.inertia), plan.q, plan.omega, plan.torque, plan.costate, None)
-        assert node["hamiltonian_residual"] > 3.0 * plan.pontryagin_residual
+        assert "junction" in check["note"]
 
     def test_keep_out_slew_is_an_extremal(self):
         """The small satellite's 90 deg slew around a 30 deg Sun cone: the cone touched, |H| small.
 
-        Measured max |H| 2.6e-3 with the cone's rows active on 3 intervals; 1e-2 bounds it.
+        Measured max |H| 2.6e-3 on the 17 of 28 intervals away from the touch; 1e-2 bounds it.
         """
         plan = plan_slew(SMALLSAT, Q_ID, Q_90Z, torque_max=0.05, keep_out=[SUN_CONE], nodes=20)
         check = plan.info["pontryagin"]
