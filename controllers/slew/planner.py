@@ -369,7 +369,7 @@ def plan_slew(
             status = refine_info.get("status")
             notes.append(f"slew refinement not used ({status}); returning the {n}-node grid solution")
         grid_converged = refined_duration is not None and bool(refine_info.get("grid_converged"))
-        pontryagin = check_solution(prob, chosen, torque, objective, grid_converged)
+        pontryagin = check_solution(prob, chosen, torque, objective, grid_converged, refined_duration is not None)
         if pontryagin.get("passes") is False:
             notes.append(
                 f"the plan fails Pontryagin's necessary conditions (max |H| {pontryagin['hamiltonian_residual']:.3g}, "
