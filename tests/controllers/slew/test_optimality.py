@@ -159,7 +159,7 @@ class TestActivePathConstraints:
     def test_rate_limited_slew_is_an_extremal(self):
         """180 deg at 1.2 rad/s, a coast on the limit: |H| small off the junctions, switching agrees off the limit.
 
-        Measured max |H| 3.4e-3 on the 19 of 31 intervals checked (mean over all 1e-9), against 8 / 31 = 0.26
+        Measured max |H| 3.4e-3 on the 19 of 31 intervals checked, against 8 / 31 = 0.26
         for a plan with an active path constraint; 1e-2 bounds it with a factor 3.
         """
         plan = plan_slew(UNIT, Q_ID, Q_180X, torque_max=1.0, rate_max=1.2, nodes=20)
