@@ -24,6 +24,7 @@ from benchmarks import (
     bench_rate_ekf,
     bench_robust,
     bench_slew,
+    bench_slew_design,
     bench_slew_multistart,
     bench_slew_robust,
     bench_slew_wheels,
@@ -44,6 +45,7 @@ SUITES = {
     "slew_multistart": bench_slew_multistart.run,
     "slew_wheels": bench_slew_wheels.run,
     "slew_robust": bench_slew_robust.run,
+    "slew_design": bench_slew_design.run,
 }
 
 

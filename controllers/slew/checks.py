@@ -25,6 +25,7 @@ from controllers.slew.transcription import Solution, solve_grid
 __all__ = [
     "CHECK_SAMPLES",
     "check_not_blocked",
+    "check_rate_reaches",
     "eigenaxis_comparison",
     "raise_failure",
     "slower_than_eigenaxis",
@@ -64,6 +65,44 @@ def check_not_blocked(prob: Problem) -> None:
     )
     raise InfeasibleSlewError(
         f"slew infeasible: {cause}", status="keep_out_blocked", cause=cause, details={"blocked": blocked}
+    )
+
+
+def check_rate_reaches(prob: Problem, duration: float) -> None:
+    """Raise :class:`InfeasibleSlewError` when ``rate_max * duration`` is below the rotation angle (before any solve).
+
+    Any path between two attitudes has length ``integral |omega| dt`` at least
+    their rotation angle ``phi`` (the geodesic distance on SO(3) under the
+    bi-invariant metric, which the path's length bounds from above), and
+    ``|omega| <= rate_max`` throughout, so a slew of ``duration`` needs
+    ``rate_max * duration >= phi``, whatever the torque, the boundary rates or
+    the grid. Necessary only: a duration that passes may still be too short
+    for the torque limit (then the solve fails and
+    :func:`raise_failure` names the minimum time).
+
+    Parameters
+    ----------
+    prob : Problem
+        The validated problem.
+    duration : float
+        The fixed slew duration [s].
+    """
+    if prob.rate_max is None:
+        return
+    phi = axis_angle(prob.q0, prob.qf)[1]
+    if prob.rate_max * duration >= phi:
+        return
+    cause = (
+        f"rate_max * duration must be at least the rotation angle phi between q0 and qf (any path covers "
+        f"integral |omega| dt >= phi): rate_max={prob.rate_max:.6g} rad/s times duration={duration:.6g} s is "
+        f"{prob.rate_max * duration:.6g} rad < phi = {phi:.6g} rad ({math.degrees(phi):.6g} deg); raise rate_max to at "
+        f"least {phi / duration:.6g} rad/s or duration to at least {phi / prob.rate_max:.6g} s"
+    )
+    raise InfeasibleSlewError(
+        f"slew infeasible: {cause}",
+        status="rate_limit_too_low",
+        cause=cause,
+        details={"phi_rad": phi, "rate_max": prob.rate_max, "duration_s": duration},
     )
 
 
@@ -155,6 +194,7 @@ def raise_failure(
     n: int,
     options: Mapping[str, Any],
     max_iter: int,
+    eigenaxis: Mapping[str, Any] | None = None,
 ) -> None:
     """Explain why no start converged, and raise.
 
@@ -174,6 +214,10 @@ def raise_failure(
         IPOPT options of the caller.
     max_iter : int
         IPOPT iteration limit.
+    eigenaxis : mapping, optional
+        The result of :func:`eigenaxis_comparison`: a minimum-time slew whose
+        eigenaxis slew meets every limit is feasible, and its failure is said
+        to be the transcription's, not the problem's.
     """
     statuses = [r.status for r in results]
     details = {"statuses": statuses, "iterations": [r.iterations for r in results]}
@@ -206,6 +250,8 @@ def raise_failure(
             f"path was proven before solving, but a corridor narrower than the grid can resolve looks blocked "
             f"to the optimiser): check the cone geometry first"
         )
+    if objective == "time" and prob.rate_max is not None:
+        _raise_if_rate_unresolved(prob, eigenaxis or {}, n, statuses, details)
     if infeasible:
         cause = cones or "the constraints admit no slew"
         cause += (
@@ -296,6 +342,41 @@ def _raise_if_rate_limited(prob: Problem, duration: float, n: int, statuses: lis
     raise InfeasibleSlewError(
         f"slew infeasible (IPOPT: {', '.join(sorted(set(statuses)))}): {cause}",
         status=statuses[0],
+        cause=cause,
+        details=details,
+    )
+
+
+def _raise_if_rate_unresolved(
+    prob: Problem, eigenaxis: Mapping[str, Any], n: int, statuses: list[str], details: dict
+) -> None:
+    """SlewPlanningError naming rate_max when a feasible rate-limited slew failed (eigenaxis slew feasible).
+
+    At a tight rate limit the accelerations last about ``J_s rate_max /
+    tau_max``, a vanishing fraction of the slew ``phi / rate_max``; with the
+    time scale stretched to the slew (docs/slew_planning.md, Scaling) the
+    torque bound grows as the square of that ratio in the NLP's units, and
+    IPOPT can fail on a slew that plainly exists. Said so, with the bounds of
+    the minimum time, rather than "infeasible".
+    """
+    ref = eigenaxis.get("duration_s")
+    if ref is None or eigenaxis.get("enters_keep_out"):
+        return
+    rate = prob.rate_max
+    phi = axis_angle(prob.q0, prob.qf)[1]
+    accel = prob.j_s * rate / float(np.min(prob.torque_set.envelope))
+    cause = (
+        f"the slew exists (the eigenaxis slew at rate_max={rate:.6g} rad/s meets every limit in {ref:.6g} s, and no "
+        f"slew is faster than phi / rate_max = {phi / rate:.6g} s), but the optimiser found none on {n} intervals: at "
+        f"this rate_max the accelerations last about J_s rate_max / tau_max = {accel:.3g} s, {accel / ref:.2g} of the "
+        "slew, too short for the transcription to resolve; fly the eigenaxis slew "
+        "(controllers.slew.reference.eigenaxis_slew), within "
+        f"{100 * (ref * rate / phi - 1):.2g} % of the bound, or raise rate_max"
+    )
+    details["eigenaxis_duration_s"] = ref
+    raise SlewPlanningError(
+        f"slew planning failed (IPOPT: {', '.join(sorted(set(statuses)))}): {cause}",
+        status="rate_limit_unresolved",
         cause=cause,
         details=details,
     )

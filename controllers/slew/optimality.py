@@ -14,6 +14,16 @@ Optimality evidence):
   omega)``, ``I`` symmetric), so ``tau_i = -tau_max_i sign(sigma_i)`` wherever
   ``sigma_i != 0`` (bang-bang); ``sigma_i = 0`` over an arc is a singular arc.
 
+With a rate limit or keep-out cone active, the constraints are adjoined
+directly (Hartl, Sethi and Vickson, SIAM Review 37(2), 1995): the costate
+jumps where the path meets the boundary, ``H`` (equal to ``H + mu^T g`` on
+the trajectory) is still zero, and the torque still minimises ``H`` over the
+box. Each interval's ``H`` is taken with the costate just after its start and
+just before its end, plus its path rows' ``mu^T dg/dh``
+(:func:`interval_costates`); intervals within :data:`JUNCTION_INTERVALS` of a
+junction are left out, and the switching function is not checked on
+intervals where a path row is active.
+
 The costates are the multipliers of the continuity constraints of the
 multiple-shooting NLP (:meth:`controllers.slew.transcription.Transcription.solve`):
 no fit, no extra solve. A converged answer meets the *discrete* conditions by
@@ -29,20 +39,25 @@ from __future__ import annotations
 
 from typing import Any
 
+import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from attitude.rigid_body import RigidBody
 from controllers.slew.problem import Problem
 from controllers.slew.refine import SATURATION_TOLERANCE
+from controllers.slew.transcription import interval_function
 
 __all__ = [
     "HAMILTONIAN_GRID_FACTOR",
+    "HAMILTONIAN_PATH_FACTOR",
     "HAMILTONIAN_TOLERANCE",
+    "JUNCTION_INTERVALS",
     "SWITCHING_TOLERANCE",
     "SWITCHING_ZERO_FRACTION",
     "check_solution",
     "costate_physical",
+    "interval_costates",
     "pontryagin_check",
     "summary_words",
 ]
@@ -60,9 +75,28 @@ HAMILTONIAN_TOLERANCE = 1e-4
 #: 8 to 50 nodes over the same four slews; 4 leaves a factor 2.
 HAMILTONIAN_GRID_FACTOR = 4.0
 
+#: With a path constraint active somewhere, a refined plan (bang-bang or not:
+#: the refinement frees the switch times, not the junctions) is flagged when
+#: ``max |H|`` over the intervals checked exceeds ``HAMILTONIAN_PATH_FACTOR / n``.
+#: Measured ``n max |H|`` up to 1.94 on 20 to 80 nodes over four slews (the
+#: small satellite's keep-out slew); 8 leaves a factor 4. A uniform-grid
+#: answer has its ``H`` reported, not judged: the grid puts the junctions on
+#: its nodes, and ``H`` is constant on each arc but offset between them (0.13
+#: on the 3-interval accelerations of the small satellite's 1 deg/s slew on
+#: 100 nodes, -0.008 on its coast).
+HAMILTONIAN_PATH_FACTOR = 8.0
+
+#: Intervals on each side of a junction (where a path constraint's activity
+#: starts or ends, or a boundary arc meets the slew's start or end) left out
+#: of the check: the grid smears the junction over them, the torque there
+#: neither the arc's before nor after it, and ``|H|`` reaches 0.06 (refined,
+#: 60 nodes) to 0.5 (uniform grid, 30 nodes) whatever the grid.
+JUNCTION_INTERVALS = 2
+
 #: A switching function ``sigma_i`` counts as away from its zeros on an
 #: interval when ``|sigma_i| tau_max_i`` at both ends is at least this
-#: fraction of its largest value over the plan and all axes, with one sign.
+#: fraction of its largest value over the intervals checked (no path row
+#: active) and all axes, with one sign.
 SWITCHING_ZERO_FRACTION = 0.05
 
 #: A path constraint's multiplier counts as active above this fraction of
@@ -102,6 +136,11 @@ def pontryagin_check(
     torque_box: ArrayLike | None,
     checked: ArrayLike | None = None,
     hamiltonian_tolerance: float = HAMILTONIAN_TOLERANCE,
+    costate_start: ArrayLike | None = None,
+    costate_end: ArrayLike | None = None,
+    path_active: ArrayLike | None = None,
+    path_length_term: ArrayLike | None = None,
+    hamiltonian_decides: bool = True,
 ) -> dict[str, Any]:
     """Pontryagin's conditions of a minimum-time plan on its nodes (module docstring).
 
@@ -122,12 +161,25 @@ def pontryagin_check(
         Per-axis torque bound [N m] for the switching check; None skips it
         (a torque set that is not a box: only the Hamiltonian is checked).
     checked : array_like of bool (n,), optional
-        Intervals to check (default all): those where no path constraint is
-        active, since an active rate limit or keep-out cone adds its
-        multipliers to the adjoint equation.
+        Intervals to check (default all).
     hamiltonian_tolerance : float
         Largest accepted ``max |H|`` (:data:`HAMILTONIAN_TOLERANCE` for a
         grid-converged plan, ``HAMILTONIAN_GRID_FACTOR / n`` for a grid answer).
+    costate_start, costate_end : array_like (n, 7), optional
+        Costates just after the start and just before the end of each
+        interval, in the units of ``costate`` (:func:`interval_costates`);
+        default the node costates ``costate[:-1]`` and ``costate[1:]``, the
+        same where no path constraint is active at the node.
+    path_active : array_like of bool (n,), optional
+        Intervals where a path constraint (rate limit, keep-out cone) is
+        active: ``H`` is checked there, the switching function is not (the
+        torque there also answers to the constraint, docs/slew_planning.md).
+    path_length_term : array_like (n,), optional
+        ``mu_k^T dg_k/dh_k`` of each interval (dimensionless, like ``H``),
+        added to its ``H`` (:func:`interval_costates`); default zero.
+    hamiltonian_decides : bool
+        ``max |H|`` above its tolerance fails the plan (default); False
+        reports it only (a uniform-grid answer with a path constraint active).
 
     Returns
     -------
@@ -146,25 +198,19 @@ def pontryagin_check(
     n = q.shape[0] - 1
     tau = np.asarray(torque, dtype=float)[:n]
     mask = np.ones(n, dtype=bool) if checked is None else np.asarray(checked, dtype=bool)
+    active = np.zeros(n, dtype=bool) if path_active is None else np.asarray(path_active, dtype=bool)
+    lam_start = lam[:-1] if costate_start is None else np.asarray(costate_start, dtype=float)
+    lam_end = lam[1:] if costate_end is None else np.asarray(costate_end, dtype=float)
+    term = np.zeros(n) if path_length_term is None else np.asarray(path_length_term, dtype=float)
     x = np.concatenate([q, omega], axis=1)
     notes = []
     if not np.any(mask):
-        return {
-            "hamiltonian_residual": None,
-            "hamiltonian_mean": None,
-            "hamiltonian_spread": None,
-            "switching_disagreement": None,
-            "switching_decided": 0,
-            "intervals_checked": 0,
-            "intervals": n,
-            "passes": None,
-            "note": "not checked: a path constraint (rate limit or keep-out cone) is active on every interval",
-        }
+        raise ValueError("checked must select at least one interval, got none")
     if not np.all(mask):
-        notes.append(f"checked on {int(np.sum(mask))} of {n} intervals: a path constraint is active on the others")
+        notes.append(f"checked on {int(np.sum(mask))} of {n} intervals (not within {JUNCTION_INTERVALS} of a junction)")
     # H at both ends of each interval with the interval's torque.
-    h_start = 1.0 + np.sum(lam[:-1] * body.state_derivative(x[:-1], tau), axis=1)
-    h_end = 1.0 + np.sum(lam[1:] * body.state_derivative(x[1:], tau), axis=1)
+    h_start = 1.0 + np.sum(lam_start * body.state_derivative(x[:-1], tau), axis=1) + term
+    h_end = 1.0 + np.sum(lam[1:] * body.state_derivative(x[1:], tau), axis=1) + term
     h = np.concatenate([h_start[mask], h_end[mask]])
     out: dict[str, Any] = {
         "hamiltonian_residual": float(np.max(np.abs(h))),
@@ -174,21 +220,32 @@ def pontryagin_check(
         "switching_decided": 0,
         "intervals_checked": int(np.sum(mask)),
         "intervals": n,
+        "intervals_path_active": int(np.sum(active)),
     }
     out["hamiltonian_tolerance"] = float(hamiltonian_tolerance)
-    passes = out["hamiltonian_residual"] <= hamiltonian_tolerance
+    passes = out["hamiltonian_residual"] <= hamiltonian_tolerance or not hamiltonian_decides
+    if not hamiltonian_decides:
+        notes.append(
+            "H reported, not judged: a uniform grid puts the junctions of the path constraint on its nodes, so H is "
+            "constant on each arc but not the same on all"
+        )
+    if np.any(active):
+        notes.append(
+            f"a path constraint is active on {int(np.sum(active))} of {n} intervals: the switching function not "
+            "checked there"
+        )
     if torque_box is None:
         notes.append("switching check skipped: the torque set is not a per-axis box")
     else:
         box = np.broadcast_to(np.asarray(torque_box, dtype=float), (3,))
-        sigma = lam[:, 4:] @ body.inertia_inv.T  # I^-1 lambda_omega at the nodes, (n + 1, 3)
-        weight = np.abs(sigma) * box
-        scale = float(np.max(weight))
-        s0, s1 = sigma[:-1], sigma[1:]
-        decided = (np.sign(s0) == np.sign(s1)) & (
-            np.minimum(weight[:-1], weight[1:]) >= SWITCHING_ZERO_FRACTION * scale
-        )
-        decided &= mask[:, None]
+        # I^-1 lambda_omega at both ends of each interval, with the interval's own costates, (n, 3) each.
+        s0 = lam_start[:, 4:] @ body.inertia_inv.T
+        s1 = lam_end[:, 4:] @ body.inertia_inv.T
+        w0, w1 = np.abs(s0) * box, np.abs(s1) * box
+        free = mask & ~active
+        scale = float(np.max(np.maximum(w0, w1)[free])) if np.any(free) else 0.0
+        decided = (np.sign(s0) == np.sign(s1)) & (np.minimum(w0, w1) >= SWITCHING_ZERO_FRACTION * scale)
+        decided &= free[:, None]
         wrong = tau * np.sign(s1) > -(1.0 - SATURATION_TOLERANCE) * box
         count = int(np.sum(decided))
         out["switching_decided"] = count
@@ -197,6 +254,58 @@ def pontryagin_check(
     out["passes"] = bool(passes)
     out["note"] = "; ".join(notes)
     return out
+
+
+def interval_costates(prob: Problem, sol: Any) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Costates just after and just before each interval's ends, and its path rows' length term (nondimensional).
+
+    The continuity multipliers satisfy the discrete adjoint equation with
+    the path rows' jumps (docs/slew_planning.md, Optimality evidence):
+    ``nu_{k-1} = (dF_k/dx)^T nu_k + G_k + E_{k-1}``, where
+    ``G_k = d(mu_k^T g_k)/dx_k`` collects the rows of interval ``k`` inside
+    it (its sub-steps, carried back to node ``k``) and
+    ``E_{k-1} = d(mu_{k-1}^T g_{k-1})/dx_k`` the row of interval ``k - 1`` at
+    node ``k`` (the jump at the node). The costate just after node ``k`` is
+    ``nu_{k-1} - E_{k-1}`` (column 0: the node-0 costate) and just before
+    node ``k + 1`` it is ``nu_k - G_{k+1}`` (the last: ``nu_{n-1}``); the
+    length term ``mu_k^T dg_k/dh_k`` is the rows' share of the Lagrangian's
+    derivative in the interval length, which completes the interval's ``H``.
+
+    Parameters
+    ----------
+    prob : Problem
+        The validated, nondimensional problem.
+    sol : Solution
+        The answer, with its ``costate`` (7, n + 1) and ``path_row_multiplier``.
+
+    Returns
+    -------
+    tuple of ndarray
+        Costates after the start and before the end of each interval (7, n)
+        each, and the length term (n,).
+    """
+    nu = sol.costate
+    n = sol.U.shape[1]
+    start, end, term = nu[:, :-1].copy(), nu[:, 1:].copy(), np.zeros(n)
+    mu = sol.path_row_multiplier
+    if mu is None or mu.shape[0] == 0:
+        return start, end, term
+    fun = interval_function(prob).fun
+    x, u, h, x_next = (ca.SX.sym(name, fun.size1_in(i)) for i, name in enumerate(("x", "u", "h", "x_next")))
+    rows = ca.vertcat(*fun(x, u, h, x_next)[1:])
+    m = ca.SX.sym("mu", rows.numel())
+    lagrangian = ca.dot(m, rows)
+    parts = ca.Function(
+        "path_terms",
+        [x, u, h, x_next, m],
+        [ca.gradient(lagrangian, x), ca.gradient(lagrangian, x_next), ca.gradient(lagrangian, h)],
+    ).map(n)
+    inside, at_end, length = (
+        np.asarray(v, dtype=float) for v in parts(sol.X[:, :-1], sol.U, sol.H.reshape(1, n), sol.X[:, 1:], mu)
+    )
+    start[:, 1:] -= at_end[:, :-1]
+    end[:, :-1] -= inside[:, 1:]
+    return start, end, length.ravel()
 
 
 def summary_words(check: dict[str, Any] | None) -> str:
@@ -218,7 +327,12 @@ def summary_words(check: dict[str, Any] | None) -> str:
 
 
 def check_solution(
-    prob: Problem, sol: Any, torque: NDArray[np.float64], objective: str, grid_converged: bool
+    prob: Problem,
+    sol: Any,
+    torque: NDArray[np.float64],
+    objective: str,
+    grid_converged: bool,
+    refined: bool = True,
 ) -> dict[str, Any]:
     """Pontryagin check of one NLP answer (its multipliers as costates); skipped, with a note, where it does not apply.
 
@@ -234,22 +348,39 @@ def check_solution(
         ``"time"`` or ``"energy"``.
     grid_converged : bool
         The answer is switch-time refined and bang-bang (the tight tolerance applies).
+    refined : bool
+        The answer has free phase durations (the refinement's); a
+        uniform-grid answer with a path constraint active has its ``H``
+        reported, not judged.
     """
     if objective != "time" or sol.costate is None:
         return {"passes": None, "note": "not checked: the Pontryagin check is for minimum-time plans"}
-    path = sol.path_multiplier if sol.path_multiplier is not None else np.zeros(sol.U.shape[1])
+    n = sol.U.shape[1]
+    path = sol.path_multiplier if sol.path_multiplier is not None else np.zeros(n)
     active = path > PATH_ACTIVE * (1.0 + float(np.max(np.abs(sol.costate))))
-    if np.any(active):
-        # A state constraint's multiplier enters the adjoint equation, and the costate jumps where an arc on
-        # the boundary begins or ends: the unconstrained conditions do not apply (docs/slew_planning.md).
+    # Node indices where the activity changes (node k + 1 between intervals k and k + 1; the slew's ends when active).
+    flags = np.concatenate([[False], active, [False]]).astype(int)
+    junctions = np.nonzero(np.diff(flags))[0]
+    checked = np.ones(n, dtype=bool)
+    for node in junctions:
+        checked[max(0, node - JUNCTION_INTERVALS) : node + JUNCTION_INTERVALS] = False
+    if not np.any(checked):
         return {
             "passes": None,
             "note": (
-                f"not checked: a path constraint (rate limit or keep-out cone) is active on {int(np.sum(active))} "
-                f"of {active.size} intervals, and its multipliers enter the adjoint equation"
+                f"not checked: every interval lies within {JUNCTION_INTERVALS} intervals of a junction of a path "
+                "constraint (rate limit or keep-out cone)"
             ),
         }
+    # Refinement frees the switch times, not the junctions of a path constraint: with one active the grid bound.
+    if np.any(active):
+        tolerance = HAMILTONIAN_PATH_FACTOR / n
+    elif grid_converged:
+        tolerance = HAMILTONIAN_TOLERANCE
+    else:
+        tolerance = HAMILTONIAN_GRID_FACTOR / n
     box = prob.torque_set.envelope if prob.torque_set.is_box else None
+    start, end, term = interval_costates(prob, sol)
     out = pontryagin_check(
         prob.body,
         sol.X[:4].T,
@@ -257,7 +388,13 @@ def check_solution(
         torque,
         costate_physical(prob, sol.costate),
         box,
-        hamiltonian_tolerance=HAMILTONIAN_TOLERANCE if grid_converged else HAMILTONIAN_GRID_FACTOR / sol.U.shape[1],
+        checked=checked,
+        hamiltonian_tolerance=tolerance,
+        costate_start=costate_physical(prob, np.hstack([start, end[:, -1:]]))[:-1],
+        costate_end=costate_physical(prob, np.hstack([start[:, :1], end]))[1:],
+        path_active=active,
+        path_length_term=term,
+        hamiltonian_decides=refined or not np.any(active),
     )
     out["tolerances"] = {
         "hamiltonian": out["hamiltonian_tolerance"],

@@ -43,6 +43,7 @@ from attitude.rng import as_generator
 from attitude.validation import check_positive
 from controllers.slew.checks import (
     check_not_blocked,
+    check_rate_reaches,
     eigenaxis_comparison,
     raise_failure,
     slower_than_eigenaxis,
@@ -218,10 +219,11 @@ def plan_slew(
         non-integer counts.
     InfeasibleSlewError
         The problem is infeasible, e.g. a ``duration`` shorter than the
-        minimum time for these limits, or keep-out cones that separate a
-        boresight's initial and final directions, or (wheel states) a final
-        state whose conserved angular momentum the wheels cannot hold within
-        ``momentum_max`` (also a ValueError).
+        minimum time for these limits, ``rate_max * duration`` below the
+        rotation angle (refused before any solve), keep-out cones that
+        separate a boresight's initial and final directions, or (wheel
+        states) a final state whose conserved angular momentum the wheels
+        cannot hold within ``momentum_max`` (also a ValueError).
     SlewPlanningError
         IPOPT failed on every start (and on the eigenaxis fallback start), or
         the re-simulation missed the target.
@@ -285,6 +287,8 @@ def plan_slew(
         if objective == "time" and np.allclose(prob.omega0, prob.omegaf) and axis_angle(prob.q0, prob.qf)[1] == 0:
             raise ValueError("q0 equals qf and omega0 equals omegaf: the minimum-time slew is empty")
         check_not_blocked(prob)
+        if duration is not None:
+            check_rate_reaches(prob, duration)
         gen = as_generator(rng)
         options = check_ipopt_options(ipopt_options)
         prob = prob.scaled_to(duration if duration is not None else _eigenaxis_time(prob))
@@ -362,7 +366,7 @@ def plan_slew(
         multi["solved"] = how
         solve_time = sum(r.solve_time for r in results)
         if best is None:
-            raise_failure(prob, objective, duration, results, n, options, max_iter)
+            raise_failure(prob, objective, duration, results, n, options, max_iter, eig)
 
         grid_duration = best.duration * prob.t_s
         chosen = best
@@ -407,7 +411,7 @@ def plan_slew(
             status = refine_info.get("status")
             notes.append(f"slew refinement not used ({status}); returning the {n}-node grid solution")
         grid_converged = refined_duration is not None and bool(refine_info.get("grid_converged"))
-        pontryagin = check_solution(prob, chosen, torque, objective, grid_converged)
+        pontryagin = check_solution(prob, chosen, torque, objective, grid_converged, refined_duration is not None)
         if pontryagin.get("passes") is False:
             notes.append(
                 f"the plan fails Pontryagin's necessary conditions (max |H| {pontryagin['hamiltonian_residual']:.3g}, "

@@ -277,6 +277,7 @@ def refine_phases(
         objective=float(np.sum(val["Tp"])),
         costate=val["costate"],
         path_multiplier=val["path_multiplier"],
+        path_row_multiplier=val["path_row_multiplier"],
     )
     info.update({"status": status, "iterations": iters, "solve_time_s": elapsed})
     info["phase_durations"] = (np.maximum(val["Tp"], 0.0) * prob.t_s).tolist()
@@ -310,4 +311,7 @@ def drop_empty(sol: Solution) -> Solution:
         costate = sol.costate[:, idx_nodes]
         costate[:, -1] = sol.costate[:, -1]
     path = None if sol.path_multiplier is None else sol.path_multiplier[keep]
-    return replace(sol, X=X, U=sol.U[:, keep], H=sol.H[keep], costate=costate, path_multiplier=path)
+    rows = None if sol.path_row_multiplier is None else sol.path_row_multiplier[:, keep]
+    return replace(
+        sol, X=X, U=sol.U[:, keep], H=sol.H[keep], costate=costate, path_multiplier=path, path_row_multiplier=rows
+    )

@@ -145,6 +145,11 @@ class Solution:
     path_multiplier : ndarray, optional
         Largest multiplier of a path constraint (rate limit, keep-out) per
         interval (n,), zero on intervals where none is active.
+    path_row_multiplier : ndarray, optional
+        Multiplier of every path row of every interval (m, n), rows in the
+        order of the outputs ``path``, ``from_start``, ``from_end`` of
+        :func:`interval_function` stacked, zero for a row not imposed on that
+        interval (docs/slew_planning.md, Optimality evidence).
     """
 
     status: str
@@ -156,6 +161,7 @@ class Solution:
     objective: float
     costate: NDArray[np.float64] | None = None
     path_multiplier: NDArray[np.float64] | None = None
+    path_row_multiplier: NDArray[np.float64] | None = None
 
     @property
     def converged(self) -> bool:
@@ -192,7 +198,8 @@ class Transcription:
         self.options = options
         self.continuity: Any = None
         self.initial: Any = None
-        self.path: list[tuple[Any, list[int]]] = []
+        self.path: list[tuple[Any, list[int], list[int]]] = []
+        self.path_rows = 0
 
     def constrain(self, U: Any, H: Any, interval: IntervalFunction | None = None, x0: Any = None) -> None:
         """Dynamics, boundary conditions and path constraints for torques ``U`` and lengths ``H``.
@@ -216,22 +223,30 @@ class Transcription:
         defect, g, g_start, g_end = f.fun.map(n)(X[:, :-1], U, H, X[:, 1:])
         self.continuity = ca.vec(defect) == 0
         opti.subject_to(self.continuity)
-        # Path constraints with the interval of each row (the multipliers say where they are active).
-        path: list[tuple[Any, list[int]]] = []
-        rows = g.shape[0]
+        # Path constraints with the interval and the row (of path, from_start, from_end stacked) of each entry.
+        path: list[tuple[Any, list[int], list[int]]] = []
+        rows, rows_start = g.shape[0], g_start.shape[0]
         if rows:
             first = [i for i in range(rows) if i not in f.first_drop]
             last = [i for i in range(rows) if i not in f.last_drop]
             if first:
-                path.append((g[first, 0] <= 0, [0] * len(first)))
+                path.append((g[first, 0] <= 0, [0] * len(first), first))
             if n > 2:
-                path.append((ca.vec(g[:, 1 : n - 1]) <= 0, list(np.repeat(np.arange(1, n - 1), rows))))
+                path.append(
+                    (
+                        ca.vec(g[:, 1 : n - 1]) <= 0,
+                        list(np.repeat(np.arange(1, n - 1), rows)),
+                        list(range(rows)) * (n - 2),
+                    )
+                )
             if last:
-                path.append((g[last, n - 1] <= 0, [n - 1] * len(last)))
-        if g_start.shape[0]:
-            path.append((g_start[:, 0] <= 0, [0] * g_start.shape[0]))
-            path.append((g_end[:, n - 1] <= 0, [n - 1] * g_end.shape[0]))
-        for con, _ in path:
+                path.append((g[last, n - 1] <= 0, [n - 1] * len(last), last))
+        if rows_start:
+            path.append((g_start[:, 0] <= 0, [0] * rows_start, list(range(rows, rows + rows_start))))
+            end_rows = list(range(rows + rows_start, rows + rows_start + g_end.shape[0]))
+            path.append((g_end[:, n - 1] <= 0, [n - 1] * g_end.shape[0], end_rows))
+        self.path_rows = rows + rows_start + g_end.shape[0]
+        for con, _, _ in path:
             opti.subject_to(con)
         self.path = path
         self.initial = X[:, 0] == (prob.x0 if x0 is None else x0)
@@ -294,11 +309,12 @@ class Transcription:
         rows = self.X.shape[0]
         nu = np.asarray(opti.debug.value(opti.dual(self.continuity)), dtype=float).reshape(rows, n, order="F")
         nu0 = -np.asarray(opti.debug.value(opti.dual(self.initial)), dtype=float).reshape(rows, 1)
-        path = np.zeros(n)
-        for con, intervals in self.path:
-            mu = np.abs(np.atleast_1d(np.asarray(opti.debug.value(opti.dual(con)), dtype=float)))
-            np.maximum.at(path, np.asarray(intervals, dtype=int), mu)
-        return {"costate": np.hstack([nu0, nu]), "path_multiplier": path}
+        path, per_row = np.zeros(n), np.zeros((self.path_rows, n))
+        for con, intervals, rows in self.path:
+            mu = np.atleast_1d(np.asarray(opti.debug.value(opti.dual(con)), dtype=float))
+            np.maximum.at(path, np.asarray(intervals, dtype=int), np.abs(mu))
+            per_row[np.asarray(rows, dtype=int), np.asarray(intervals, dtype=int)] = mu
+        return {"costate": np.hstack([nu0, nu]), "path_multiplier": path, "path_row_multiplier": per_row}
 
 
 #: IPOPT's status when its intermediate callback asks it to stop. The planner
@@ -550,6 +566,7 @@ def solve_grid(
                 objective=float(val["cost"][0]),
                 costate=val["costate"],
                 path_multiplier=val["path_multiplier"],
+                path_row_multiplier=val["path_row_multiplier"],
             )
         )
         if solved is not None:

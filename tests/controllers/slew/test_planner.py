@@ -380,6 +380,7 @@ class TestKeepOutBoundaries:
         with pytest.raises(InfeasibleSlewError, match="keep-out cones leave no path") as info:
             plan_slew(UNIT, Q_ID, Q_180X, torque_max=1.0, keep_out=cones, nodes=30)
         assert info.value.status == "keep_out_blocked"
+        assert "keep_out[0], keep_out[1], keep_out[2], keep_out[3]" in str(info.value)  # unnamed cones: the argument
         assert info.value.details["blocked"][0]["cones"] == [0, 1, 2, 3]
 
     def test_blocked_path_check_never_rejects_a_corridor(self):
@@ -736,6 +737,37 @@ class TestBadInput:
         """Issue 13, item 16: an unknown IPOPT option gave casadi's "not solved" after every start."""
         with pytest.raises(ValueError, match=message):
             plan_slew(UNIT, Q_ID, Q_180X, torque_max=1.0, ipopt_options=options)
+
+    def test_rate_limit_below_what_the_duration_needs_is_refused_before_solving(self, monkeypatch):
+        """Any path covers integral |omega| dt >= phi, so rate_max * duration >= phi is necessary.
+
+        180 deg in 4 s at 0.5 rad/s covers at most 2 rad < pi: refused with both arguments and
+        their values, before any NLP is solved (a solve here fails the test).
+        """
+
+        def no_solve(*args, **kwargs):
+            raise AssertionError("an NLP was solved")
+
+        monkeypatch.setattr("controllers.slew.transcription.Transcription.solve", no_solve)
+        kw = {"torque_max": 1.0, "objective": "energy", "duration": 4.0, "rate_max": 0.5}
+        with pytest.raises(InfeasibleSlewError, match=r"rate_max=0.5 rad/s times duration=4 s is 2 rad < phi") as info:
+            plan_slew(UNIT, Q_ID, Q_180X, **kw)
+        assert info.value.status == "rate_limit_too_low"
+        assert info.value.details["phi_rad"] == pytest.approx(math.pi, rel=1e-12)
+        assert isinstance(info.value, ValueError)
+
+    def test_a_rate_limit_too_tight_to_resolve_is_named_not_called_infeasible(self):
+        """1e-8 rad/s: the slew exists (the eigenaxis slew, phi / rate_max = 1.6e8 s) but the NLP cannot resolve
+        accelerations of 2.5e-5 s in it; the error names rate_max and the bounds, and is not an InfeasibleSlewError."""
+        rate = 1e-8
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            with pytest.raises(SlewPlanningError, match=r"the slew exists .*rate_max=1e-08 rad/s") as info:
+                plan_slew(SMALLSAT, Q_ID, Q_90Z, torque_max=TAU_SMALLSAT, rate_max=rate, nodes=20)
+        assert not isinstance(info.value, InfeasibleSlewError)
+        assert info.value.status == "rate_limit_unresolved"
+        # Independent bound: no slew is faster than phi / rate_max.
+        assert info.value.details["eigenaxis_duration_s"] >= (math.pi / 2) / rate
 
     def test_batched_body(self):
         with pytest.raises(ValueError, match="single"):
