@@ -651,7 +651,7 @@ class Margins(ResultIO):
         kind = f"sampled loop (T = {self.dt:g} s)" if self.dt else "continuous loop"
         text = f"{kind}: GM = {gm} dB, PM = {self.phase_margin_deg:.1f} deg"
         if math.isfinite(self.gain_crossover):
-            text += f" at {self.gain_crossover:.3g} rad/s, DM = {self.delay_margin_s:.3g} s"
+            text += f" at {self.gain_crossover:.3g} rad/s, delay margin {self.delay_margin_s:.3g} s"
         return text if self.stable else text + " (closed loop UNSTABLE)"
 
 
@@ -1251,7 +1251,7 @@ def plot_bode(
             ax_p.text(
                 0.03,
                 0.95,
-                f"PM = {m.phase_margin_deg:.1f} deg @ {wc:.3g} rad/s\nDM = {m.delay_margin_s:.3g} s",
+                f"PM = {m.phase_margin_deg:.1f} deg @ {wc:.3g} rad/s\ndelay margin {m.delay_margin_s:.3g} s",
                 transform=ax_p.transAxes,
                 ha="left",
                 va="top",

@@ -16,10 +16,14 @@ its pitfalls:
   report comfortable margins. Here the closed-loop poles are checked first
   and an unstable loop is reported unstable, with no margin;
 * it takes the minimum over the frequencies it is given: on a coarse grid
-  the minimum can be far above the true one. Here the worst frequency of a
-  wide logarithmic grid is refined (a dense grid between its neighbours)
-  until the margin changes by less than ``rtol``; every figure is the
-  minimum over the union of the grids, so refining never raises it;
+  the minimum can be far above the true one. Here the first grid is a wide
+  logarithmic one plus the neighbourhood of every lightly damped open- or
+  closed-loop root sampled at a quarter of its resonance's width (a 0.5 %
+  mode between two points of a plain logarithmic grid left the margin 15 to
+  26 % optimistic), and each of its lowest local minima is refined (a dense
+  grid between its neighbours) until the margin changes by less than
+  ``rtol``; every figure is the minimum over the union of the grids, so
+  refining never raises it;
 * ``omega`` must be an array: the grid is built here (sampled loops up to
   their Nyquist frequency).
 """
@@ -57,6 +61,10 @@ REFINE_POINTS = 60
 MAX_REFINEMENTS = 12
 #: Extensions of the grid by three decades where the smallest margin sits at one of its ends.
 EDGE_EXTENSIONS = 3
+#: Roots (open- and closed-loop) damped below this get their resonance sampled finely in the first grid.
+LIGHT_DAMPING = 0.2
+#: Local minima of the first grid refined, the lowest first (a resonance's dip besides the global one).
+LOCAL_MINIMA_REFINED = 6
 
 
 @dataclass(frozen=True)
@@ -120,7 +128,8 @@ def disk_margins(loop: Any, *, skew: float = 0.0, omega: ArrayLike | None = None
         The disk's skew (module docstring); 0 balanced.
     omega : array_like, optional
         A first grid [rad/s] (positive, increasing); default a logarithmic grid four decades around the
-        loop's poles and zeros (up to the Nyquist frequency for a sampled loop).
+        loop's poles and zeros (up to the Nyquist frequency for a sampled loop). Either way the resonances of
+        the lightly damped roots within it are added (module docstring).
     rtol : float
         Relative change of the margin at which refinement stops.
 
@@ -146,7 +155,11 @@ def disk_margins(loop: Any, *, skew: float = 0.0, omega: ArrayLike | None = None
     sampled = bool(loop.isdtime(strict=True))
     nyquist = math.pi / float(loop.dt) if sampled else math.inf
     stable = _closed_loop_stable(loop)
-    grid = _first_grid(loop, nyquist) if omega is None else _checked_grid(omega, nyquist)
+    if omega is None:
+        grid = _first_grid(loop, nyquist)
+    else:  # the given grid, with the lightly damped resonances inside its span sampled (a coarse grid misses them)
+        grid = _checked_grid(omega, nyquist)
+        grid = np.union1d(grid, _resonance_seeds(_s_plane_roots(loop), float(grid[0]), float(grid[-1])))
     if not stable:
         nan = float("nan")
         return DiskMargins(False, nan, nan, nan, nan, float(skew), grid.size, True, sampled)
@@ -176,18 +189,17 @@ def disk_margins(loop: Any, *, skew: float = 0.0, omega: ArrayLike | None = None
         else:
             break
         best = min(margins.items(), key=lambda item: item[1][0])
-    converged = False
-    for _ in range(MAX_REFINEMENTS):
-        points = np.array(sorted(margins))
-        i = int(np.searchsorted(points, best[0]))
-        low, high = points[max(i - 1, 0)], points[min(i + 1, points.size - 1)]
-        evaluate(np.linspace(low, high, REFINE_POINTS))
-        new = min(margins.items(), key=lambda item: item[1][0])
-        change = abs(best[1][0] - new[1][0])
-        best = new
-        if change <= rtol * max(abs(new[1][0]), 1e-300):
-            converged = True
-            break
+    # Every local minimum of the grid so far (the lowest LOCAL_MINIMA_REFINED) is refined: the global one of a
+    # coarse grid need not be the true one (a lightly damped resonance's dip).
+    points = np.array(sorted(margins))
+    values = np.array([margins[float(w)][0] for w in points])
+    interior = np.r_[True, values[1:] <= values[:-1]] & np.r_[values[:-1] <= values[1:], True]
+    candidates = sorted(points[interior], key=lambda w: margins[float(w)][0])[:LOCAL_MINIMA_REFINED]
+    if best[0] not in candidates:
+        candidates.append(best[0])
+    settled = {_refine(margins, evaluate, float(start), rtol) for start in candidates}
+    best = min(margins.items(), key=lambda item: item[1][0])
+    converged = best[0] in settled  # the global minimum is one whose refinement converged
     points = np.array(sorted(margins))
     # Still smallest at an open end of the grid (not the Nyquist frequency of a sampled loop): the true minimum
     # may lie beyond it, so the figure is not claimed converged.
@@ -299,6 +311,23 @@ def loop_disk_margins(
         return LoopDiskMargins(per_axis, None, str(exc), break_point, names)
 
 
+def _refine(margins: dict[float, tuple[float, float, float]], evaluate: Any, start: float, rtol: float) -> float:
+    """Refine about ``start`` (a dense grid between its neighbours, again about the new local minimum) until the
+    local minimum changes by less than ``rtol``; returns the frequency where it converged (NaN if it did not)."""
+    here = start
+    for _ in range(MAX_REFINEMENTS):
+        points = np.array(sorted(margins))
+        i = int(np.searchsorted(points, here))
+        low, high = points[max(i - 1, 0)], points[min(i + 1, points.size - 1)]
+        before = margins[here][0]
+        evaluate(np.linspace(low, high, REFINE_POINTS))
+        inside = [w for w in margins if low <= w <= high]
+        here = min(inside, key=lambda w: margins[w][0])
+        if abs(before - margins[here][0]) <= rtol * max(abs(margins[here][0]), 1e-300):
+            return here
+    return math.nan
+
+
 def _closed_loop_stable(loop: Any) -> bool:
     """Whether ``(I + L)^-1`` is stable: poles in the left half-plane, or inside the unit circle when sampled."""
     closed = control.feedback(control.ss(loop), np.eye(loop.ninputs))
@@ -310,19 +339,51 @@ def _closed_loop_stable(loop: Any) -> bool:
     return bool(np.all(poles.real < 0.0))
 
 
-def _first_grid(loop: Any, nyquist: float) -> NDArray[np.float64]:
-    """Four decades each side of the loop's pole and zero magnitudes (``1e-3 .. 1e3`` rad/s without any)."""
+def _s_plane_roots(loop: Any) -> NDArray[np.complex128]:
+    """The open loop's poles (and a SISO loop's zeros) and the closed loop's poles, in the s-plane [1/s]."""
     ss = control.ss(loop)
+    closed = control.feedback(ss, np.eye(ss.ninputs))
     roots = np.concatenate(
-        [np.atleast_1d(ss.poles()), np.atleast_1d(control.ss2tf(ss).zeros()) if ss.ninputs == 1 else []]
-    )
+        [
+            np.atleast_1d(ss.poles()),
+            np.atleast_1d(closed.poles()),
+            np.atleast_1d(control.ss2tf(ss).zeros()) if ss.ninputs == 1 else [],
+        ]
+    ).astype(complex)
     if loop.isdtime(strict=True):
-        roots = np.log(roots[np.abs(roots) > 0].astype(complex)) / float(loop.dt)
+        roots = np.log(roots[np.abs(roots) > 0]) / float(loop.dt)
+    return roots[np.isfinite(roots)]
+
+
+def _resonance_seeds(roots: NDArray[np.complex128], low: float, high: float) -> NDArray[np.float64]:
+    """Frequencies across every lightly damped root's resonance: ``wn (1 + k zeta)``, ``|k| <= 8`` (module docstring).
+
+    A resonance of damping ``zeta`` is ``2 zeta wn`` wide at half power: a logarithmic grid of GRID_POINTS over
+    eight or more decades steps 5 % in frequency and can step over it entirely (a mode at 0.5 % damping
+    between two grid points left a disk margin 22 % optimistic), so its neighbourhood is sampled at a
+    quarter of its width.
+    """
+    wn = np.abs(roots)
+    keep = (wn > 0) & (wn >= low) & (wn <= high)
+    zeta = -roots.real[keep] / wn[keep]
+    wn = wn[keep]
+    light = (zeta < LIGHT_DAMPING) & (roots.imag[keep] >= 0)
+    width = np.maximum(zeta[light], 1e-6)
+    steps = np.linspace(-8.0, 8.0, 65)
+    seeds = (wn[light][:, None] * (1.0 + width[:, None] * steps[None, :])).ravel()
+    return seeds[(seeds > low) & (seeds < high)]
+
+
+def _first_grid(loop: Any, nyquist: float) -> NDArray[np.float64]:
+    """Four decades each side of the loop's pole and zero magnitudes (``1e-3 .. 1e3`` rad/s without any), and the
+    neighbourhoods of the lightly damped open- and closed-loop roots (:func:`_resonance_seeds`)."""
+    roots = _s_plane_roots(loop)
     magnitudes = np.abs(roots)
     magnitudes = magnitudes[np.isfinite(magnitudes) & (magnitudes > 0)]
     low, high = (magnitudes.min() * 1e-4, magnitudes.max() * 1e4) if magnitudes.size else (1e-3, 1e3)
     high = min(high, nyquist * (1.0 - 1e-9))
-    return np.logspace(math.log10(low), math.log10(high), GRID_POINTS)
+    grid = np.logspace(math.log10(low), math.log10(high), GRID_POINTS)
+    return np.union1d(grid, _resonance_seeds(roots, low, high))
 
 
 def _checked_grid(omega: ArrayLike, nyquist: float) -> NDArray[np.float64]:
@@ -366,7 +427,11 @@ def disk_margin_curve(
     nyquist = math.pi / float(loop.dt) if loop.isdtime(strict=True) else math.inf
     if not _closed_loop_stable(loop):
         raise ValueError("loop: the closed loop is unstable, so it has no disk margin at any frequency")
-    grid = _first_grid(loop, nyquist) if omega is None else _checked_grid(omega, nyquist)
+    if omega is None:
+        grid = _first_grid(loop, nyquist)
+    else:  # the given grid, with the lightly damped resonances inside its span sampled (a coarse grid misses them)
+        grid = _checked_grid(omega, nyquist)
+        grid = np.union1d(grid, _resonance_seeds(_s_plane_roots(loop), float(grid[0]), float(grid[-1])))
     alpha = np.ravel(control.disk_margins(loop, grid, skew=skew, returnall=True)[0]).astype(float)
     return grid, alpha
 

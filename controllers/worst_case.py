@@ -62,6 +62,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
+from attitude.linearize import flexible_plant
 from attitude.rigid_body import RigidBody
 from attitude.rng import as_generator
 from attitude.validation import as_float_array
@@ -305,6 +306,8 @@ class PerturbedPlant:
         Extra delay [s].
     parameters : ndarray (k,)
         The parameter vector it was made from (:meth:`UncertaintySet.parameter_names`), SI.
+    modes : FlexibleModes or None
+        The appendages' constrained modes (None: a rigid spacecraft); the same on every plant of the set.
     """
 
     body: RigidBody
@@ -314,14 +317,16 @@ class PerturbedPlant:
     torque_map: NDArray[np.float64]
     extra_delay_s: float
     parameters: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    modes: Any = None
 
     def system(self) -> control.StateSpace:
         """The linearised plant at rest: commanded torque in, ``[q_v, omega]`` out (continuous).
 
-        :func:`controllers.analysis.rigid_body_at_rest` of :attr:`body` with :attr:`torque_map` at its
-        input; the delay is not in it (the loops add it).
+        :func:`controllers.analysis.rigid_body_at_rest` of :attr:`body` (or, with :attr:`modes`,
+        :func:`attitude.linearize.flexible_plant` of it: the appendages' modes on the perturbed body) with
+        :attr:`torque_map` at its input; the delay is not in it (the loops add it).
         """
-        plant = rigid_body_at_rest(self.body)
+        plant = rigid_body_at_rest(self.body) if self.modes is None else flexible_plant(self.body, self.modes)
         return control.ss(plant.A, plant.B @ self.torque_map, plant.C, plant.D)
 
     def to_dict(self) -> dict[str, Any]:
@@ -357,6 +362,7 @@ def perturbed_plant(
     parameters: ArrayLike,
     *,
     wheels: ReactionWheels | None = None,
+    modes: Any = None,
 ) -> PerturbedPlant:
     """The plant of ``uncertainty`` at a parameter vector.
 
@@ -375,6 +381,8 @@ def perturbed_plant(
         In the order of ``uncertainty.parameter_names(n_wheels)``, SI.
     wheels : ReactionWheels, optional
         The nominal wheels (needed for the misalignment; without them it is not counted).
+    modes : FlexibleModes, optional
+        The appendages' modes, kept on the perturbed body (:attr:`PerturbedPlant.modes`).
 
     Returns
     -------
@@ -435,6 +443,7 @@ def perturbed_plant(
         torque_map=torque_map,
         extra_delay_s=float(values.get("extra_delay", 0.0)),
         parameters=x,
+        modes=modes,
     )
 
 
@@ -865,13 +874,14 @@ def _run(
     seed: Any,
     started: float,
     notes: list[str],
+    modes: Any = None,
 ) -> WorstCase:
     """The shared driver: ``evaluate`` (value, unstable) of a plant during the search, ``final`` for the two
     answers; the search minimises the value (negated when higher is worse)."""
     sign = 1.0 if lower_is_worse else -1.0
 
     def plant(x: NDArray[np.float64]) -> PerturbedPlant:
-        return perturbed_plant(body, uncertainty, x, wheels=wheels)
+        return perturbed_plant(body, uncertainty, x, wheels=wheels, modes=modes)
 
     def objective(x: NDArray[np.float64]) -> float:
         value, unstable = evaluate(plant(x))
@@ -934,6 +944,7 @@ def worst_case_disk_margin(
     uncertainty: UncertaintySet,
     *,
     wheels: ReactionWheels | None = None,
+    modes: Any = None,
     sampled: bool | None = None,
     computation_delay: float = 0.0,
     samples: int = DEFAULT_SAMPLES,
@@ -956,6 +967,8 @@ def worst_case_disk_margin(
         The set.
     wheels : ReactionWheels, optional
         The nominal wheels (required for a wheel misalignment).
+    modes : FlexibleModes, optional
+        The appendages' modes: every plant of the set is the flexible one (:attr:`PerturbedPlant.modes`).
     sampled : bool, optional
         As :func:`controllers.analysis.loop_gain` (None: sampled when the controller has a period).
     computation_delay : float
@@ -989,7 +1002,7 @@ def worst_case_disk_margin(
     started = time.perf_counter()
     budget = (samples, maxiter, popsize, local_starts, local_maxfev)
     names, bounds = _prepare(body, controller, uncertainty, wheels, computation_delay, budget)
-    nominal = perturbed_plant(body, uncertainty, np.zeros(len(names)), wheels=wheels)
+    nominal = perturbed_plant(body, uncertainty, np.zeros(len(names)), wheels=wheels, modes=modes)
     first = _margin_of(nominal, controller, sampled, computation_delay, None)
     grid = None
     if first.closed_loop_stable:
@@ -1022,7 +1035,7 @@ def worst_case_disk_margin(
 
     keys = _budget_record(budget, seed)
     return _run(
-        "disk_margin", on_grid, final, True, body, uncertainty, wheels, names, bounds, keys, seed, started, notes
+        "disk_margin", on_grid, final, True, body, uncertainty, wheels, names, bounds, keys, seed, started, notes, modes
     )
 
 
@@ -1033,6 +1046,7 @@ def worst_case_step(
     *,
     metric: str = "overshoot",
     wheels: ReactionWheels | None = None,
+    modes: Any = None,
     sampled: bool | None = None,
     computation_delay: float = 0.0,
     duration_s: float | None = None,
@@ -1061,6 +1075,8 @@ def worst_case_step(
         What is maximised (:data:`STEP_METRICS`).
     wheels : ReactionWheels, optional
         The nominal wheels (required for a wheel misalignment).
+    modes : FlexibleModes, optional
+        The appendages' modes: every plant of the set is the flexible one (:attr:`PerturbedPlant.modes`).
     sampled : bool, optional
         As :func:`controllers.analysis.loop_gain`.
     computation_delay : float
@@ -1099,7 +1115,7 @@ def worst_case_step(
     names, bounds = _prepare(body, controller, uncertainty, wheels, computation_delay, budget)
     if not (hasattr(controller, "K") and hasattr(controller, "C")):
         raise ValueError(f"controller must have gain matrices K and C (3, 3) for a step response, got {controller!r}")
-    nominal = perturbed_plant(body, uncertainty, np.zeros(len(names)), wheels=wheels)
+    nominal = perturbed_plant(body, uncertainty, np.zeros(len(names)), wheels=wheels, modes=modes)
     if duration_s is None:
         system, is_sampled, delay = _loop_plant(nominal, controller, sampled, computation_delay)
         poles = closed_loop_poles(system, controller, sampled=is_sampled, computation_delay=delay)
@@ -1119,4 +1135,6 @@ def worst_case_step(
 
     keys = {**_budget_record(budget, seed), "duration_s": duration}
     quantity = STEP_METRICS[metric][0]
-    return _run(quantity, evaluate, evaluate, False, body, uncertainty, wheels, names, bounds, keys, seed, started, [])
+    return _run(
+        quantity, evaluate, evaluate, False, body, uncertainty, wheels, names, bounds, keys, seed, started, [], modes
+    )

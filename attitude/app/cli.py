@@ -683,6 +683,12 @@ def _cmd_tune(args: argparse.Namespace) -> int:
                 f"nonlinear step through the wheels: settles in {nl['settling_time_s']:.4g} s, pointing "
                 f"{math.degrees(nl['pointing_error_rad']):.3g} deg: {'PASS' if nl['passed'] else 'FAIL'}"
             )
+        if outcome.nonlinear_flexible is not None:
+            nl = outcome.nonlinear_flexible
+            print(
+                f"nonlinear step on the {nl['plant']}: settles in {nl['settling_time_s']:.4g} s, pointing "
+                f"{math.degrees(nl['pointing_error_rad']):.3g} deg: {'PASS' if nl['passed'] else 'FAIL'}"
+            )
         if outcome.dispersed is not None:
             print(f"dispersed check: {outcome.dispersed.get('statement', outcome.dispersed.get('error'))}")
         if outcome.flown_disk_margin is not None:

@@ -5,9 +5,11 @@ The quaternion PD of ``[control]`` (:func:`attitude.app.assembly.quaternion_pd`)
 (:func:`attitude.app.assembly.uncertainty_set`):
 
 * the smallest multiloop disk margin at the plant input of the sampled loop that flies
-  (:func:`controllers.worst_case.worst_case_disk_margin`), and
+  (:func:`controllers.worst_case.worst_case_disk_margin`): with the file's ``[[flexible_modes]]`` on every
+  plant of the set and its ``[[control.filters]]`` on the command, and
 * the largest overshoot of the linear closed loop's reference steps
-  (:func:`controllers.worst_case.worst_case_step`),
+  (:func:`controllers.worst_case.worst_case_step`: with the modes, without the filters, whose linear
+  reference loop it does not model),
 
 each found by optimisation, with its worst plant, and compared with uniform samples of the same set.
 """
@@ -96,20 +98,27 @@ def robust_study(
         "local_maxfev": local_maxfev,
         "seed": seed,
     }
-    margin = worst_case_disk_margin(body, pd, uncertainty, wheels=wheels, **budget)
+    modes = assembly.flexible_modes(config)
+    flown = assembly.command_filtered(config, pd)
+    margin = worst_case_disk_margin(body, flown, uncertainty, wheels=wheels, modes=modes, **budget)
     c = config.control
+    plant = "rigid" if modes is None else f"flexible ({modes.n_modes} mode{'s' if modes.n_modes > 1 else ''})"
+    filters = f", with its {len(c.filters)} command filter(s)" if c.filters else ""
     out: dict[str, Any] = {
         "uncertainty": margin.to_dict()["uncertainty"],
         "controller": (
             f"quaternion PD, {c.bandwidth_rad_per_s:g} rad/s, damping {c.damping:g}, sampled at {c.period_s:g} s"
+            f"{filters}, on the {plant} spacecraft"
         ),
+        "disk_margin_min": config.requirements.disk_margin_min,
+        "worst_disk_margin": margin.worst,
         "disk_margin": margin.to_dict(),
         "step": None,
         "summary": margin.summary().splitlines(),
     }
     figures = {"robust_disk_margin": margin.plot()}
     if step_metric is not None:
-        step = worst_case_step(body, pd, uncertainty, wheels=wheels, metric=step_metric, **budget)
+        step = worst_case_step(body, pd, uncertainty, wheels=wheels, modes=modes, metric=step_metric, **budget)
         out["step"] = step.to_dict()
         out["summary"] += step.summary().splitlines()
         figures[f"robust_{step.quantity}"] = step.plot()

@@ -176,6 +176,10 @@ class TuneOutcome:
         ``[[flexible_modes]]`` and ``[[control.filters]]``, per axis and multiloop (the design's verdict judges
         these; the search judged them too, by :func:`margin_loop`); None for a rigid, unfiltered file or when
         infeasible. NaN: a closed loop is unstable.
+    nonlinear_flexible : dict or None
+        :func:`controllers.tuning.confirm_nonlinear` of the winner on the file's flexible spacecraft (hybrid
+        coordinates, the filters flown, the torque on the body: that simulation has no wheel model); None for
+        a rigid file or when infeasible.
     """
 
     config: SpacecraftConfig
@@ -185,12 +189,15 @@ class TuneOutcome:
     nonlinear: dict[str, Any] | None
     dispersed: dict[str, Any] | None
     flown_disk_margin: float | None = None
+    nonlinear_flexible: dict[str, Any] | None = None
 
     @property
     def passed(self) -> bool:
         """Feasible, confirmed on the nonlinear plant and (when flown) the dispersed campaign, and the disk margin
         floor met on the loops that fly (with the file's modes and filters)."""
         ok = self.result.feasible and self.nonlinear is not None and self.nonlinear["passed"]
+        if self.nonlinear_flexible is not None:
+            ok = ok and self.nonlinear_flexible["passed"]
         if self.dispersed is not None:
             ok = ok and "error" not in self.dispersed and self.dispersed["failures"] == 0
         floor = self.result.requirements.disk_margin_min
@@ -261,6 +268,7 @@ class TuneOutcome:
             "after": self.result.metrics.as_dict(),
             "table": self.table(),
             "nonlinear": self.nonlinear,
+            "nonlinear_flexible": self.nonlinear_flexible,
             "dispersed": self.dispersed,
             "flown_disk_margin": self.flown_disk_margin,
         }
@@ -368,15 +376,30 @@ def tune_config(
         )
     )
     gains: dict[str, Any] = {"lqr": result.lqr} if structure == "lqr" else {"wn": result.wn, "zeta": result.zeta}
+    hold = config.requirements.hold_time_judged_s
     nonlinear = confirm_nonlinear(
         body,
         requirements,
         period=period,
         wheels=wheels,
         axis=axis,
-        hold_time=config.requirements.hold_time_judged_s,
+        hold_time=hold,
+        command_filter=loop.command_filter,
         **gains,
     )
+    modes = assembly.flexible_modes(config)
+    nonlinear_flexible = None
+    if modes is not None:
+        nonlinear_flexible = confirm_nonlinear(
+            body,
+            requirements,
+            period=period,
+            axis=axis,
+            hold_time=hold,
+            modes=modes,
+            command_filter=loop.command_filter,
+            **gains,
+        )
     dispersed = None
     if dispersed_runs > 0 and config.montecarlo is not None:
         if structure == "lqr":
@@ -384,7 +407,8 @@ def tune_config(
         else:
             dispersed = dispersed_check(tuned, dispersed_runs, None, DISPERSED_NODES)
     controller = LQRController(result.lqr) if structure == "lqr" else None
-    return TuneOutcome(config, tuned, result, before, nonlinear, dispersed, flown_disk_margin(tuned, body, controller))
+    margin = flown_disk_margin(tuned, body, controller)
+    return TuneOutcome(config, tuned, result, before, nonlinear, dispersed, margin, nonlinear_flexible)
 
 
 def margin_loop(config: SpacecraftConfig) -> MarginLoop:

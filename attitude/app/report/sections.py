@@ -371,14 +371,26 @@ def _robust(robust: dict[str, Any] | None, results: dict[str, Any]) -> list[Bloc
         Paragraph(
             f"Worst case over the [uncertainty] set, {robust['controller']}: found by optimisation (corner local "
             "searches, then differential evolution) and compared with uniform samples of the same set; an unstable "
-            "closed loop counts as no margin. The search perturbs the rigid plant and the PD without the file's "
-            "filters ([[flexible_modes]] and [[control.filters]] are judged nominally in the table above). "
-            + " ".join(robust["summary"])
+            "closed loop counts as no margin. The disk margin is that of the loop that flies (the file's modes on "
+            "every plant, its filters on the command); the step is the linear reference loop's, without filters. "
+            + " ".join(line if line.endswith(".") else line + "." for line in robust["summary"])
+            + _robust_floor(robust)
         )
     ]
     for name in ("robust_disk_margin", "robust_overshoot_percent", "robust_settling_time_s"):
         out += _figure(results, name)
     return out
+
+
+def _robust_floor(robust: dict[str, Any]) -> str:
+    """A sentence when the worst disk margin over the set is below the requirement's floor (else nothing)."""
+    floor, worst = robust.get("disk_margin_min"), robust.get("worst_disk_margin")
+    if floor is None or worst is None or worst >= floor:
+        return ""
+    return (
+        f" The worst disk margin over the set, {fmt(worst)}, is below requirements.disk_margin_min = {fmt(floor)}: "
+        "the nominal design meets the floor, this spacecraft of the set would not."
+    )
 
 
 def _tuning(tuning: dict[str, Any] | None, results: dict[str, Any]) -> list[Block]:
@@ -397,11 +409,17 @@ def _tuning(tuning: dict[str, Any] | None, results: dict[str, Any]) -> list[Bloc
             f" On the nonlinear plant through the wheels the tuned step settles in {fmt(nonlinear['settling_time_s'])} "
             f"s ({'PASS' if nonlinear['passed'] else 'FAIL'})."
         )
+    flexible = tuning.get("nonlinear_flexible")
+    if flexible is not None:
+        text += (
+            f" On the {flexible['plant']}, with the file's filters, it settles in "
+            f"{fmt(flexible['settling_time_s'])} s ({'PASS' if flexible['passed'] else 'FAIL'})."
+        )
     flown = tuning.get("flown_disk_margin")
     if flown is not None:
         text += (
-            f" The tuning judges the rigid, unfiltered loop; on the loops that fly, with the file's flexible modes and "
-            f"filters, the tuned PD's smallest disk margin is {fmt(flown)}."
+            f" The tuning judges the disk margin on the loops that fly, with the file's flexible modes and filters: "
+            f"the tuned PD's smallest, per axis and multiloop, is {fmt(flown)}."
         )
     rows = [
         [r["metric"], fmt(r["before"]), fmt(r["after"]) if tuning["feasible"] else "n/a", r["required"] or ""]
