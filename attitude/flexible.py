@@ -188,6 +188,11 @@ def _times(rows: list[list[float | None]], v: Components) -> Components:
     return out
 
 
+def _matrix(value: NDArray[np.float64]) -> str:
+    """A small matrix's values in an error message, to 6 significant digits."""
+    return str([[float(f"{v:.6g}") for v in row] for row in np.atleast_2d(value)])
+
+
 class FlexibleBody:
     """A rigid hub with flexible appendages: the hybrid-coordinate equations (module docstring).
 
@@ -232,8 +237,8 @@ class FlexibleBody:
         if smallest <= MASS_MATRIX_MARGIN * scale:
             raise ValueError(
                 "modes.participation must leave I - L^T L positive definite (the modes cannot carry more inertia "
-                f"than the whole spacecraft has); its smallest eigenvalue is {smallest:.6g} kg m^2 for the inertia "
-                f"{describe(inertia)} kg m^2 and L^T L = {describe(L.T @ L)} kg m^2"
+                f"than the whole spacecraft has, all modes together); its smallest eigenvalue is {smallest:.6g} kg m^2 "
+                f"for the inertia {_matrix(inertia)} kg m^2 and L^T L = {_matrix(L.T @ L)} kg m^2"
             )
         self.body = body
         self.modes = modes

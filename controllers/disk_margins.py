@@ -63,6 +63,9 @@ MAX_REFINEMENTS = 12
 EDGE_EXTENSIONS = 3
 #: Roots (open- and closed-loop) damped below this get their resonance sampled finely in the first grid.
 LIGHT_DAMPING = 0.2
+#: A root smaller than this fraction of the largest is a numerical zero, not a frequency: a sampled double
+#: integrator's poles come out at ``z = 1 +- sqrt(eps)``, ``|log z| / T`` about 1e-7 rad/s at 10 Hz.
+ZERO_ROOT = 1e-6
 #: Local minima of the first grid refined, the lowest first (a resonance's dip besides the global one).
 LOCAL_MINIMA_REFINED = 6
 
@@ -380,6 +383,8 @@ def _first_grid(loop: Any, nyquist: float) -> NDArray[np.float64]:
     roots = _s_plane_roots(loop)
     magnitudes = np.abs(roots)
     magnitudes = magnitudes[np.isfinite(magnitudes) & (magnitudes > 0)]
+    # Integrators computed as poles of 1e-15 to 1e-7 rad/s are zeros, not frequencies to span (ZERO_ROOT).
+    magnitudes = magnitudes[magnitudes > ZERO_ROOT * magnitudes.max()] if magnitudes.size else magnitudes
     low, high = (magnitudes.min() * 1e-4, magnitudes.max() * 1e4) if magnitudes.size else (1e-3, 1e3)
     high = min(high, nyquist * (1.0 - 1e-9))
     grid = np.logspace(math.log10(low), math.log10(high), GRID_POINTS)

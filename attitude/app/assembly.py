@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from attitude.actuators import Magnetorquers, ReactionWheels
-from attitude.config import build
+from attitude.config import ConfigError, build
 from attitude.config.model import Dispersion, KeepOutConfig, SpacecraftConfig
 from attitude.environment.orbit import CircularOrbit, KeplerOrbit, TLEOrbit
 from attitude.environment.orbit_environment import OrbitEnvironment
@@ -703,8 +703,8 @@ def uncertainty_set(config: SpacecraftConfig) -> UncertaintySet | None:
 def pd_from_bandwidth(
     body: RigidBody,
     *,
-    bandwidth_rad_per_s: float,
-    damping: float,
+    bandwidth_rad_per_s: ArrayLike,
+    damping: ArrayLike,
     period_s: float,
     q_ref: ArrayLike | None = None,
 ) -> QuaternionPD:
@@ -714,10 +714,10 @@ def pd_from_bandwidth(
     ----------
     body : RigidBody
         The inertia the gains are designed on [kg m^2].
-    bandwidth_rad_per_s : float
-        Natural frequency of every axis [rad/s].
-    damping : float
-        Damping ratio [-].
+    bandwidth_rad_per_s : float or array_like (3,)
+        Natural frequency, one or per body axis [rad/s].
+    damping : float or array_like (3,)
+        Damping ratio, one or per body axis [-].
     period_s : float
         Controller sample period [s].
     q_ref : array_like (4,), optional
@@ -783,6 +783,14 @@ def rate_limited_pd(
     RateLimitedPD
     """
     c = config.control
+    if c.per_axis:
+        raise ConfigError(
+            "the rate-limited eigenaxis PD (requirements.slew.rate_max_deg_per_s without a planned slew) needs one "
+            f"bandwidth and damping for all axes (K = k J keeps the eigenaxis), got {c.bandwidth_rad_per_s} rad/s "
+            f"and {c.damping}",
+            "control.bandwidth_rad_per_s",
+            config.source or "<config>",
+        )
     body = rigid_body(config) if body is None else body
     kw: dict[str, Any] = {} if q_ref is None else {"q_ref": q_ref}
     return RateLimitedPD.from_bandwidth(

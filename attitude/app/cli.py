@@ -1004,10 +1004,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--cost", choices=("settling", "effort"), default="settling", help="what to minimise")
     p.add_argument(
         "--structure",
-        choices=("pd", "lqr"),
+        choices=("pd", "pd_per_axis", "lqr"),
         default="pd",
-        help="the controller tuned: the [control] PD (one bandwidth and damping) or the [control.lqr] Bryson "
-        "bounds per axis (rate and torque; angle_max_deg kept)",
+        help="the controller tuned: the [control] PD (one bandwidth and damping, or pd_per_axis: one per body axis) "
+        "or the [control.lqr] Bryson bounds per axis (rate and torque; angle_max_deg kept)",
     )
     p.add_argument(
         "--step-deg",

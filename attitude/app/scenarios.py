@@ -833,6 +833,11 @@ class _BatchRecorder:
         return outputs
 
 
+def _per_axis_value(value: Any) -> float | tuple[float, ...]:
+    """A scalar as a float, three per-axis values as a tuple of floats."""
+    return float(value) if np.ndim(value) == 0 else tuple(float(v) for v in np.ravel(value))
+
+
 class PDWheelsScenario:
     """Quaternion PD + reaction wheels, the controller seeing the truth; vectorisable.
 
@@ -843,10 +848,10 @@ class PDWheelsScenario:
     wheels : ReactionWheels
     q_start, q_target : array_like (4,)
         Nominal start and target attitudes ``q_BN``.
-    bandwidth : float
-        PD natural frequency [rad/s].
-    damping : float
-        PD damping ratio.
+    bandwidth : float or array_like (3,)
+        PD natural frequency, one or per body axis [rad/s].
+    damping : float or array_like (3,)
+        PD damping ratio, one or per body axis.
     period : float
         Control period and tick [s].
     duration : float
@@ -871,8 +876,8 @@ class PDWheelsScenario:
         q_start: Any,
         q_target: Any,
         *,
-        bandwidth: float,
-        damping: float,
+        bandwidth: Any,
+        damping: Any,
         period: float,
         duration: float = 600.0,
         pointing_threshold: float = math.radians(0.05),
@@ -886,7 +891,9 @@ class PDWheelsScenario:
         self.wheels = wheels
         self.q_start = quat.as_unit_quaternion(q_start, "q_start")
         self.q_target = quat.as_unit_quaternion(q_target, "q_target")
-        self.bandwidth, self.damping, self.period = float(bandwidth), float(damping), float(period)
+        # One value for all axes, or one per axis (kept as given: a tuple of three).
+        self.bandwidth, self.damping = (_per_axis_value(v) for v in (bandwidth, damping))
+        self.period = float(period)
         self.duration = float(duration)
         self.pointing_threshold = float(pointing_threshold)
         self.history_stride = history_stride

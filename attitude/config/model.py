@@ -356,10 +356,11 @@ class ControlConfig:
     ----------
     period_s : float
         Controller sample period (1 / control rate) [s] (key ``control.period_s``).
-    bandwidth_rad_per_s : float
-        Natural frequency of the PD attitude loop [rad/s] (key ``control.bandwidth_rad_per_s``).
-    damping : float
-        Damping ratio of the PD attitude loop (key ``control.damping``).
+    bandwidth_rad_per_s : float or tuple of float
+        Natural frequency of the PD attitude loop [rad/s], one or per body axis ``[x, y, z]`` (key
+        ``control.bandwidth_rad_per_s``).
+    damping : float or tuple of float
+        Damping ratio of the PD attitude loop, one or per body axis (key ``control.damping``).
     lqr : LQRBounds or None, optional
         LQR weights by Bryson's rule (optional) (key ``control.lqr``).
     filters : tuple of ControlFilterConfig, optional
@@ -367,10 +368,15 @@ class ControlConfig:
     """
 
     period_s: float
-    bandwidth_rad_per_s: float
-    damping: float
+    bandwidth_rad_per_s: PerWheel
+    damping: PerWheel
     lqr: LQRBounds | None = None
     filters: tuple[ControlFilterConfig, ...] = ()
+
+    @property
+    def per_axis(self) -> bool:
+        """Whether the PD has a bandwidth or damping per body axis (not one pair for all)."""
+        return isinstance(self.bandwidth_rad_per_s, tuple) or isinstance(self.damping, tuple)
 
 
 #: Kinds of ``[orbit]``: a circular orbit, two-body Keplerian elements, or a TLE flown with SGP4.

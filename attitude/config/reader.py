@@ -485,17 +485,18 @@ def _read_star_tracker(r: _Reader, t: _Table, sun: Vector | None) -> StarTracker
 def _read_control(r: _Reader, t: _Table) -> ControlConfig:
     period = t.number("period_s")
     _positive(r, t.key("period_s"), period, unit="s")
-    bandwidth = t.number("bandwidth_rad_per_s")
+    bandwidth = t.get("bandwidth_rad_per_s", lambda v, k: r.scalar_or_list(v, k, 3, "axis"))
     _positive(r, t.key("bandwidth_rad_per_s"), bandwidth, unit="rad/s")
     nyquist = math.pi / period
-    r.check(
-        bandwidth < nyquist,
-        t.key("bandwidth_rad_per_s"),
-        f"below the Nyquist frequency pi / period_s = {nyquist:.6g} rad/s of the {period:g} s controller "
-        "(a tenth of the sample rate or less is the usual design range)",
-        bandwidth,
-    )
-    damping = t.number("damping")
+    for i, v in enumerate(_values(bandwidth)):
+        r.check(
+            v < nyquist,
+            t.key("bandwidth_rad_per_s") + (f"[{i}]" if isinstance(bandwidth, tuple) else ""),
+            f"below the Nyquist frequency pi / period_s = {nyquist:.6g} rad/s of the {period:g} s controller "
+            "(a tenth of the sample rate or less is the usual design range)",
+            v,
+        )
+    damping = t.get("damping", lambda v, k: r.scalar_or_list(v, k, 3, "axis"))
     _positive(r, t.key("damping"), damping)
     lqr = None
     lt = t.table("lqr", required=False)

@@ -98,8 +98,8 @@ CONFIG_KEYS: dict[str, tuple[str, str]] = {
     # control
     "control": ("", "controller design parameters"),
     "control.period_s": ("s", "controller sample period (1 / control rate)"),
-    "control.bandwidth_rad_per_s": ("rad/s", "natural frequency of the PD attitude loop"),
-    "control.damping": ("", "damping ratio of the PD attitude loop"),
+    "control.bandwidth_rad_per_s": ("rad/s", "natural frequency of the PD attitude loop, one or [x, y, z]"),
+    "control.damping": ("", "damping ratio of the PD attitude loop, one or [x, y, z]"),
     "control.lqr": ("", "LQR weights by Bryson's rule (optional)"),
     "control.lqr.angle_max_deg": ("deg", "largest acceptable attitude error (one value, or one per axis)"),
     "control.lqr.rate_max_deg_per_s": ("deg/s", "largest acceptable rate error (one value, or one per axis)"),

@@ -31,6 +31,7 @@ __all__ = [
     "check_ipopt_options",
     "interval_function",
     "ipopt_setup",
+    "objective_terms",
     "sigint_guard",
     "solve_grid",
     "solve_nlp",
@@ -492,6 +493,38 @@ def ipopt_setup(tr: Transcription, max_iter: int) -> None:
     tr.opti.solver("ipopt", {"print_time": False, "detect_simple_bounds": True}, opts)
 
 
+def objective_terms(
+    opti: ca.Opti, U: Any, n: int, objective: str, duration_s: float | None, guesses: list[tuple[Any, Any, float]]
+) -> tuple[Any, Any, Any]:
+    """The duration variable (None for a fixed duration), the interval lengths and the cost of a uniform grid.
+
+    Minimum time: a free duration ``T`` (within ``1e-3`` to ``1e3`` times the longest guess), ``H = T / n``,
+    cost ``T``. Minimum energy: the fixed ``duration_s``, cost ``sum |U|^2 H`` (the controls' squares).
+
+    Parameters
+    ----------
+    opti : casadi.Opti
+        The problem.
+    U : casadi.MX
+        The controls (m, n).
+    n : int
+        Intervals.
+    objective : str
+        ``"time"`` or ``"energy"``.
+    duration_s : float or None
+        The fixed duration in units of ``T_s`` (energy).
+    guesses : list of (X0, U0, T0)
+        The guesses (their durations bound the free one).
+    """
+    if objective == "time":
+        T = opti.variable()
+        t_guess = max(g[2] for g in guesses)
+        opti.subject_to(opti.bounded(1e-3 * t_guess, T, 1e3 * t_guess))
+        return T, ca.repmat(T / n, 1, n), T
+    H = ca.DM.ones(1, n) * (duration_s / n)
+    return None, H, ca.sum2(ca.sum1(U * U) * H)
+
+
 def solve_grid(
     prob: Problem,
     n: int,
@@ -529,16 +562,7 @@ def solve_grid(
     tr = Transcription(prob, n, options)
     opti = tr.opti
     U = opti.variable(3, n)
-    if objective == "time":
-        T = opti.variable()
-        H = ca.repmat(T / n, 1, n)
-        t_guess = max(g[2] for g in guesses)
-        opti.subject_to(opti.bounded(1e-3 * t_guess, T, 1e3 * t_guess))
-        cost = T
-    else:
-        T = None
-        H = ca.DM.ones(1, n) * (duration_s / n)
-        cost = ca.sum2(ca.sum1(U * U) * H)
+    T, H, cost = objective_terms(opti, U, n, objective, duration_s, guesses)
     if smoothing > 0:
         cost = cost + smoothing * ca.sumsqr(U[:, 1:] - U[:, :-1])
     opti.minimize(cost)

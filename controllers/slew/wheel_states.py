@@ -48,7 +48,7 @@ from controllers.slew.keep_out import KeepOutCone
 from controllers.slew.multistart import start_report
 from controllers.slew.plan import SlewPlan, cone_arrays
 from controllers.slew.problem import INFEASIBLE, InfeasibleSlewError, Problem, SlewPlanningError
-from controllers.slew.transcription import IntervalFunction, Solution, Transcription, ipopt_setup
+from controllers.slew.transcription import IntervalFunction, Solution, Transcription, ipopt_setup, objective_terms
 
 __all__ = [
     "check_wheel_state_options",
@@ -294,16 +294,7 @@ def _solve(
     tr = Transcription(prob, n, options, state_size=7 + n_w)
     opti = tr.opti
     U = opti.variable(n_w, n)
-    if objective == "time":
-        T = opti.variable()
-        H = ca.repmat(T / n, 1, n)
-        t_guess = max(g[2] for g in guesses)
-        opti.subject_to(opti.bounded(1e-3 * t_guess, T, 1e3 * t_guess))
-        cost = T
-    else:
-        T = None
-        H = ca.DM.ones(1, n) * (duration_s / n)
-        cost = ca.sum2(ca.sum1(U * U) * H)
+    T, H, cost = objective_terms(opti, U, n, objective, duration_s, guesses)
     opti.minimize(cost)
     tr.constrain(U, H, interval=wheel_interval_function(prob, wheels_s), x0=x0)
     for i in range(n_w):

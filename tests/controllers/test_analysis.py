@@ -503,7 +503,7 @@ class TestFigures:
         assert fig.axes[0].get_ylabel() == "|L| [dB]" and fig.axes[3].get_ylabel() == "arg L [deg]"
         texts = [t.get_text() for ax in fig.axes for t in ax.texts]
         for m in (margins(L) for L in loops):
-            assert f"PM = {m.phase_margin_deg:.1f} deg @ {m.gain_crossover:.3g} rad/s\nDM" in "\n".join(texts)
+            assert f"PM = {m.phase_margin_deg:.1f} deg @ {m.gain_crossover:.3g} rad/s\ndelay margin" in "\n".join(texts)
             assert f"GM = {m.gain_margin_db:.1f} dB" in "\n".join(texts)
 
     def test_bode_of_a_continuous_pd_says_the_gain_margin_is_infinite(self):

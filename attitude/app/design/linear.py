@@ -223,6 +223,9 @@ def linear_design(config: SpacecraftConfig) -> tuple[dict[str, Any], dict[str, F
     disk_loops = {"PD, at the input": input_loop(body, pd), "PD, at the output": output_loop(body, pd)}
     if designed is not None:
         disk_loops |= {"LQR, at the input": input_loop(plant, lqr), "LQR, at the output": output_loop(plant, lqr)}
+    if pd_variants:  # the PD as it flies (modes, filters): the loop the verdict judges, at the input
+        name, plant_name, plant_flown, flown = pd_variants[-1]
+        disk_loops[f"{name}, {plant_name}, at the input"] = input_loop(plant_flown, flown)
     figures["disk_margins"] = plot_disk_margins(
         disk_loops, title=f"Multiloop disk margins of the sampled loops ({1.0 / period:g} Hz)"
     )
@@ -272,6 +275,6 @@ def controller_findings(
         pd=pd,
         lqr=lqr,
         settling_time=config.requirements.settling_time_s,
-        damping=config.control.damping,
+        damping=float(min(np.atleast_1d(config.control.damping))),  # per axis: the least damped axis's
     )
     return [{"id": f.id, "message": f.message, "figures": {k: _f(v) for k, v in f.figures.items()}} for f in findings]

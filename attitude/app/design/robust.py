@@ -22,6 +22,7 @@ from matplotlib.figure import Figure
 
 from attitude.app import assembly
 from attitude.config import SpacecraftConfig
+from controllers.tuning import format_values
 from controllers.worst_case import (
     DEFAULT_LOCAL_MAXFEV,
     DEFAULT_LOCAL_STARTS,
@@ -107,7 +108,8 @@ def robust_study(
     out: dict[str, Any] = {
         "uncertainty": margin.to_dict()["uncertainty"],
         "controller": (
-            f"quaternion PD, {c.bandwidth_rad_per_s:g} rad/s, damping {c.damping:g}, sampled at {c.period_s:g} s"
+            f"quaternion PD, {format_values(c.bandwidth_rad_per_s)} rad/s, damping {format_values(c.damping)}, "
+            f"sampled at {c.period_s:g} s"
             f"{filters}, on the {plant} spacecraft"
         ),
         "disk_margin_min": config.requirements.disk_margin_min,

@@ -51,6 +51,7 @@ from controllers.tuning import (
     TuningRequirements,
     TuningResult,
     confirm_nonlinear,
+    format_values,
     lqr_metrics,
     pd_metrics,
     tune_lqr,
@@ -70,11 +71,10 @@ __all__ = [
     "tuning_section",
 ]
 
-#: Controller structures `attitude tune` can tune and write back: the ``[control]`` PD (one bandwidth and damping,
-#: what the file holds) and the ``[control.lqr]`` Bryson bounds (per axis). A PD per axis
-#: (``controllers.tuning.tune_pd(per_axis=True)``) has no place in the file: its ``[control]`` PD is one pair (the
-#: rate-limited eigenaxis PD needs ``K = k J``).
-STRUCTURES = ("pd", "lqr")
+#: Controller structures `attitude tune` can tune and write back: the ``[control]`` PD with one bandwidth and
+#: damping, or one per body axis (``controllers.tuning.tune_pd(per_axis=True)``; the rate-limited eigenaxis PD,
+#: which needs ``K = k J``, then refuses the file), and the ``[control.lqr]`` Bryson bounds (per axis).
+STRUCTURES = ("pd", "pd_per_axis", "lqr")
 #: The file key each tuning requirement comes from (named when requirements contradict themselves).
 REQUIREMENT_KEYS = {
     "settling_time": "requirements.settling_time_s",
@@ -222,8 +222,8 @@ class TuneOutcome:
             gain_rows = [(m, b, a, None) for m, b, a in gains]
         else:
             gain_rows = [
-                ("bandwidth_rad_per_s", self.before.wn, after.wn, None),
-                ("damping", self.before.zeta, after.zeta, None),
+                *_axis_rows("bandwidth_rad_per_s", self.before.wn, after.wn),
+                *_axis_rows("damping", self.before.zeta, after.zeta),
             ]
         rows = [
             *gain_rows,
@@ -274,6 +274,25 @@ class TuneOutcome:
         }
 
 
+def _axis_rows(name: str, before: Any, after: Any) -> list[tuple[str, float, float, None]]:
+    """One table row of a gain, or one per axis when either side has a value per axis."""
+    if np.ndim(before) == 0 and np.ndim(after) == 0:
+        return [(name, float(before), float(after), None)]
+    b, a = np.broadcast_to(before, (3,)), np.broadcast_to(after, (3,))
+    return [(f"{name} ({axis})", float(b[k]), float(a[k]), None) for k, axis in enumerate("xyz")]
+
+
+def _written(value: float, toward: str) -> float:
+    """A tuned value to 6 significant digits, rounded ``"down"`` or ``"up"`` (the side the requirements allow)."""
+    rounded = float(f"{value:.6g}")
+    step = 10.0 ** (math.floor(math.log10(abs(value))) - 5)
+    if toward == "down" and rounded > value:
+        rounded = float(f"{rounded - step:.6g}")
+    elif toward == "up" and rounded < value:
+        rounded = float(f"{rounded + step:.6g}")
+    return rounded
+
+
 def _bound(bounds: Any, name: str, axis: int, degrees: bool) -> float:
     """One axis's Bryson bound of a ``[control.lqr]`` table (NaN without one), in the file's unit."""
     if bounds is None:
@@ -300,7 +319,7 @@ def tune_config(
     cost : str
         ``"settling"`` or ``"effort"`` (:func:`controllers.tuning.tune_pd`).
     structure : str
-        The controller tuned: ``"pd"`` or ``"lqr"`` (:data:`STRUCTURES`).
+        The controller tuned: ``"pd"``, ``"pd_per_axis"`` or ``"lqr"`` (:data:`STRUCTURES`).
     dispersed_runs : int
         Runs of the dispersed confirmation (0: none).
     tradeoff_points : int
@@ -343,7 +362,15 @@ def tune_config(
                 tradeoff_points=tradeoff_points,
             )
         else:
-            result = tune_pd(body, requirements, period=period, cost=cost, loop=loop, tradeoff_points=tradeoff_points)
+            result = tune_pd(
+                body,
+                requirements,
+                period=period,
+                cost=cost,
+                per_axis=structure == "pd_per_axis",
+                loop=loop,
+                tradeoff_points=tradeoff_points,
+            )
     except RequirementConflict as exc:
         raise _config_error(exc, config, step_source(config, step_deg)[1]) from exc
     if structure == "lqr":
@@ -368,14 +395,26 @@ def tune_config(
         )
         control = replace(config.control, lqr=lqr_table)
     else:
-        control = replace(config.control, bandwidth_rad_per_s=float(result.wn), damping=float(result.zeta))
+        # Six digits in the file, the bandwidth rounded to the side the requirements allow: down when the fastest
+        # loop was sought (the torque, momentum and margin limits bind above), up for the cheapest (the settling
+        # time binds below). The tuned file and this configuration hold the same numbers.
+        toward = "down" if cost == "settling" else "up"
+        wn = [_written(v, toward) for v in np.atleast_1d(result.wn)]
+        zeta = [_written(v, "nearest") for v in np.atleast_1d(result.zeta)]
+        per_axis = structure == "pd_per_axis"
+        control = replace(
+            config.control,
+            bandwidth_rad_per_s=tuple(wn) if per_axis else wn[0],
+            damping=tuple(zeta) if per_axis else zeta[0],
+        )
+        gains_flown = {"wn": np.array(wn) if per_axis else wn[0], "zeta": np.array(zeta) if per_axis else zeta[0]}
     tuned = replace(config, control=control)
     axis = np.asarray(
         quat.to_rotation_vector(
             quat.error_quaternion(config.requirements.slew.q_start(), config.requirements.slew.q_target())
         )
     )
-    gains: dict[str, Any] = {"lqr": result.lqr} if structure == "lqr" else {"wn": result.wn, "zeta": result.zeta}
+    gains: dict[str, Any] = {"lqr": result.lqr} if structure == "lqr" else gains_flown
     hold = config.requirements.hold_time_judged_s
     nonlinear = confirm_nonlinear(
         body,
@@ -555,17 +594,21 @@ def tuned_file_text(outcome: TuneOutcome) -> str:
             f"# Tuned by `attitude tune --structure lqr` ({outcome.result.cost} minimised): "
             f"control.lqr.rate_max_deg_per_s {old.lqr.rate_max_deg_per_s} -> {rate}, control.lqr.torque_max_Nm "
             f"{old.lqr.torque_max_Nm} -> {torque} (angle_max_deg kept).\n"
+            "# Bryson's bounds are weights, not limits: only their ratios set the gain (the torque bound is the\n"
+            "# torque at an angle_max error; the wheels' limits are judged on the tuned loop itself).\n"
             "# The comments beside those keys describe the values before tuning.\n"
         )
         return header + text
+    values = {"control.bandwidth_rad_per_s": new.bandwidth_rad_per_s, "control.damping": new.damping}
     text = replace_values(
-        _source_text(outcome.config),
-        {"control.bandwidth_rad_per_s": new.bandwidth_rad_per_s, "control.damping": new.damping},
+        _source_text(outcome.config), {k: list(v) if isinstance(v, tuple) else v for k, v in values.items()}
     )
+    structure = " --structure pd_per_axis" if outcome.structure == "pd_per_axis" else ""
     header = (
-        f"# Tuned by `attitude tune` ({outcome.result.cost} minimised): control.bandwidth_rad_per_s "
-        f"{old.bandwidth_rad_per_s:g} -> {new.bandwidth_rad_per_s:.6g}, control.damping {old.damping:g} -> "
-        f"{new.damping:.6g}.\n# The comments beside those keys describe the values before tuning.\n"
+        f"# Tuned by `attitude tune{structure}` ({outcome.result.cost} minimised): control.bandwidth_rad_per_s "
+        f"{format_values(old.bandwidth_rad_per_s, 6)} -> {format_values(new.bandwidth_rad_per_s, 6)}, "
+        f"control.damping {format_values(old.damping, 6)} -> {format_values(new.damping, 6)}.\n"
+        "# The comments beside those keys describe the values before tuning.\n"
     )
     return header + text
 

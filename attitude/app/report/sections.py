@@ -114,13 +114,15 @@ def fmt(value: Any, digits: int = 4) -> str:
 
     Parameters
     ----------
-    value : number or None
-        The value to format.
+    value : number, list of numbers or None
+        The value to format (a list: each value, in brackets).
     digits : int, optional
         Significant digits.
     """
     if value is None:
         return "n/a"
+    if isinstance(value, (list, tuple)):  # one value per axis
+        return "[" + ", ".join(fmt(v, digits) for v in value) + "]"
     if isinstance(value, bool):
         return "yes" if value else "no"
     if isinstance(value, int):

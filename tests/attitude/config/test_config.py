@@ -507,6 +507,18 @@ BAD = [
         "Nyquist",
     ),
     (
+        "one axis's bandwidth above Nyquist",
+        _replace("bandwidth_rad_per_s = 0.4", "bandwidth_rad_per_s = [0.4, 40.0, 0.4]"),
+        "control.bandwidth_rad_per_s[1]",
+        "Nyquist",
+    ),
+    (
+        "a damping per axis of the wrong length",
+        _replace("damping = 0.7 ", "damping = [0.7, 0.7] "),
+        "control.damping",
+        "3",
+    ),
+    (
         # 0.664 x 1 deg/h at the preset's 100 s is below the ARW line 0.34 x 60 / sqrt(100) = 2 deg/h.
         "bias instability floor under the ARW line",
         _replace(
@@ -793,3 +805,20 @@ def test_montecarlo_disperses_principal_axes_and_gyro_bias():
     data["montecarlo"]["initial_rate"]["axis_sigma_deg"] = 1.0  # only the inertia has axes
     with pytest.raises(ConfigError, match=r"montecarlo\.initial_rate\.axis_sigma_deg: unknown key"):
         config_from_dict(data, "mc.toml")
+
+
+def test_a_pd_per_axis_reads_and_builds_and_the_rate_limited_pd_refuses_it():
+    """[control] bandwidth and damping per axis: read as three values, the PD built with K = 2 J diag(wn^2) and
+    C = 2 J diag(zeta wn) (QuaternionPD.from_bandwidth's formula, evaluated here with numpy); the rate-limited
+    eigenaxis PD, which needs one bandwidth (K = k J), refuses the file naming the key."""
+    text = default_config_text().replace("bandwidth_rad_per_s = 0.4", "bandwidth_rad_per_s = [0.4, 0.5, 0.6]", 1)
+    text = text.replace("damping = 0.7 ", "damping = [0.7, 0.8, 0.9] ", 1)
+    config = parse_config(text)
+    assert config.control.per_axis and config.control.bandwidth_rad_per_s == (0.4, 0.5, 0.6)
+    pd = assembly.quaternion_pd(config)
+    inertia = assembly.rigid_body(config).inertia
+    wn, zeta = np.array([0.4, 0.5, 0.6]), np.array([0.7, 0.8, 0.9])
+    np.testing.assert_allclose(pd.K, 2.0 * inertia @ np.diag(wn**2), rtol=1e-14)
+    np.testing.assert_allclose(pd.C, 2.0 * inertia @ np.diag(zeta * wn), rtol=1e-14)
+    with pytest.raises(ConfigError, match=r"control\.bandwidth_rad_per_s"):
+        assembly.rate_limited_pd(config, rate_max_rad_per_s=0.05)
