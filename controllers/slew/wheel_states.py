@@ -89,10 +89,10 @@ TORQUE_BOUND_TOLERANCE = 1e-6
 #: A wheel-state plan (a uniform-grid answer: no refinement) is flagged when
 #: ``max |H|`` exceeds ``HAMILTONIAN_WHEEL_FACTOR / n`` (no path constraint
 #: active; with one, ``H`` is reported, not judged, as for the rigid plans).
-#: Measured ``n max |H|`` over six pyramid slews on 20 to 120 nodes: at most
-#: 1.1 without friction (as the rigid plans' 1.95), up to 5.2 with viscous and
-#: Coulomb friction (``H`` constant on each arc, offset between arcs, the
-#: offsets shrinking as O(1/n)); 10 leaves a factor 2.
+#: Measured ``n max |H|`` over the pyramid slews of docs/slew_planning.md on
+#: 20 to 120 nodes: at most 0.52 without friction (the rigid plans: 1.95), up
+#: to 5.2 with viscous and Coulomb friction (``H`` constant on each arc, offset
+#: between arcs, the offsets shrinking as O(1/n)); 10 leaves a factor 2.
 HAMILTONIAN_WHEEL_FACTOR = 10.0
 
 

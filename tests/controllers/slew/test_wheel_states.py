@@ -132,12 +132,12 @@ def test_faster_than_box_and_allocation():
     assert np.max(np.abs(plan.wheel_torque)) == pytest.approx(TORQUE_MAX)  # bang-bang: the wheels at their limit
     assert np.max(np.abs(relative)) < 0.2 * wheels.momentum_max[0]  # the momentum limit is far away here
     # An extremal: measured max |H| 3.6e-3 (n max |H| 0.11 against the wheel plans' 10), the mean 1e-8 (free
-    # final time: H = 0, not just constant), no torque against the switching function; headline 0.027.
+    # final time: H = 0, not just constant), no torque against the switching function; headline 0.011.
     check = plan.info["pontryagin"]
     assert check["passes"] and not plan.optimality_flagged
     assert abs(check["hamiltonian_mean"]) < 1e-5 and check["hamiltonian_residual"] < 0.05
     assert check["switching_disagreement"] == 0.0 and check["switching_decided"] >= 50
-    assert plan.pontryagin_residual < 0.2
+    assert plan.pontryagin_residual < 0.1  # a decade below the flag at 1
     assert plan.costate.shape == (NODES + 1, 11)
 
 
