@@ -59,7 +59,9 @@ def default_keep_out_slew(repeats: int = 5) -> dict[str, Any]:
         "separation_min_deg": [math.degrees(s) for s in plan.separation_min],
         "planned_half_angle_deg": [c["planned_half_angle_deg"] for c in study.summary["keep_out"]],
         "refinement": plan.info["refinement"].get("kind"),
-        "pontryagin_residual": plan.pontryagin_residual,
+        "pontryagin_residual": plan.pontryagin_residual,  # normalised: above 1 flags the plan
+        "hamiltonian_residual": plan.info["pontryagin"].get("hamiltonian_residual"),
+        "switching_disagreement": plan.info["pontryagin"].get("switching_disagreement"),
         "pontryagin_passes": plan.info["pontryagin"].get("passes"),
         "ipopt_s": plan.solve_time,
         "warnings": plan.warnings,

@@ -13,6 +13,15 @@ Optimality evidence):
   function ``sigma = I^-1 lambda_omega`` (``omega_dot = I^-1 (tau - omega x I
   omega)``, ``I`` symmetric), so ``tau_i = -tau_max_i sign(sigma_i)`` wherever
   ``sigma_i != 0`` (bang-bang); ``sigma_i = 0`` over an arc is a singular arc.
+  On a polytope ``|R tau|_inf <= 1`` (a wheel set's allocation envelope) the
+  torque minimises ``sigma . tau`` over the set: ``sigma . tau`` equals the
+  support value, attained at a vertex (:func:`torque_set_vertices`).
+
+The headline residual (``plan.pontryagin_residual``) is
+``max(max |H| / its tolerance, switching disagreement / SWITCHING_TOLERANCE)``
+over the parts judged: above 1 the plan is flagged
+(:func:`pontryagin_conditions`). The wheel-state plans are checked the same
+way on their motor torques (:mod:`controllers.slew.wheel_states`).
 
 With a rate limit or keep-out cone active, the constraints are adjoined
 directly (Hartl, Sethi and Vickson, SIAM Review 37(2), 1995): the costate
@@ -42,24 +51,30 @@ from typing import Any
 import casadi as ca
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import HalfspaceIntersection
 
 from attitude.rigid_body import RigidBody
 from controllers.slew.problem import Problem
 from controllers.slew.refine import SATURATION_TOLERANCE
-from controllers.slew.transcription import interval_function
+from controllers.slew.transcription import IntervalFunction, interval_function
 
 __all__ = [
     "HAMILTONIAN_GRID_FACTOR",
     "HAMILTONIAN_PATH_FACTOR",
     "HAMILTONIAN_TOLERANCE",
     "JUNCTION_INTERVALS",
+    "NOT_CHECKED_JUNCTIONS",
     "SWITCHING_TOLERANCE",
     "SWITCHING_ZERO_FRACTION",
     "check_solution",
     "costate_physical",
+    "hamiltonian_tolerance_of",
     "interval_costates",
+    "intervals_to_check",
     "pontryagin_check",
+    "pontryagin_conditions",
     "summary_words",
+    "torque_set_vertices",
 ]
 
 #: A switch-time refined, grid-converged plan is flagged when ``max |H|`` over
@@ -110,21 +125,193 @@ SWITCHING_TOLERANCE = 0.02
 
 
 def costate_physical(prob: Problem, costate: NDArray[np.float64]) -> NDArray[np.float64]:
-    """The NLP's nondimensional costates (7, n + 1) in physical units (n + 1, 7).
+    """The NLP's nondimensional costates (7 [+ n_wheels], n + 1) in physical units (n + 1, 7 [+ n_wheels]).
 
     ``H = 1 + nu . dx_s/dt_s`` is the same number in both unit systems: with
     ``q_dot_s = T_s q_dot`` and ``omega_dot_s = T_s^2 omega_dot``,
-    ``lambda_q = T_s nu_q`` [s] and ``lambda_omega = T_s^2 nu_omega`` [s^2].
+    ``lambda_q = T_s nu_q`` [s] and ``lambda_omega = T_s^2 nu_omega`` [s^2];
+    wheel momenta as states (in units of ``J_s / T_s``, :mod:`controllers.slew.wheel_states`):
+    ``lambda_h = T_s^2 / J_s nu_h`` [1/(N m)].
 
     Parameters
     ----------
     prob : Problem
         The validated, nondimensional problem.
     costate : ndarray
-        Nondimensional costates (7, n + 1) (:class:`controllers.slew.transcription.Solution`).
+        Nondimensional costates (7, n + 1), or (7 + n_wheels, n + 1) with the wheel
+        momenta as states (:class:`controllers.slew.transcription.Solution`).
     """
-    scale = np.array([prob.t_s] * 4 + [prob.t_s**2] * 3)
+    extra = costate.shape[0] - 7
+    scale = np.array([prob.t_s] * 4 + [prob.t_s**2] * 3 + [prob.t_s**2 / prob.j_s] * extra)
     return (costate * scale[:, None]).T.copy()
+
+
+def torque_set_vertices(rows: ArrayLike) -> NDArray[np.float64]:
+    """The vertices of the torque polytope ``{tau : |rows @ tau|_inf <= 1}`` (scipy's Qhull half-space intersection).
+
+    Parameters
+    ----------
+    rows : array_like (m, 3)
+        Rows ``R`` of the set [1/(N m)]; bounded (``R`` of rank 3).
+
+    Returns
+    -------
+    ndarray (p, 3)
+        The vertices [N m] (a vertex where more than three facets meet may repeat).
+    """
+    r = np.asarray(rows, dtype=float)
+    if r.ndim != 2 or r.shape[1] != 3 or np.linalg.matrix_rank(r) < 3:
+        raise ValueError(f"rows must be an (m, 3) array of rank 3 (a bounded torque set), got shape {r.shape}")
+    halfspaces = np.hstack([np.vstack([r, -r]), -np.ones((2 * r.shape[0], 1))])
+    return np.asarray(HalfspaceIntersection(halfspaces, np.zeros(3)).intersections, dtype=float)
+
+
+def pontryagin_conditions(
+    h_start: ArrayLike,
+    h_end: ArrayLike,
+    sigma_start: ArrayLike,
+    sigma_end: ArrayLike,
+    control: ArrayLike,
+    *,
+    control_box: ArrayLike | None = None,
+    control_rows: ArrayLike | None = None,
+    checked: ArrayLike | None = None,
+    hamiltonian_tolerance: float = HAMILTONIAN_TOLERANCE,
+    path_active: ArrayLike | None = None,
+    hamiltonian_decides: bool = True,
+) -> dict[str, Any]:
+    """Judge Pontryagin's conditions from ``H`` and the switching function at both ends of each interval.
+
+    Shared by the rigid-body plans (:func:`pontryagin_check`) and the wheel-state plans
+    (:func:`controllers.slew.wheel_states.wheel_pontryagin_check`): the control ``u``
+    held over interval ``k`` must minimise ``sigma . u`` over the control set at both
+    of its ends (``sigma = (df/du)^T lambda``), and ``H`` must be zero.
+
+    * A box ``|u_i| <= u_max_i``: per (interval, component) pair away from the zeros of
+      ``sigma_i`` (one sign at both ends, ``|sigma_i| u_max_i`` at least
+      :data:`SWITCHING_ZERO_FRACTION` of its largest value), the pair disagrees when
+      ``u_i`` is not ``-u_max_i sign(sigma_i)`` (within the refinement's saturation
+      tolerance).
+    * A polytope ``|R u|_inf <= 1``: the support value ``s = min over the set of
+      sigma . u`` (at a vertex, :func:`torque_set_vertices`) at both ends; an interval
+      is decided when one vertex attains both minima (no switch inside it) and
+      ``|s|`` is at least :data:`SWITCHING_ZERO_FRACTION` of its largest value; it
+      disagrees when the relative gap ``(sigma . u - s) / |s|`` at either end exceeds
+      the saturation tolerance. A minimiser that is a whole edge or facet (``sigma``
+      normal to it) still has gap zero, so the gap needs no unique vertex.
+
+    ``switching_disagreement`` is the fraction of decided pairs (box) or intervals
+    (polytope) that disagree. The headline ``residual`` is
+    ``max(hamiltonian_residual / hamiltonian_tolerance, switching_disagreement /
+    SWITCHING_TOLERANCE)`` over the parts that are judged: above 1 the plan fails.
+
+    Parameters
+    ----------
+    h_start, h_end : array_like (n,)
+        ``H`` (dimensionless) with each interval's control, just after its start and just before its end.
+    sigma_start, sigma_end : array_like (n, m)
+        The switching function at the same points (units of 1 / control).
+    control : array_like (n, m)
+        The control held over each interval.
+    control_box : array_like (m,), optional
+        Per-component bound of a box control set.
+    control_rows : array_like (k, 3), optional
+        Rows ``R`` of a polytope control set ``|R u|_inf <= 1`` (three components), when not a box.
+        Neither given: the switching function is not checked.
+    checked : array_like of bool (n,), optional
+        Intervals to check (default all).
+    hamiltonian_tolerance : float
+        Largest accepted ``max |H|``.
+    path_active : array_like of bool (n,), optional
+        Intervals where a path constraint is active: ``H`` checked there, the switching function not.
+    hamiltonian_decides : bool
+        ``max |H|`` above its tolerance fails the plan (default); False reports it only.
+
+    Returns
+    -------
+    dict
+        ``residual`` (the normalised headline above), ``hamiltonian_residual``
+        (``max |H|``), ``hamiltonian_mean``, ``hamiltonian_spread``
+        (``max |H - mean|``), ``switching_disagreement`` (None when not checked),
+        ``switching_decided``, ``switching_gap`` (polytope: largest relative gap on
+        the decided intervals), ``intervals_checked``, ``intervals``,
+        ``intervals_path_active``, ``hamiltonian_tolerance``, ``passes`` and
+        ``note`` (why a part was skipped, or empty).
+    """
+    h0, h1 = np.asarray(h_start, dtype=float), np.asarray(h_end, dtype=float)
+    n = h0.size
+    mask = np.ones(n, dtype=bool) if checked is None else np.asarray(checked, dtype=bool)
+    active = np.zeros(n, dtype=bool) if path_active is None else np.asarray(path_active, dtype=bool)
+    if not np.any(mask):
+        raise ValueError("checked must select at least one interval, got none")
+    notes = []
+    if not np.all(mask):
+        notes.append(f"checked on {int(np.sum(mask))} of {n} intervals (not within {JUNCTION_INTERVALS} of a junction)")
+    h = np.concatenate([h0[mask], h1[mask]])
+    out: dict[str, Any] = {
+        "residual": None,
+        "hamiltonian_residual": float(np.max(np.abs(h))),
+        "hamiltonian_mean": float(np.mean(h)),
+        "hamiltonian_spread": float(np.max(np.abs(h - np.mean(h)))),
+        "switching_disagreement": None,
+        "switching_decided": 0,
+        "switching_gap": None,
+        "intervals_checked": int(np.sum(mask)),
+        "intervals": n,
+        "intervals_path_active": int(np.sum(active)),
+        "hamiltonian_tolerance": float(hamiltonian_tolerance),
+    }
+    parts = []
+    if hamiltonian_decides:
+        parts.append(out["hamiltonian_residual"] / hamiltonian_tolerance)
+    else:
+        notes.append(
+            "H reported, not judged: a uniform grid puts the junctions of the path constraint on its nodes, so H is "
+            "constant on each arc but not the same on all"
+        )
+    if np.any(active):
+        notes.append(
+            f"a path constraint is active on {int(np.sum(active))} of {n} intervals: the switching function not "
+            "checked there"
+        )
+    free = mask & ~active
+    u = np.asarray(control, dtype=float)[:n]
+    s0, s1 = np.asarray(sigma_start, dtype=float), np.asarray(sigma_end, dtype=float)
+    if control_box is not None:
+        box = np.broadcast_to(np.asarray(control_box, dtype=float), (u.shape[1],))
+        w0, w1 = np.abs(s0) * box, np.abs(s1) * box
+        scale = float(np.max(np.maximum(w0, w1)[free])) if np.any(free) else 0.0
+        decided = (np.sign(s0) == np.sign(s1)) & (np.minimum(w0, w1) >= SWITCHING_ZERO_FRACTION * scale)
+        decided &= free[:, None]
+        wrong = u * np.sign(s1) > -(1.0 - SATURATION_TOLERANCE) * box
+    elif control_rows is not None:
+        vertices = torque_set_vertices(control_rows)
+        values0, values1 = s0 @ vertices.T, s1 @ vertices.T  # (n, p): sigma . v at each vertex
+        low0, low1 = np.min(values0, axis=1), np.min(values1, axis=1)
+        size = float(np.max(np.abs(vertices)))
+        # One vertex minimises at both ends: no switch inside the interval.
+        apart = vertices[np.argmin(values0, axis=1)] - vertices[np.argmin(values1, axis=1)]
+        same = np.all(np.abs(apart) <= 1e-9 * size, axis=1)
+        scale = float(np.max(np.maximum(np.abs(low0), np.abs(low1))[free])) if np.any(free) else 0.0
+        decided = free & same & (np.minimum(np.abs(low0), np.abs(low1)) >= SWITCHING_ZERO_FRACTION * scale)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            gap = np.maximum(
+                (np.sum(s0 * u, axis=1) - low0) / np.abs(low0), (np.sum(s1 * u, axis=1) - low1) / np.abs(low1)
+            )
+        wrong = gap > SATURATION_TOLERANCE
+        out["switching_gap"] = float(np.max(gap[decided])) if np.any(decided) else 0.0
+    else:
+        decided = wrong = None
+        notes.append("switching check skipped: no control set given")
+    if decided is not None:
+        count = int(np.sum(decided))
+        out["switching_decided"] = count
+        out["switching_disagreement"] = float(np.sum(decided & wrong) / count) if count else 0.0
+        parts.append(out["switching_disagreement"] / SWITCHING_TOLERANCE)
+    out["residual"] = float(max(parts)) if parts else None
+    out["passes"] = bool(not parts or out["residual"] <= 1.0)
+    out["note"] = "; ".join(notes)
+    return out
 
 
 def pontryagin_check(
@@ -141,8 +328,12 @@ def pontryagin_check(
     path_active: ArrayLike | None = None,
     path_length_term: ArrayLike | None = None,
     hamiltonian_decides: bool = True,
+    torque_rows: ArrayLike | None = None,
 ) -> dict[str, Any]:
     """Pontryagin's conditions of a minimum-time plan on its nodes (module docstring).
+
+    ``H = 1 + lambda . f(x, tau)`` and ``sigma = I^-1 lambda_omega`` at both ends of
+    each interval, judged by :func:`pontryagin_conditions`.
 
     Parameters
     ----------
@@ -158,8 +349,8 @@ def pontryagin_check(
         Costates at the nodes (n + 1, 7): ``lambda_q`` [s], ``lambda_omega`` [s^2]
         (:func:`costate_physical`).
     torque_box : array_like (3,) or None
-        Per-axis torque bound [N m] for the switching check; None skips it
-        (a torque set that is not a box: only the Hamiltonian is checked).
+        Per-axis torque bound [N m] of a box torque set; None for a polytope
+        (``torque_rows``) or to skip the switching check.
     checked : array_like of bool (n,), optional
         Intervals to check (default all).
     hamiltonian_tolerance : float
@@ -180,83 +371,45 @@ def pontryagin_check(
     hamiltonian_decides : bool
         ``max |H|`` above its tolerance fails the plan (default); False
         reports it only (a uniform-grid answer with a path constraint active).
+    torque_rows : array_like (m, 3), optional
+        The torque set ``|torque_rows @ tau|_inf <= 1`` [1/(N m)] when it is
+        not a box (a wheel set's allocation envelope), with ``torque_box`` None.
 
     Returns
     -------
     dict
-        ``hamiltonian_residual`` (``max |H|`` at both ends of the checked
-        intervals), ``hamiltonian_mean``, ``hamiltonian_spread``
-        (``max |H - mean|``), ``switching_disagreement`` (fraction of the
-        decided (interval, axis) pairs whose torque is not
-        ``-tau_max sign(sigma)``; None without a box), ``switching_decided``
-        (their number), ``intervals_checked``, ``intervals``, ``passes`` and
-        ``note`` (why a part was skipped, or empty).
+        As :func:`pontryagin_conditions`.
     """
     q = np.asarray(q, dtype=float)
     omega = np.asarray(omega, dtype=float)
     lam = np.asarray(costate, dtype=float)
     n = q.shape[0] - 1
     tau = np.asarray(torque, dtype=float)[:n]
-    mask = np.ones(n, dtype=bool) if checked is None else np.asarray(checked, dtype=bool)
-    active = np.zeros(n, dtype=bool) if path_active is None else np.asarray(path_active, dtype=bool)
     lam_start = lam[:-1] if costate_start is None else np.asarray(costate_start, dtype=float)
     lam_end = lam[1:] if costate_end is None else np.asarray(costate_end, dtype=float)
     term = np.zeros(n) if path_length_term is None else np.asarray(path_length_term, dtype=float)
     x = np.concatenate([q, omega], axis=1)
-    notes = []
-    if not np.any(mask):
-        raise ValueError("checked must select at least one interval, got none")
-    if not np.all(mask):
-        notes.append(f"checked on {int(np.sum(mask))} of {n} intervals (not within {JUNCTION_INTERVALS} of a junction)")
-    # H at both ends of each interval with the interval's torque.
+    # H at both ends of each interval with the interval's torque and its own costates.
     h_start = 1.0 + np.sum(lam_start * body.state_derivative(x[:-1], tau), axis=1) + term
-    h_end = 1.0 + np.sum(lam[1:] * body.state_derivative(x[1:], tau), axis=1) + term
-    h = np.concatenate([h_start[mask], h_end[mask]])
-    out: dict[str, Any] = {
-        "hamiltonian_residual": float(np.max(np.abs(h))),
-        "hamiltonian_mean": float(np.mean(h)),
-        "hamiltonian_spread": float(np.max(np.abs(h - np.mean(h)))),
-        "switching_disagreement": None,
-        "switching_decided": 0,
-        "intervals_checked": int(np.sum(mask)),
-        "intervals": n,
-        "intervals_path_active": int(np.sum(active)),
-    }
-    out["hamiltonian_tolerance"] = float(hamiltonian_tolerance)
-    passes = out["hamiltonian_residual"] <= hamiltonian_tolerance or not hamiltonian_decides
-    if not hamiltonian_decides:
-        notes.append(
-            "H reported, not judged: a uniform grid puts the junctions of the path constraint on its nodes, so H is "
-            "constant on each arc but not the same on all"
-        )
-    if np.any(active):
-        notes.append(
-            f"a path constraint is active on {int(np.sum(active))} of {n} intervals: the switching function not "
-            "checked there"
-        )
-    if torque_box is None:
-        notes.append("switching check skipped: the torque set is not a per-axis box")
-    else:
-        box = np.broadcast_to(np.asarray(torque_box, dtype=float), (3,))
-        # I^-1 lambda_omega at both ends of each interval, with the interval's own costates, (n, 3) each.
-        s0 = lam_start[:, 4:] @ body.inertia_inv.T
-        s1 = lam_end[:, 4:] @ body.inertia_inv.T
-        w0, w1 = np.abs(s0) * box, np.abs(s1) * box
-        free = mask & ~active
-        scale = float(np.max(np.maximum(w0, w1)[free])) if np.any(free) else 0.0
-        decided = (np.sign(s0) == np.sign(s1)) & (np.minimum(w0, w1) >= SWITCHING_ZERO_FRACTION * scale)
-        decided &= free[:, None]
-        wrong = tau * np.sign(s1) > -(1.0 - SATURATION_TOLERANCE) * box
-        count = int(np.sum(decided))
-        out["switching_decided"] = count
-        out["switching_disagreement"] = float(np.sum(decided & wrong) / count) if count else 0.0
-        passes = passes and out["switching_disagreement"] <= SWITCHING_TOLERANCE
-    out["passes"] = bool(passes)
-    out["note"] = "; ".join(notes)
-    return out
+    h_end = 1.0 + np.sum(lam_end * body.state_derivative(x[1:], tau), axis=1) + term
+    return pontryagin_conditions(
+        h_start,
+        h_end,
+        lam_start[:, 4:] @ body.inertia_inv.T,
+        lam_end[:, 4:] @ body.inertia_inv.T,
+        tau,
+        control_box=torque_box,
+        control_rows=None if torque_box is not None else torque_rows,
+        checked=checked,
+        hamiltonian_tolerance=hamiltonian_tolerance,
+        path_active=path_active,
+        hamiltonian_decides=hamiltonian_decides,
+    )
 
 
-def interval_costates(prob: Problem, sol: Any) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+def interval_costates(
+    prob: Problem, sol: Any, interval: IntervalFunction | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Costates just after and just before each interval's ends, and its path rows' length term (nondimensional).
 
     The continuity multipliers satisfy the discrete adjoint equation with
@@ -277,11 +430,15 @@ def interval_costates(prob: Problem, sol: Any) -> tuple[NDArray[np.float64], NDA
         The validated, nondimensional problem.
     sol : Solution
         The answer, with its ``costate`` (7, n + 1) and ``path_row_multiplier``.
+    interval : IntervalFunction, optional
+        The interval of the transcription that produced ``sol``; default
+        :func:`controllers.slew.transcription.interval_function` of the rigid
+        body (the wheel-state planner passes its own).
 
     Returns
     -------
     tuple of ndarray
-        Costates after the start and before the end of each interval (7, n)
+        Costates after the start and before the end of each interval (rows, n)
         each, and the length term (n,).
     """
     nu = sol.costate
@@ -290,7 +447,7 @@ def interval_costates(prob: Problem, sol: Any) -> tuple[NDArray[np.float64], NDA
     mu = sol.path_row_multiplier
     if mu is None or mu.shape[0] == 0:
         return start, end, term
-    fun = interval_function(prob).fun
+    fun = (interval_function(prob) if interval is None else interval).fun
     x, u, h, x_next = (ca.SX.sym(name, fun.size1_in(i)) for i, name in enumerate(("x", "u", "h", "x_next")))
     rows = ca.vertcat(*fun(x, u, h, x_next)[1:])
     m = ca.SX.sym("mu", rows.numel())
@@ -318,12 +475,69 @@ def summary_words(check: dict[str, Any] | None) -> str:
     """
     if not check or check.get("passes") is None:
         return ""
-    text = f"Pontryagin residual {check['hamiltonian_residual']:.2g}"
+    parts = [f"max |H| {check['hamiltonian_residual']:.2g}"]
     if check.get("switching_disagreement") is not None:
-        text += f", switching disagreement {100 * check['switching_disagreement']:.2g} %"
+        parts.append(f"switching disagreement {100 * check['switching_disagreement']:.2g} %")
+    text = f"Pontryagin residual {check['residual']:.2g} ({', '.join(parts)})"
     if not check["passes"]:
         return f"NOT an extremal ({text}): flagged"
     return f"{text} (passes)"
+
+
+#: The check's answer when every interval lies next to a junction.
+NOT_CHECKED_JUNCTIONS: dict[str, Any] = {
+    "passes": None,
+    "note": (
+        f"not checked: every interval lies within {JUNCTION_INTERVALS} intervals of a junction of a path "
+        "constraint (rate limit, keep-out cone or wheel-speed limit)"
+    ),
+}
+
+
+def intervals_to_check(sol: Any) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """Intervals with a path constraint active, and those checked (not within JUNCTION_INTERVALS of a junction).
+
+    Parameters
+    ----------
+    sol : Solution
+        The answer, with its ``costate`` and ``path_multiplier``.
+
+    Returns
+    -------
+    tuple of ndarray of bool (n,)
+        ``active`` and ``checked``.
+    """
+    n = sol.U.shape[1]
+    path = sol.path_multiplier if sol.path_multiplier is not None else np.zeros(n)
+    active = path > PATH_ACTIVE * (1.0 + float(np.max(np.abs(sol.costate))))
+    # Node indices where the activity changes (node k + 1 between intervals k and k + 1; the slew's ends when active).
+    flags = np.concatenate([[False], active, [False]]).astype(int)
+    junctions = np.nonzero(np.diff(flags))[0]
+    checked = np.ones(n, dtype=bool)
+    for node in junctions:
+        checked[max(0, node - JUNCTION_INTERVALS) : node + JUNCTION_INTERVALS] = False
+    return active, checked
+
+
+def hamiltonian_tolerance_of(n: int, path_active: bool, grid_converged: bool) -> float:
+    """The largest accepted ``max |H|`` of a plan on ``n`` intervals (the constants' comments say why).
+
+    Parameters
+    ----------
+    n : int
+        Intervals of the plan.
+    path_active : bool
+        A path constraint is active somewhere: :data:`HAMILTONIAN_PATH_FACTOR` ``/ n``
+        (refinement frees the switch times, not the junctions).
+    grid_converged : bool
+        Switch-time refined and bang-bang: :data:`HAMILTONIAN_TOLERANCE`; otherwise
+        :data:`HAMILTONIAN_GRID_FACTOR` ``/ n``.
+    """
+    if path_active:
+        return HAMILTONIAN_PATH_FACTOR / n
+    if grid_converged:
+        return HAMILTONIAN_TOLERANCE
+    return HAMILTONIAN_GRID_FACTOR / n
 
 
 def check_solution(
@@ -355,31 +569,12 @@ def check_solution(
     """
     if objective != "time" or sol.costate is None:
         return {"passes": None, "note": "not checked: the Pontryagin check is for minimum-time plans"}
-    n = sol.U.shape[1]
-    path = sol.path_multiplier if sol.path_multiplier is not None else np.zeros(n)
-    active = path > PATH_ACTIVE * (1.0 + float(np.max(np.abs(sol.costate))))
-    # Node indices where the activity changes (node k + 1 between intervals k and k + 1; the slew's ends when active).
-    flags = np.concatenate([[False], active, [False]]).astype(int)
-    junctions = np.nonzero(np.diff(flags))[0]
-    checked = np.ones(n, dtype=bool)
-    for node in junctions:
-        checked[max(0, node - JUNCTION_INTERVALS) : node + JUNCTION_INTERVALS] = False
+    active, checked = intervals_to_check(sol)
     if not np.any(checked):
-        return {
-            "passes": None,
-            "note": (
-                f"not checked: every interval lies within {JUNCTION_INTERVALS} intervals of a junction of a path "
-                "constraint (rate limit or keep-out cone)"
-            ),
-        }
-    # Refinement frees the switch times, not the junctions of a path constraint: with one active the grid bound.
-    if np.any(active):
-        tolerance = HAMILTONIAN_PATH_FACTOR / n
-    elif grid_converged:
-        tolerance = HAMILTONIAN_TOLERANCE
-    else:
-        tolerance = HAMILTONIAN_GRID_FACTOR / n
+        return NOT_CHECKED_JUNCTIONS.copy()
+    tolerance = hamiltonian_tolerance_of(sol.U.shape[1], bool(np.any(active)), grid_converged)
     box = prob.torque_set.envelope if prob.torque_set.is_box else None
+    rows = None if prob.torque_set.is_box else prob.torque_set.rows
     start, end, term = interval_costates(prob, sol)
     out = pontryagin_check(
         prob.body,
@@ -395,6 +590,7 @@ def check_solution(
         path_active=active,
         path_length_term=term,
         hamiltonian_decides=refined or not np.any(active),
+        torque_rows=rows,
     )
     out["tolerances"] = {
         "hamiltonian": out["hamiltonian_tolerance"],

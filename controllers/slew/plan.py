@@ -136,12 +136,17 @@ class SlewPlan(ResultIO):
         also issued with :func:`warnings.warn`.
     costate : ndarray (n, 7) or None
         Costate estimates at the nodes from the NLP's multipliers:
-        ``lambda_q`` [s] and ``lambda_omega`` [s^2], normalised so that
+        ``lambda_q`` [s] and ``lambda_omega`` [s^2] (with wheel states (n, 7 +
+        n_wheels), then ``lambda_h`` [1/(N m)]), normalised so that
         ``H = 1 + lambda . x_dot`` (docs/slew_planning.md, Optimality
         evidence); None after :meth:`resample`.
     pontryagin_residual : float or None
-        ``max |H|`` over the checked intervals (zero for a time-optimal
-        extremal; None when not checked: minimum energy, or a path
+        Pontryagin's necessary conditions as one normalised number:
+        ``max(max |H| / its tolerance, switching disagreement / its
+        tolerance)`` over the parts judged (``info["pontryagin"]`` holds
+        ``hamiltonian_residual``, ``switching_disagreement`` and their
+        tolerances). Small for a time-optimal extremal; above 1 the plan
+        is flagged. None when not checked (minimum energy, or a path
         constraint active everywhere).
     optimality_flagged : bool
         The plan fails Pontryagin's necessary conditions beyond their

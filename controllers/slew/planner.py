@@ -414,8 +414,9 @@ def plan_slew(
         pontryagin = check_solution(prob, chosen, torque, objective, grid_converged, refined_duration is not None)
         if pontryagin.get("passes") is False:
             notes.append(
-                f"the plan fails Pontryagin's necessary conditions (max |H| {pontryagin['hamiltonian_residual']:.3g}, "
-                f"switching disagreement {pontryagin['switching_disagreement']}): not a time-optimal extremal "
+                f"the plan fails Pontryagin's necessary conditions (residual {pontryagin['residual']:.3g} > 1: max |H| "
+                f"{pontryagin['hamiltonian_residual']:.3g}, switching disagreement "
+                f"{pontryagin['switching_disagreement']}): not a time-optimal extremal "
                 "(docs/slew_planning.md, Optimality evidence)"
             )
         h = np.diff(t)
@@ -495,7 +496,7 @@ def plan_slew(
             eigenaxis_duration=eig.get("duration_s"),
             info=info,
             costate=None if chosen.costate is None else costate_physical(prob, chosen.costate),
-            pontryagin_residual=pontryagin.get("hamiltonian_residual"),
+            pontryagin_residual=pontryagin.get("residual"),
             optimality_flagged=pontryagin.get("passes") is False,
         )
 

@@ -20,15 +20,17 @@ the null space, and a per-axis box inside it (:func:`wheel_torque_box`) is
 smaller still. Out of scope: magnetorquer-assisted slews (magnetic torque
 during the slew) and momentum-biased slews (a commanded non-zero wheel
 momentum bias held as a requirement); refinement, keep-out cones, warm
-starts, smoothing and Pontryagin's check are not available with wheel
-states (refused, or noted as skipped). See docs/slew_planning.md, Reaction-wheel
-polytope and wheel momentum.
+starts and smoothing are not available with wheel states (refused).
+Pontryagin's conditions are checked on the motor torques, from the NLP's
+multipliers as for the rigid plans (:func:`wheel_pontryagin_check`). See
+docs/slew_planning.md, Reaction-wheel polytope and wheel momentum.
 """
 
 from __future__ import annotations
 
 import itertools
 import time
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -40,25 +42,58 @@ from scipy.optimize import linprog
 
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
+from attitude.rigid_body import RigidBody
 from attitude.simulation.plant import PlantModel
 from attitude.validation import as_float_array
 from controllers.slew.checks import CHECK_SAMPLES
 from controllers.slew.guess import StartSpec, base_guess, family_guess, perturbed
 from controllers.slew.keep_out import KeepOutCone
 from controllers.slew.multistart import start_report
+from controllers.slew.optimality import (
+    HAMILTONIAN_TOLERANCE,
+    NOT_CHECKED_JUNCTIONS,
+    SWITCHING_TOLERANCE,
+    SWITCHING_ZERO_FRACTION,
+    costate_physical,
+    interval_costates,
+    intervals_to_check,
+    pontryagin_conditions,
+)
 from controllers.slew.plan import SlewPlan, cone_arrays
 from controllers.slew.problem import INFEASIBLE, InfeasibleSlewError, Problem, SlewPlanningError
 from controllers.slew.transcription import IntervalFunction, Solution, Transcription, ipopt_setup, objective_terms
 
 __all__ = [
+    "HAMILTONIAN_WHEEL_FACTOR",
+    "TORQUE_BOUND_TOLERANCE",
     "check_wheel_state_options",
     "plan_with_wheel_states",
     "scaled_wheels",
     "verify_wheels",
     "wheel_interval_function",
+    "wheel_pontryagin_check",
     "wheel_torque_box",
     "wheel_torque_rows",
 ]
+
+
+#: Largest accepted relative excess of an optimiser's motor torque over its
+#: ``torque_max`` before it is clipped. IPOPT keeps each variable within its
+#: bound relaxed by ``bound_relax_factor`` (1e-8) times ``max(1, |bound|)`` on
+#: the nondimensional torques: ``1e-8 / bound`` relative for a bound below 1
+#: (measured 1.8e-8 to 2.3e-8 on eighteen pyramid slews); 1e-6 allows bounds
+#: down to 0.01 of the torque unit. A torque further out is a wrong answer,
+#: not IPOPT's tolerance.
+TORQUE_BOUND_TOLERANCE = 1e-6
+
+#: A wheel-state plan (a uniform-grid answer: no refinement) is flagged when
+#: ``max |H|`` exceeds ``HAMILTONIAN_WHEEL_FACTOR / n`` (no path constraint
+#: active; with one, ``H`` is reported, not judged, as for the rigid plans).
+#: Measured ``n max |H|`` over the pyramid slews of docs/slew_planning.md on
+#: 20 to 120 nodes: at most 0.52 without friction (the rigid plans: 1.95), up
+#: to 5.2 with viscous and Coulomb friction (``H`` constant on each arc, offset
+#: between arcs, the offsets shrinking as O(1/n)); 10 leaves a factor 2.
+HAMILTONIAN_WHEEL_FACTOR = 10.0
 
 
 def wheel_torque_rows(wheels: ReactionWheels) -> NDArray[np.float64]:
@@ -317,9 +352,113 @@ def _solve(
                 U=val["U"].reshape(n_w, n),
                 H=np.full(n, t_total / n),
                 objective=float(val["cost"][0]),
+                costate=val["costate"],
+                path_multiplier=val["path_multiplier"],
+                path_row_multiplier=val["path_row_multiplier"],
             )
         )
     return results
+
+
+def _plant_functions(body: RigidBody, wheels: ReactionWheels) -> ca.Function:
+    """``(x, u) -> (f, df/du)`` of the hub and its wheels (:meth:`PlantModel.derivative`); ``body`` with its wheels."""
+    plant = PlantModel(wheels.hub_body(body), wheels)
+    n_w = wheels.n_wheels
+    xs, us = ca.SX.sym("x", 7 + n_w), ca.SX.sym("u", n_w)
+    f = ca.vertcat(*plant.derivative([xs[i] for i in range(7 + n_w)], [us[i] for i in range(n_w)], None))
+    return ca.Function("wheel_plant", [xs, us], [f, ca.jacobian(f, us)])
+
+
+def wheel_pontryagin_check(
+    body: RigidBody,
+    wheels: ReactionWheels,
+    q: ArrayLike,
+    omega: ArrayLike,
+    wheel_momentum: ArrayLike,
+    wheel_torque: ArrayLike,
+    costate: ArrayLike,
+    checked: ArrayLike | None = None,
+    hamiltonian_tolerance: float = HAMILTONIAN_TOLERANCE,
+    costate_start: ArrayLike | None = None,
+    costate_end: ArrayLike | None = None,
+    path_active: ArrayLike | None = None,
+    path_length_term: ArrayLike | None = None,
+    hamiltonian_decides: bool = True,
+) -> dict[str, Any]:
+    """Pontryagin's conditions of a minimum-time wheel-state plan, on its motor torques.
+
+    With ``x = [q, omega, h]``, ``x_dot = f(x, u)`` the engine's plant
+    (:meth:`PlantModel.derivative`) and the box ``|u_i| <= torque_max_i``:
+    ``H = 1 + lambda . f`` is zero, and ``u_i = -torque_max_i sign(sigma_i)``
+    wherever the switching function ``sigma = (df/du)^T lambda`` is away from
+    zero (casadi's exact Jacobian of ``f``), judged by
+    :func:`controllers.slew.optimality.pontryagin_conditions` at both ends of each interval.
+
+    Parameters
+    ----------
+    body : RigidBody
+        The whole spacecraft, wheels included [kg m^2].
+    wheels : ReactionWheels
+        The wheel set whose ``torque_max`` is the control box.
+    q : array_like
+        Node attitudes ``q_BN`` (n + 1, 4).
+    omega : array_like
+        Node body rates [rad/s] (n + 1, 3).
+    wheel_momentum : array_like
+        Node absolute wheel momenta [N m s] (n + 1, n_wheels).
+    wheel_torque : array_like
+        Motor torques held over each interval [N m] (n, n_wheels) or (n + 1, n_wheels) (the last row ignored).
+    costate : array_like
+        Node costates (n + 1, 7 + n_wheels): ``lambda_q`` [s], ``lambda_omega`` [s^2], ``lambda_h`` [1/(N m)]
+        (:func:`controllers.slew.optimality.costate_physical`).
+    checked : array_like of bool (n,), optional
+        Intervals to check (default all).
+    hamiltonian_tolerance : float
+        Largest accepted ``max |H|``.
+    costate_start, costate_end : array_like (n, 7 + n_wheels), optional
+        Costates just after the start and just before the end of each interval
+        (:func:`controllers.slew.optimality.interval_costates`); default the node costates.
+    path_active : array_like of bool (n,), optional
+        Intervals where a path constraint (wheel-speed or rate limit) is active: the switching function not checked.
+    path_length_term : array_like (n,), optional
+        ``mu_k^T dg_k/dh_k`` of each interval, added to its ``H``; default zero.
+    hamiltonian_decides : bool
+        ``max |H|`` above its tolerance fails the plan (default); False reports it only.
+
+    Returns
+    -------
+    dict
+        As :func:`controllers.slew.optimality.pontryagin_conditions` (the switching check per wheel).
+    """
+    x = np.concatenate(
+        [np.asarray(q, dtype=float), np.asarray(omega, dtype=float), np.asarray(wheel_momentum, dtype=float)], axis=1
+    )
+    n = x.shape[0] - 1
+    u = np.asarray(wheel_torque, dtype=float)[:n]
+    lam = np.asarray(costate, dtype=float)
+    lam_start = lam[:-1] if costate_start is None else np.asarray(costate_start, dtype=float)
+    lam_end = lam[1:] if costate_end is None else np.asarray(costate_end, dtype=float)
+    term = np.zeros(n) if path_length_term is None else np.asarray(path_length_term, dtype=float)
+    plant = _plant_functions(body, wheels).map(n)
+    ends = []
+    for states, costates in ((x[:-1], lam_start), (x[1:], lam_end)):
+        f, jac = plant(states.T, u.T)
+        f = np.asarray(f, dtype=float).T  # (n, 7 + n_w)
+        # The map stacks the (7 + n_w, n_w) Jacobians side by side: column j n_w + i is node j, wheel i.
+        jac = np.asarray(jac, dtype=float).reshape(7 + wheels.n_wheels, n, wheels.n_wheels)
+        ends.append((1.0 + np.sum(costates * f, axis=1) + term, np.einsum("nr,rnw->nw", costates, jac)))
+    return pontryagin_conditions(
+        ends[0][0],
+        ends[1][0],
+        ends[0][1],
+        ends[1][1],
+        u,
+        control_box=wheels.torque_max,
+        checked=checked,
+        hamiltonian_tolerance=hamiltonian_tolerance,
+        path_active=path_active,
+        hamiltonian_decides=hamiltonian_decides,
+    )
 
 
 def verify_wheels(
@@ -330,11 +469,15 @@ def verify_wheels(
     wheel_torque: NDArray,
     tolerance: float,
 ) -> dict[str, Any]:
-    """Re-simulate the motor torques on the wheel model (scipy DOP853) and check the target and every limit.
+    """Check the optimiser's motor torques against their bounds, then re-simulate them (scipy DOP853).
 
-    The derivative is :meth:`PlantModel.derivative` of the hub and its wheels
-    (the engine's equations), integrated by scipy's adaptive DOP853 at rtol
-    1e-10, independently of the NLP's RK4 grid; the limits are checked at
+    The torques as the optimiser returned them must lie within
+    ``torque_max (1 + TORQUE_BOUND_TOLERANCE)`` (:data:`TORQUE_BOUND_TOLERANCE`:
+    IPOPT's bound relaxation); the re-simulation then flies them clipped to
+    ``torque_max`` (what the plan stores and a wheel can do). The derivative is
+    :meth:`PlantModel.derivative` of the hub and its wheels (the engine's
+    equations), integrated by scipy's adaptive DOP853 at rtol 1e-10,
+    independently of the NLP's RK4 grid; the limits are checked at
     :data:`controllers.slew.checks.CHECK_SAMPLES` points per interval.
 
     Parameters
@@ -348,7 +491,7 @@ def verify_wheels(
     t : ndarray
         Node times [s] (N + 1,).
     wheel_torque : ndarray
-        Motor torques held over each interval [N m] (N, n_wheels).
+        Motor torques held over each interval [N m] (N, n_wheels), as the optimiser returned them (not clipped).
     tolerance : float
         Largest accepted final attitude error [rad] (rate: ``tolerance / T_s``
         [rad/s]); the rate, torque and wheel-momentum limits are accepted up
@@ -357,26 +500,23 @@ def verify_wheels(
     Returns
     -------
     dict
-        Final errors, peaks, the largest torque and momentum ratios to their
-        limits, and the largest drift of the total inertial angular momentum
+        Final errors, peaks, the largest ratio of an optimiser torque to its
+        ``torque_max`` (before clipping) and of a wheel momentum to its
+        ``momentum_max``, and the largest drift of the total inertial angular momentum
         [N m s].
     """
     hub = wheels.hub_body(prob.body)
-    plant = PlantModel(hub, wheels)
-    n_w = wheels.n_wheels
-    xs, us = ca.SX.sym("x", 7 + n_w), ca.SX.sym("u", n_w)
-    split = [xs[i] for i in range(7 + n_w)]
-    derivative = ca.Function(
-        "wheel_plant", [xs, us], [ca.vertcat(*plant.derivative(split, [us[i] for i in range(n_w)], None))]
-    )
+    derivative = _plant_functions(prob.body, wheels)
+    raw = np.asarray(wheel_torque, dtype=float)
+    flown = np.clip(raw, -wheels.torque_max, wheels.torque_max)
     x = np.concatenate([prob.q0, prob.omega0, h0])
     samples = [x[None, :]]
     frac = np.arange(1, CHECK_SAMPLES + 1) / CHECK_SAMPLES
     nfev = 0
     for k in range(t.size - 1):
-        u = wheel_torque[k]
+        u = flown[k]
         sol = solve_ivp(
-            lambda _t, y, u=u: np.asarray(derivative(y, u)).ravel(),
+            lambda _t, y, u=u: np.asarray(derivative(y, u)[0]).ravel(),
             (t[k], t[k + 1]),
             x,
             method="DOP853",
@@ -396,7 +536,7 @@ def verify_wheels(
         "final_attitude_error": float(quat.error_angle(prob.qf, q[-1])),
         "final_rate_error": float(np.linalg.norm(omega[-1] - prob.omegaf)),
         "rate_peak": float(np.max(np.linalg.norm(omega, axis=1))),
-        "torque_ratio_max": float(np.max(np.abs(wheel_torque) / wheels.torque_max)),
+        "torque_ratio_max": float(np.max(np.abs(raw) / wheels.torque_max)),
         "momentum_ratio_max": float(np.max(np.abs(relative) / wheels.momentum_max)),
         "angular_momentum_drift": float(np.max(np.linalg.norm(total_N - total_N[0], axis=1))),
         "final_wheel_momentum": traj[-1, 7:].tolist(),
@@ -410,8 +550,11 @@ def verify_wheels(
         problems.append(f"final rate error {check['final_rate_error']:.3g} rad/s > {rate_tol:.3g}")
     if prob.rate_max is not None and check["rate_peak"] > prob.rate_max * (1 + tolerance):
         problems.append(f"largest rate {check['rate_peak']:.6g} rad/s > rate_max {prob.rate_max:.6g}")
-    if check["torque_ratio_max"] > 1.0:
-        problems.append(f"a wheel torque is {check['torque_ratio_max']:.9g} times its torque_max")
+    if check["torque_ratio_max"] > 1.0 + TORQUE_BOUND_TOLERANCE:
+        problems.append(
+            f"an optimiser's wheel torque is {check['torque_ratio_max']:.9g} times its torque_max (accepted up to "
+            f"1 + {TORQUE_BOUND_TOLERANCE:.0e}, IPOPT's bound relaxation)"
+        )
     if check["momentum_ratio_max"] > 1.0 + tolerance:
         problems.append(f"a wheel momentum is {check['momentum_ratio_max']:.6g} times its momentum_max")
     if problems:
@@ -422,6 +565,47 @@ def verify_wheels(
             details=check,
         )
     return check
+
+
+def _check_wheel_solution(
+    prob: Problem,
+    wheels: ReactionWheels,
+    wheels_s: ReactionWheels,
+    sol: Solution,
+    objective: str,
+    wheel_torque: NDArray,
+) -> dict[str, Any]:
+    """:func:`wheel_pontryagin_check` of the NLP's answer, its multipliers as costates (as the rigid plans')."""
+    if objective != "time" or sol.costate is None:
+        return {"passes": None, "note": "not checked: the Pontryagin check is for minimum-time plans"}
+    active, checked = intervals_to_check(sol)
+    if not np.any(checked):
+        return dict(NOT_CHECKED_JUNCTIONS)
+    n = sol.U.shape[1]
+    start, end, term = interval_costates(prob, sol, wheel_interval_function(prob, wheels_s))
+    h_s = prob.j_s / prob.t_s
+    out = wheel_pontryagin_check(
+        prob.body,
+        wheels,
+        sol.X[:4].T,
+        sol.X[4:7].T / prob.t_s,
+        sol.X[7:].T * h_s,
+        wheel_torque,
+        costate_physical(prob, sol.costate),
+        checked=checked,
+        hamiltonian_tolerance=HAMILTONIAN_WHEEL_FACTOR / n,
+        costate_start=costate_physical(prob, np.hstack([start, end[:, -1:]]))[:-1],
+        costate_end=costate_physical(prob, np.hstack([start[:, :1], end]))[1:],
+        path_active=active,
+        path_length_term=term,
+        hamiltonian_decides=not np.any(active),
+    )
+    out["tolerances"] = {
+        "hamiltonian": out["hamiltonian_tolerance"],
+        "switching_disagreement": SWITCHING_TOLERANCE,
+        "switching_zero_fraction": SWITCHING_ZERO_FRACTION,
+    }
+    return out
 
 
 def _raise_failure(results: list[Solution], max_iter: int) -> None:
@@ -528,9 +712,21 @@ def plan_with_wheel_states(
     starts_info, multi = start_report(results, used, prob.t_s, [{}] * len(results))
     multi["solved"] = "in this process"
     t = np.concatenate([[0.0], np.cumsum(best.H)]) * prob.t_s
-    # IPOPT keeps bounded variables within its bound relaxation (1e-8 relative): the torques are put on their bounds.
-    wheel_torque = np.clip(best.U.T * prob.tau_s, -wheels.torque_max, wheels.torque_max)
-    check = verify_wheels(prob, wheels, h0, t, wheel_torque, verify_tolerance)
+    raw = best.U.T * prob.tau_s
+    check = verify_wheels(prob, wheels, h0, t, raw, verify_tolerance)
+    # Within IPOPT's bound relaxation (checked above): put on their bounds, as the re-simulation flew them.
+    wheel_torque = np.clip(raw, -wheels.torque_max, wheels.torque_max)
+    pontryagin = _check_wheel_solution(prob, wheels, wheels_s, best, objective, wheel_torque)
+    notes = []
+    if pontryagin.get("passes") is False:
+        notes.append(
+            f"the wheel plan fails Pontryagin's necessary conditions (residual {pontryagin['residual']:.3g} > 1: "
+            f"max |H| {pontryagin['hamiltonian_residual']:.3g}, switching disagreement "
+            f"{pontryagin['switching_disagreement']}): not a time-optimal extremal "
+            "(docs/slew_planning.md, Optimality evidence)"
+        )
+    for note in notes:
+        warnings.warn(note, RuntimeWarning, stacklevel=3)
     wheel_torque = np.vstack([wheel_torque, wheel_torque[-1:]])
     body_torque = wheels.body_torque(wheel_torque)
     energy = float(np.sum(np.sum(wheel_torque[:-1] ** 2, axis=1) * np.diff(t)))
@@ -547,17 +743,15 @@ def plan_with_wheel_states(
         "starts": starts_info,
         "multi_start": multi,
         "best_start": int(results.index(best)),
-        "pontryagin": None,
+        "pontryagin": pontryagin,
         "refinement": {"requested": False, "status": "not available with wheel states"},
         "grid_status": best.status,
         "grid_iterations": best.iterations,
         "energy_n2m2s": energy,
         "h_wheels0_nms": h0.tolist(),
         "verification": check,
-        "notes": [
-            "wheel states: the uniform-grid answer (no switch-time refinement), Pontryagin's check not run",
-        ],
-        "warnings": [],
+        "notes": ["wheel states: the uniform-grid answer (no switch-time refinement)"],
+        "warnings": notes,
     }
     return SlewPlan(
         t=t,
@@ -589,6 +783,9 @@ def plan_with_wheel_states(
         keep_out_half_angle=half,
         eigenaxis_duration=None,
         info=info,
+        costate=None if best.costate is None else costate_physical(prob, best.costate),
+        pontryagin_residual=pontryagin.get("residual"),
+        optimality_flagged=pontryagin.get("passes") is False,
         wheel_torque=wheel_torque,
         wheel_momentum=best.X[7:].T * h_s,
         wheel_set={

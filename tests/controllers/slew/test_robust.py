@@ -104,6 +104,8 @@ def test_robust_plan_reaches_the_target_on_the_nominal_body(robust_plan):
     # Inside the torque box (the plan clips to it; the NLP bounds it).
     assert np.max(np.abs(robust_plan.torque)) <= TORQUE_MAX * (1 + 1e-9)
     assert robust_plan.sigma_moment_change.shape == (7, 3)
+    # The summary says what the plan is for: tracked by feedback it does worse than the nominal plan (docs).
+    assert "for open-loop flight" in robust_plan.summary()
 
 
 def test_robust_plan_has_a_smaller_open_loop_spread_than_the_nominal_plan(robust_plan):

@@ -20,6 +20,13 @@ What each test checks against:
 * Conservation: with non-zero initial wheel momenta the total inertial angular momentum
   ``C_NB (I_s omega + A h)`` of the re-simulated slew stays constant (no external torque) while
   its body components turn with the body.
+* Pontryagin's minimum principle on the motor torques (Bryson and Ho, 1975, sec. 3.9: free final
+  time, ``H = 1 + lambda . f = 0``; a box ``|u_i| <= u_max`` gives ``u_i = -u_max sign(sigma_i)``
+  with ``sigma = (df/du)^T lambda``): small on the pyramid's minimum-time slews, and the plan of
+  wheels with 0.6 times the torque, checked against the full wheels, disagrees on every decided
+  (interval, wheel) pair.
+* The optimiser's torques within IPOPT's bound relaxation: a relaxation widened to 1e-3 lets the
+  bang-bang torques out by far more than TORQUE_BOUND_TOLERANCE and the planner refuses them.
 * Bad input named by argument (DESIGN.md).
 """
 
@@ -33,8 +40,13 @@ from scipy.integrate import solve_ivp
 from attitude import RigidBody
 from attitude import quaternion as quat
 from attitude.actuators import ReactionWheels
-from controllers.slew import InfeasibleSlewError, KeepOutCone, plan_slew
-from controllers.slew.wheel_states import wheel_torque_box, wheel_torque_rows
+from controllers.slew import InfeasibleSlewError, KeepOutCone, SlewPlanningError, plan_slew
+from controllers.slew.wheel_states import (
+    TORQUE_BOUND_TOLERANCE,
+    wheel_pontryagin_check,
+    wheel_torque_box,
+    wheel_torque_rows,
+)
 
 TORQUE_MAX = 0.05  # N m per wheel
 SPIN_INERTIA = 0.01  # kg m^2
@@ -75,7 +87,8 @@ def check_resimulation(plan, h0):
     # The plan's own verification accepts 1e-4 rad; RK45 at rtol 1e-10 adds far less than that.
     assert quat.error_angle(plan.q_target, q[-1]) < 1e-4
     assert np.linalg.norm(omega[-1] - plan.omega_target) < 1e-4 / plan.info["scaling"]["time_s"]
-    assert np.all(np.abs(plan.wheel_torque) <= wheels.torque_max)  # the controls are clipped to their bounds
+    # The optimiser's torques (before the plan clips them onto their bounds) within IPOPT's bound relaxation.
+    assert plan.info["verification"]["torque_ratio_max"] <= 1.0 + TORQUE_BOUND_TOLERANCE
     relative = wheels.spin_inertia * wheels.wheel_speed(h, omega)
     # Between checkpoints the momentum may pass the limit by the RK4 transcription error: 1e-6 relative.
     assert np.all(np.abs(relative) <= wheels.momentum_max * (1 + 1e-6))
@@ -118,6 +131,47 @@ def test_faster_than_box_and_allocation():
     _, _, _, relative = check_resimulation(plan, np.zeros(4))
     assert np.max(np.abs(plan.wheel_torque)) == pytest.approx(TORQUE_MAX)  # bang-bang: the wheels at their limit
     assert np.max(np.abs(relative)) < 0.2 * wheels.momentum_max[0]  # the momentum limit is far away here
+    # An extremal: measured max |H| 3.6e-3 (n max |H| 0.11 against the wheel plans' 10), the mean 1e-8 (free
+    # final time: H = 0, not just constant), no torque against the switching function; headline 0.011.
+    check = plan.info["pontryagin"]
+    assert check["passes"] and not plan.optimality_flagged
+    assert abs(check["hamiltonian_mean"]) < 1e-5 and check["hamiltonian_residual"] < 0.05
+    assert check["switching_disagreement"] == 0.0 and check["switching_decided"] >= 50
+    assert plan.pontryagin_residual < 0.1  # a decade below the flag at 1
+    assert plan.costate.shape == (NODES + 1, 11)
+
+
+def test_pontryagin_fails_for_the_plan_of_weaker_wheels():
+    """Wheels of 0.6 times the torque: their plan is an extremal, checked against the full wheels it is not.
+
+    Against the full box every decided wheel should be at +-0.05 N m and the plan gives +-0.03:
+    all decided pairs disagree (headline 1 / 0.02 = 50); against its own wheels it passes. H alone
+    cannot tell them apart (the same costates and torques: 2.4e-4 measured, under 10 / 30).
+    """
+    weaker = ReactionWheels.pyramid(spin_inertia=SPIN_INERTIA, torque_max=0.6 * TORQUE_MAX, momentum_max=10.0)
+    qf = quat.from_axis_angle([1.0, 0.0, 0.0], np.pi / 2)
+    plan = plan_slew(BODY, Q0, qf, torque_max=weaker, wheel_states=True, nodes=NODES)
+    assert plan.info["pontryagin"]["passes"] and plan.pontryagin_residual < 0.1
+    args = (RigidBody(plan.inertia), pyramid(), plan.q, plan.omega, plan.wheel_momentum, plan.wheel_torque)
+    wrong = wheel_pontryagin_check(*args, plan.costate, hamiltonian_tolerance=10.0 / NODES)
+    assert wrong["hamiltonian_residual"] < 10.0 / NODES
+    assert wrong["switching_decided"] >= 50 and wrong["switching_disagreement"] == 1.0
+    assert wrong["residual"] > 10.0 and not wrong["passes"]
+
+
+def test_torques_outside_ipopts_bound_relaxation_are_refused():
+    """IPOPT's bound_relax_factor at 1e-3: bang-bang torques end up ~1e-3 past torque_max, and the plan is refused."""
+    qf = quat.from_axis_angle([1.0, 0.0, 0.0], np.pi / 2)
+    with pytest.raises(SlewPlanningError, match=r"optimiser's wheel torque is 1\.00"):
+        plan_slew(
+            BODY,
+            Q0,
+            qf,
+            torque_max=pyramid(),
+            wheel_states=True,
+            nodes=20,
+            ipopt_options={"bound_relax_factor": 1e-3},
+        )
 
 
 def test_momentum_limit_binds():
@@ -199,6 +253,8 @@ def test_friction_and_moving_ends():
     qf = quat.from_axis_angle([1.0, 1.0, 0.0], 1.2)
     plan = plan_slew(BODY, Q0, qf, torque_max=wheels, wheel_states=True, nodes=NODES, h_wheels0=h0, omegaf=[0, 0, 0.01])
     check_resimulation(plan, h0)
+    # Friction puts H's arcs further apart on a uniform grid (n max |H| 1.4 measured here), still an extremal.
+    assert plan.info["pontryagin"]["passes"] and plan.info["pontryagin"]["switching_disagreement"] == 0.0
 
 
 def test_figure_and_save(tmp_path):
