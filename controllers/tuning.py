@@ -762,8 +762,10 @@ def _check_inputs(
     if tradeoff_points < 0:
         raise ValueError(f"tradeoff_points must be >= 0, got {tradeoff_points}")
     low, high = (float(v) for v in damping_bounds)
-    if not (0.0 < low < high and math.isfinite(high)):
-        raise ValueError(f"damping_bounds must be 0 < low < high, finite, got {damping_bounds!r}")
+    if not (0.0 < low <= high and math.isfinite(high)):
+        raise ValueError(
+            f"damping_bounds must be 0 < low <= high, finite (low = high: that damping), got {damping_bounds!r}"
+        )
     damping_points = int(damping_points)
     if damping_points < 3:
         raise ValueError(f"damping_points must be at least 3, got {damping_points}")
@@ -888,7 +890,7 @@ def tune_pd(
         The plant (flexible modes) and filters of the loop whose disk margin is judged, in the search and at
         the winner (module docstring, Modes and filters); default the rigid body, unfiltered.
     damping_bounds : tuple of float
-        The dampings searched [-] (:data:`DAMPING_BOUNDS`).
+        The dampings searched [-] (:data:`DAMPING_BOUNDS`); equal bounds fix the damping (only ``wn`` is tuned).
     damping_points : int
         Dampings of the first grid (at least 3), geometrically spaced; the best is refined.
     tradeoff_points : int

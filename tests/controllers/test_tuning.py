@@ -242,8 +242,9 @@ def test_tuned_lqr_meets_every_requirement_on_its_own_closed_loop(cubesat):
         pointing_accuracy=req60.pointing_accuracy,
         torque_max=req60.torque_max,
         momentum_max=req60.momentum_max,
-        disk_margin_min=0.8,
     )
+    # No disk-margin floor in the search (the floor's handling is tested on the PD and by `attitude tune
+    # --structure lqr`): the wheels' torque binds, and the margin is checked here against 0.8 all the same.
     result = tune_lqr(body, req, period=0.1, angle_max=math.radians(1.0), tradeoff_points=0)
     assert result.feasible and result.structure == "lqr", result.message
     assert np.all(np.asarray(result.zeta) > 1.0 / math.sqrt(2.0))
@@ -263,6 +264,6 @@ def test_tuned_lqr_meets_every_requirement_on_its_own_closed_loop(cubesat):
         assert t[outside[-1] + 1] <= req.settling_time
         torque = gain @ (x_ref[:, None] - x)
         assert np.max(np.linalg.norm(torque, axis=0)) <= req.torque_max[k] * (1 + 1e-6)
-    assert loop_disk_margins(plant, result.lqr).smallest >= req.disk_margin_min
+    assert loop_disk_margins(plant, result.lqr).smallest >= 0.8
     flown = confirm_nonlinear(body, req, lqr=result.lqr, period=0.1, wheels=wheels, axis=(0.0, 1.0, 0.0))
     assert flown["passed"], flown

@@ -106,7 +106,8 @@ def test_the_tuned_gains_are_judged_on_the_loops_that_fly():
     plant and the filters in its margin loop, as the design's verdict judges them. On that loop the rigid tuning's
     bandwidth (1.54 rad/s) leaves the z loop below the 0.8 floor (recomputed here with loop_disk_margins on
     assembly.flexible_plant_model), so the tuned PD is slower and meets the floor there, per axis and multiloop.
-    Three dampings about the rigid optimum keep the search short (the damping optimum is not what is tested)."""
+    The damping is fixed at the rigid optimum to keep the search short (the damping optimum is not what is
+    tested)."""
     text = default_config_text().replace(
         "[requirements]\n",
         "[[flexible_modes]]\nfrequency_Hz = 2.0\ndamping = 0.005\nparticipation_B_sqrt_kg_m = [0.0, 0.0, 0.3]\n\n"
@@ -120,9 +121,9 @@ def test_the_tuned_gains_are_judged_on_the_loops_that_fly():
     flexible = assembly.flexible_plant_model(config)
     rigid_tuned = QuaternionPD.from_bandwidth(body, wn=1.541, zeta=0.69, period=0.1)
     assert loop_disk_margins(flexible, rigid_tuned).smallest < 0.8
-    result = tune_pd(body, req, period=0.1, loop=loop, damping_bounds=(0.6, 0.8), damping_points=3, tradeoff_points=0)
+    result = tune_pd(body, req, period=0.1, loop=loop, damping_bounds=(0.69, 0.69), tradeoff_points=0)
     assert result.feasible and "disk_margin_min" in result.binding
-    assert result.wn < 1.5
+    assert result.zeta == 0.69 and result.wn < 1.5  # equal damping bounds fix the damping
     tuned = QuaternionPD.from_bandwidth(body, wn=result.wn, zeta=result.zeta, period=0.1)
     assert loop_disk_margins(flexible, tuned).smallest >= 0.8
 
@@ -140,21 +141,21 @@ def test_a_contradictory_file_is_not_blamed_on_step_deg(tmp_path, capsys):
 
 @pytest.fixture(scope="module")
 def tuned_lqr(tmp_path_factory):
-    """`attitude tune --structure lqr` on the built-in file, with two dispersed bodies."""
+    """`attitude tune --structure lqr` on the built-in file, with one dispersed body."""
     folder = tmp_path_factory.mktemp("tune_lqr")
     source = folder / "sat.toml"
     source.write_text(default_config_text(), encoding="utf-8")
     printed = io.StringIO()
     with contextlib.redirect_stdout(printed):
-        code = main(["tune", str(source), "--structure", "lqr", "--runs", "2", "--json", "--quiet"])
+        code = main(["tune", str(source), "--structure", "lqr", "--runs", "1", "--json", "--quiet"])
     return source, folder / "sat_tuned.toml", code, json.loads(printed.getvalue())
 
 
 def test_tune_lqr_writes_the_bryson_bounds_and_keeps_the_pd(tuned_lqr):
     """--structure lqr: the new file reads back with the tuned rate and torque bounds per axis (to the 6 digits
     written), angle_max_deg and the PD unchanged; the LQR designed from the file again meets the requirements on the
-    same metrics (controllers.tuning.lqr_metrics of assembly.lqr), was flown in the nonlinear step and on two
-    dispersed bodies of montecarlo.inertia."""
+    same metrics (controllers.tuning.lqr_metrics of assembly.lqr), was flown in the nonlinear step and on a
+    dispersed body of montecarlo.inertia."""
     source, out, code, summary = tuned_lqr
     assert code == 0, summary["message"]
     before, after = load_config(source), load_config(out)
@@ -173,7 +174,7 @@ def test_tune_lqr_writes_the_bryson_bounds_and_keeps_the_pd(tuned_lqr):
     assert metrics.settling_time <= req.settling_time and metrics.disk_margin >= req.disk_margin_min
     assert np.all(metrics.peak_torque <= req.torque_max * (1 + 1e-4))  # 6 written digits: 1e-5 of the torque
     assert summary["structure"] == "lqr" and summary["nonlinear"]["passed"]
-    assert summary["dispersed"]["runs"] == 2 and summary["dispersed"]["failures"] == 0
+    assert summary["dispersed"]["runs"] == 1 and summary["dispersed"]["failures"] == 0
 
 
 def test_tune_lqr_without_its_table_names_the_key():
