@@ -27,7 +27,7 @@ demo: $(DEMO_STAMP)
 test: $(STAMP)
 	$(PY) -m ruff check .
 	$(VENV)/bin/lint-imports
-	MPLBACKEND=Agg $(PY) -m pytest -n 2 -q
+	MPLBACKEND=Agg $(PY) -m pytest -n 2 --dist worksteal -q
 
 bench: $(STAMP)
 	$(PY) benchmarks/run_all.py

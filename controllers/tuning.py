@@ -410,6 +410,14 @@ class MarginLoop:
         """True for the rigid, unfiltered loop (the default)."""
         return self.plant is None and self.command_filter is None
 
+    @property
+    def label(self) -> str:
+        """The loop in words ("" for the rigid, unfiltered loop)."""
+        parts = (["flexible plant"] if self.plant is not None else []) + (
+            ["command filters"] if self.command_filter is not None else []
+        )
+        return "with the " + " and the ".join(parts) if parts else ""
+
     def flown(self, law: Any) -> Any:
         """The law as flown (filtered when there are filters).
 
@@ -667,6 +675,8 @@ class TuningResult:
         (:func:`lqr_bounds`); None otherwise.
     lqr : LQRDesign or None
         For an LQR: the design at ``period`` on the linearised body (:func:`controllers.lqr.design_lqr`).
+    loop_label : str
+        The loop whose disk margin was judged, in words ("" for the rigid, unfiltered loop; :class:`MarginLoop`).
     """
 
     feasible: bool
@@ -682,6 +692,7 @@ class TuningResult:
     structure: str = "pd"
     lqr_bounds: dict[str, NDArray[np.float64]] | None = None
     lqr: Any = None
+    loop_label: str = ""
 
     def summary(self) -> str:
         """One line: the gains and the verdict."""
@@ -931,7 +942,19 @@ def tune_pd(
     else:
         binding, message = one.binding, one.message
     tradeoff = _sweep(one.search, low, high, one.zeta, tradeoff_points)
-    return TuningResult(one.feasible, one.wn, one.zeta, metrics, cost, binding, message, requirements, period, tradeoff)
+    return TuningResult(
+        one.feasible,
+        one.wn,
+        one.zeta,
+        metrics,
+        cost,
+        binding,
+        message,
+        requirements,
+        period,
+        tradeoff,
+        loop_label=loop.label,
+    )
 
 
 def _combine_axes(
@@ -976,7 +999,18 @@ def _combine_axes(
     slowest = order[0]
     tradeoff = _sweep(slowest.search, low, high, slowest.zeta, tradeoff_points)
     return TuningResult(
-        feasible, wn, zeta, metrics, cost, tuple(binding), message, requirements, period, tradeoff, structure
+        feasible,
+        wn,
+        zeta,
+        metrics,
+        cost,
+        tuple(binding),
+        message,
+        requirements,
+        period,
+        tradeoff,
+        structure,
+        loop_label=loop.label,
     )
 
 
@@ -1279,7 +1313,10 @@ def plot_tradeoff(result: TuningResult, before: PDMetrics | None = None) -> Figu
     ax.set_xlim(x_low, x_high)
     ax.set_yscale("log")
     ax.set_ylim(0.3 * min(m.settling_time, req.settling_time), min(y_high, 20.0 * req.settling_time))
-    ax.set_xlabel("disk margin alpha at the plant input [-]" + (" (sampled loop)" if result.period else ""))
+    loop = "sampled loop" if result.period else "continuous loop"
+    if result.loop_label:
+        loop += f", {result.loop_label}"
+    ax.set_xlabel(f"disk margin alpha at the plant input [-] ({loop})")
     ax.set_ylabel(f"settling time into {100 * req.settling_band:.3g} % of the step [s]")
     title = {
         "pd": "PD tuning",

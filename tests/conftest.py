@@ -20,6 +20,16 @@ settings.register_profile(
 settings.load_profile("ci" if os.environ.get("CI") else "dev")
 
 
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """The tests marked slow first, each group in its collection order.
+
+    With two workers a minute-long test collected last (the rate EKF's Monte Carlo, in ``tests/estimation``)
+    ran alone at the end while the other worker idled; started first, the short tests fill in around it. The
+    slow tests that share a module fixture are all marked, so moving them keeps each fixture's users together.
+    """
+    items[:] = sorted(items, key=lambda item: item.get_closest_marker("slow") is None)
+
+
 def _sigint_in_ipopt(monkeypatch: pytest.MonkeyPatch, at_solve: int = 1, at_iteration: int = 2) -> list[int]:
     """Deliver SIGINT inside IPOPT's iteration loop of the slew planner's ``at_solve``-th solve (a real Ctrl-C).
 
