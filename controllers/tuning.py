@@ -854,6 +854,23 @@ def _tune_axes(search: _Search, low: float, high: float) -> _Tuned:
     return _Tuned(False, wn_max, zeta, point, ("settling_time", *limiting), message, search)
 
 
+#: The winner's disk margin, computed afresh (to 1e-6), may sit this far below the floor the search met with
+#: margins to SEARCH_MARGIN_RTOL and the root kept 2 WN_RTOL below the crossing; further below, the search
+#: was misled (a margin not monotonic in wn, the axes coupled) and the winner fails.
+MARGIN_SLACK = 1e-3
+
+
+def _margin_missed(metrics: PDMetrics, req: TuningRequirements) -> str:
+    """ "" when the winner's own disk margin meets the floor (within MARGIN_SLACK), else what it misses by."""
+    floor = req.disk_margin_min
+    if floor is None or metrics.disk_margin >= floor * (1.0 - MARGIN_SLACK):
+        return ""
+    return (
+        f"; but the winner's own smallest disk margin (per axis and multiloop) {metrics.disk_margin:.4g} is below "
+        f"disk_margin_min = {floor:g}: infeasible"
+    )
+
+
 def _point_active(tuned: _Tuned) -> tuple[str, ...]:
     """The requirements within ACTIVE_FRACTION of binding at a feasible search answer (from its scaled metrics)."""
     point, wn = tuned.point, tuned.wn
@@ -933,17 +950,21 @@ def tune_pd(
         return _combine_axes(body, requirements, period, cost, "pd_per_axis", tuned, low, high, tradeoff_points, loop)
     one = _tune_axes(_Search(body, requirements, period, cost, grid, loop=loop), low, high)
     metrics = pd_metrics(body, requirements, wn=one.wn, zeta=one.zeta, period=period, loop=loop)
-    if one.feasible:
+    feasible = one.feasible
+    if feasible:
         binding = _active(metrics, requirements, one.point, cost)
         message = f"wn = {one.wn:.6g} rad/s, zeta = {one.zeta:.6g} ({cost} minimised); binding: " + (
             ", ".join(_describe_limit(n, requirements, period) if n != "settling_time" else n for n in binding)
             or "none"
         )
+        missed = _margin_missed(metrics, requirements)
+        if missed:
+            feasible, binding, message = False, (*binding, "disk_margin_min (winner)"), message + missed
     else:
         binding, message = one.binding, one.message
     tradeoff = _sweep(one.search, low, high, one.zeta, tradeoff_points)
     return TuningResult(
-        one.feasible,
+        feasible,
         one.wn,
         one.zeta,
         metrics,
@@ -985,15 +1006,12 @@ def _combine_axes(
             else f"{axis}: {t.message}"
         )
     message = f"per axis ({cost} minimised): " + "; ".join(parts)
-    floor = requirements.disk_margin_min
-    if feasible and floor is not None and not metrics.disk_margin >= floor:
+    missed = _margin_missed(metrics, requirements) if feasible else ""
+    if missed:
         # Each axis met the floor alone; products of inertia (and modes) couple the axes of the 3-axis loop.
         feasible = False
         binding.append("disk_margin_min (3-axis loop)")
-        message += (
-            f"; but the 3-axis loop's smallest disk margin {metrics.disk_margin:.4g} is below disk_margin_min = "
-            f"{floor:g} (the products of inertia or the modes couple the axes)"
-        )
+        message += missed + " (the products of inertia or the modes couple the axes)"
     # The trade-off of the slowest axis (the one that sets the settling time), or the first that fails.
     order = [t for t in tuned if not t.feasible] or sorted(tuned, key=lambda t: -t.point.wn_needed / t.wn)
     slowest = order[0]

@@ -267,3 +267,22 @@ def test_tuned_lqr_meets_every_requirement_on_its_own_closed_loop(cubesat):
     assert loop_disk_margins(plant, result.lqr).smallest >= 0.8
     flown = confirm_nonlinear(body, req, lqr=result.lqr, period=0.1, wheels=wheels, axis=(0.0, 1.0, 0.0))
     assert flown["passed"], flown
+
+
+def test_a_winner_whose_own_margin_misses_the_floor_is_infeasible(monkeypatch):
+    """The search judges candidates with its own margin evaluations; the winner's margins are computed afresh on
+    every loop and decide. Here the search is told every candidate has a margin of 1.9 (as a margin that is not
+    monotonic in wn can mislead its root search): with ample torque it goes to the sample-rate cap (wn T = 0.63),
+    where the sampled loop's real margin is far below the 0.8 floor, and the result says infeasible, naming the
+    margin, instead of returning gains that miss it."""
+    import controllers.tuning as tuning
+
+    monkeypatch.setattr(tuning, "_search_margin", lambda *args, **kwargs: 1.9)
+    body = RigidBody(np.diag([1.0, 1.0, 1.0]))
+    req = TuningRequirements(
+        settling_time=60.0, step_angle=0.5, pointing_accuracy=0.01, torque_max=1e3, disk_margin_min=0.8
+    )
+    result = tune_pd(body, req, period=0.1, damping_bounds=(0.7, 0.7), tradeoff_points=0)
+    assert result.metrics.disk_margin < 0.8  # the real margin at the cap: 0.705 measured
+    assert not result.feasible and "disk_margin_min (winner)" in result.binding
+    assert "below disk_margin_min = 0.8" in result.message
