@@ -18,6 +18,7 @@ sigma-point variant and its weights, and the references.
 from __future__ import annotations
 
 import math
+import textwrap
 import time
 import warnings
 from dataclasses import dataclass, field, replace
@@ -479,7 +480,7 @@ class RobustSlewPlan(ResultIO):
             ax.set_title(f"sigma points' terminal {title} error (open loop)")
             ax.legend(fontsize="small")
             ax.grid(True, axis="y", alpha=0.3)
-        fig.suptitle(self.summary())
+        fig.suptitle(textwrap.fill(self.summary(), 150), fontsize="medium")  # the summary runs past one line
         return fig
 
     def nominal_reference(self) -> ReferenceTrajectory:
