@@ -306,10 +306,14 @@ def pontryagin_conditions(
     if decided is not None:
         count = int(np.sum(decided))
         out["switching_decided"] = count
-        out["switching_disagreement"] = float(np.sum(decided & wrong) / count) if count else 0.0
-        parts.append(out["switching_disagreement"] / SWITCHING_TOLERANCE)
+        if count:
+            out["switching_disagreement"] = float(np.sum(decided & wrong) / count)
+            parts.append(out["switching_disagreement"] / SWITCHING_TOLERANCE)
+        else:
+            notes.append("the switching function is decided on no interval: not judged")
+    # Nothing judged (H only reported, no interval decided): neither passed nor flagged.
     out["residual"] = float(max(parts)) if parts else None
-    out["passes"] = bool(not parts or out["residual"] <= 1.0)
+    out["passes"] = bool(out["residual"] <= 1.0) if parts else None
     out["note"] = "; ".join(notes)
     return out
 
@@ -473,6 +477,9 @@ def summary_words(check: dict[str, Any] | None) -> str:
     check : dict or None
         The result of :func:`pontryagin_check` (``plan.info["pontryagin"]``).
     """
+    if check and check.get("passes") is None and check.get("hamiltonian_residual") is not None:
+        h = check["hamiltonian_residual"]
+        return f"Pontryagin conditions NOT judged (max |H| {h:.2g} reported; why: info['pontryagin']['note'])"
     if not check or check.get("passes") is None:
         return ""
     parts = [f"max |H| {check['hamiltonian_residual']:.2g}"]

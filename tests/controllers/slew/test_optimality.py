@@ -416,3 +416,26 @@ class TestBadInput:
     def test_bad_worker_counts_name_the_argument(self, workers):
         with pytest.raises(ValueError, match="workers must be an integer >= 1 or None"):
             plan_slew(UNIT, Q_ID, Q_180X, torque_max=1.0, workers=workers)
+
+
+def test_a_check_that_judged_nothing_neither_passes_nor_flags():
+    """A plan whose H is only reported (a uniform grid with a path constraint) and whose switching function is
+    decided on no interval (the constraint active on all of them) was summarised "residual 0 ... (passes)"; it
+    now has no residual, neither passes nor is flagged, and its summary says NOT judged with the reported H."""
+    from controllers.slew.optimality import pontryagin_conditions, summary_words
+
+    n = 6
+    sigma = np.tile([1.0, -1.0, 0.5], (n, 1))
+    check = pontryagin_conditions(
+        np.full(n, 0.02),
+        np.full(n, 0.02),
+        sigma,
+        sigma,
+        -np.sign(sigma),
+        control_box=[1.0, 1.0, 1.0],
+        path_active=np.ones(n, dtype=bool),
+        hamiltonian_decides=False,
+    )
+    assert check["residual"] is None and check["passes"] is None and check["switching_decided"] == 0
+    words = summary_words(check)
+    assert words.startswith("Pontryagin conditions NOT judged (max |H| 0.02 reported)") and "passes" not in words
