@@ -438,4 +438,4 @@ def test_a_check_that_judged_nothing_neither_passes_nor_flags():
     )
     assert check["residual"] is None and check["passes"] is None and check["switching_decided"] == 0
     words = summary_words(check)
-    assert words.startswith("Pontryagin conditions NOT judged (max |H| 0.02 reported)") and "passes" not in words
+    assert words.startswith("Pontryagin conditions NOT judged (max |H| 0.02 reported;") and "passes" not in words
